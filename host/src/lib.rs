@@ -3,4 +3,5 @@
 //! One module per pipeline stage, in data-flow order.
 
 pub mod config;
+pub mod geometry;
 pub mod trajectory;
