@@ -5,4 +5,5 @@
 pub mod config;
 pub mod geometry;
 pub mod output;
+pub mod synth;
 pub mod trajectory;
