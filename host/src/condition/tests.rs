@@ -11,6 +11,15 @@ fn cfg() -> SignalConfig {
     SignalConfig::default()
 }
 
+/// Conditions at 20 Hz with the paper's config, causal or zero-phase.
+fn run(psi: &[Vec<f64>; CHANNELS], zero_phase: bool) -> Conditioned {
+    let cfg = SignalConfig {
+        zero_phase,
+        ..cfg()
+    };
+    condition(psi, &cfg, 20.0).unwrap()
+}
+
 fn silent(frames: usize) -> [Vec<f64>; CHANNELS] {
     std::array::from_fn(|_| vec![0.0; frames])
 }
@@ -310,15 +319,7 @@ fn assert_ramped(c: &Conditioned) {
 fn all_silent_is_exactly_the_pre_dent_between_ramps() {
     for psi in [silent(100), std::array::from_fn(|_| vec![-0.3; 100])] {
         for zero_phase in [false, true] {
-            let c = condition(
-                &psi,
-                &SignalConfig {
-                    zero_phase,
-                    ..cfg()
-                },
-                20.0,
-            )
-            .unwrap();
+            let c = run(&psi, zero_phase);
             assert_ramped(&c);
             assert_eq!(c.full_scale_psi, 0.0);
             let r = c.ramp_samples;
@@ -397,15 +398,7 @@ fn normalisation_is_scale_invariant_from_1e_minus_30_to_1e30() {
 #[test]
 fn output_stays_in_range_and_passes_through_the_frames() {
     for zero_phase in [false, true] {
-        let c = condition(
-            &scene(400, 11),
-            &SignalConfig {
-                zero_phase,
-                ..cfg()
-            },
-            20.0,
-        )
-        .unwrap();
+        let c = run(&scene(400, 11), zero_phase);
         assert_ramped(&c);
         let r = c.ramp_samples;
         let body = &c.output[r..c.output.len() - r];
@@ -441,16 +434,8 @@ fn zero_phase_option_removes_the_delay_of_a_press() {
         let max = f.iter().fold(f64::NEG_INFINITY, |m, &v| m.max(v));
         f.iter().position(|&v| v == max).unwrap_or(0) - c.pad_frames
     };
-    let causal = condition(&psi, &cfg(), 20.0).unwrap();
-    let zero = condition(
-        &psi,
-        &SignalConfig {
-            zero_phase: true,
-            ..cfg()
-        },
-        20.0,
-    )
-    .unwrap();
+    let causal = run(&psi, false);
+    let zero = run(&psi, true);
     assert_eq!(argmax(&zero), 100);
     assert!(argmax(&causal) >= 102, "{}", argmax(&causal));
 }
@@ -465,15 +450,7 @@ fn very_long_signals_do_not_drift() {
     let psi: [Vec<f64>; CHANNELS] =
         std::array::from_fn(|ch| (0..frames).map(|t| one[ch][t % period]).collect());
     for zero_phase in [false, true] {
-        let c = condition(
-            &psi,
-            &SignalConfig {
-                zero_phase,
-                ..cfg()
-            },
-            20.0,
-        )
-        .unwrap();
+        let c = run(&psi, zero_phase);
         assert_ramped(&c);
         let p = c.pad_frames;
         let early = p + 50 * period;
@@ -696,15 +673,7 @@ fn fit_finds_the_largest_passing_scale() {
 fn paper_sized_scenes_pass_the_default_limits() {
     for seed in [1, 2, 3] {
         for zero_phase in [false, true] {
-            let c = condition(
-                &scene(705, seed),
-                &SignalConfig {
-                    zero_phase,
-                    ..cfg()
-                },
-                20.0,
-            )
-            .unwrap();
+            let c = run(&scene(705, seed), zero_phase);
             assert_eq!(check_limits(&c.output, &Limits::default()), Ok(()));
         }
     }
