@@ -367,6 +367,21 @@ fn validate(cfg: &SignalConfig, frame_rate_hz: f64) -> Result<(), ConditionError
 /// `frame_rate_hz` must lie in `[1, 1000]` and `ramp_s` in `[0, 60]` s (bounds that keep
 /// the 1 kHz output a sane size); other config errors are typed, never panics. Call it as
 /// `condition(&signals.psi, &config.signal, config.input.frame_rate_hz)`.
+///
+/// ```
+/// use touchc::condition::condition;
+/// use touchc::config::SignalConfig;
+///
+/// // One second of silence on all eight channels at 20 Hz.
+/// let psi: [Vec<f64>; 8] = std::array::from_fn(|_| vec![0.0; 20]);
+/// let c = condition(&psi, &SignalConfig::default(), 20.0)?;
+/// assert_eq!(c.ramp_samples, 500); // 0.5 s at 1 kHz
+/// assert_eq!(c.output[0], [0.0; 8]); // starts at rest...
+/// assert_eq!(c.output[c.output.len() - 1], [0.0; 8]); // ...and ends there
+/// assert_eq!(c.output[c.output.len() / 2], [-0.9; 8]); // silence is the pre-dent
+/// assert_eq!(c.output.len(), 2 * 500 + (c.frames_a.len() - 1) * 50 + 1);
+/// # Ok::<(), touchc::condition::ConditionError>(())
+/// ```
 pub fn condition(
     psi: &[Vec<f64>; CHANNELS],
     cfg: &SignalConfig,
@@ -662,6 +677,21 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 /// too, by induction over samples), and scale 0 always passes, so a bisection on the
 /// factor finds the largest passing one to within 2^-60; the returned factor is one that
 /// was checked. Errors only for non-finite samples or invalid limits.
+///
+/// ```
+/// use touchc::condition::{check_limits, fit, Limits};
+///
+/// // 1.5 A on channel 0 after a gentle 100 ms rise: over the 1 A peak.
+/// let mut signal: Vec<[f64; 8]> = (0..=100)
+///     .map(|t| { let mut f = [0.0; 8]; f[0] = 0.015 * t as f64; f })
+///     .chain((0..=100).rev().map(|t| { let mut f = [0.0; 8]; f[0] = 0.015 * t as f64; f }))
+///     .collect();
+/// assert!(check_limits(&signal, &Limits::default()).is_err());
+/// let scale = fit(&mut signal, &Limits::default())?;
+/// assert!((scale - 1.0 / 1.5).abs() < 1e-12);
+/// assert_eq!(check_limits(&signal, &Limits::default()), Ok(()));
+/// # Ok::<(), touchc::condition::LimitViolation>(())
+/// ```
 pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, LimitViolation> {
     validate_limits(limits)?;
     match check_scaled(signal, 1.0, limits) {

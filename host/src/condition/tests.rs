@@ -708,3 +708,50 @@ fn pchip_stays_between_neighbours_and_is_exact_at_nodes() {
         assert!((left - right).abs() < 1e-4, "node {k}: {left} vs {right}");
     }
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Arbitrary scenes: silence, presses, tare residue below zero and lone spikes, on
+    /// 8 channels of 1..120 frames.
+    fn scenes() -> impl Strategy<Value = [Vec<f64>; CHANNELS]> {
+        (1usize..120).prop_flat_map(|frames| {
+            let sample = prop_oneof![
+                3 => Just(0.0),
+                4 => 0.0..3.0f64,
+                1 => -0.5..0.0f64,
+                1 => 0.0..1e4f64,
+            ];
+            proptest::collection::vec(proptest::collection::vec(sample, frames), CHANNELS)
+                .prop_map(|v| std::array::from_fn(|ch| v[ch].clone()))
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Whatever the pressures, the reference starts and ends at 0 A, stays finite and
+        /// inside [pre-dent, peak], and passes the default limits unchanged.
+        #[test]
+        fn output_is_always_a_safe_stimulus(psi in scenes(), zero_phase in any::<bool>()) {
+            let c = run(&psi, zero_phase);
+            prop_assert!(c.output.first().is_some_and(|f| f.iter().all(|&v| v == 0.0)));
+            prop_assert!(c.output.last().is_some_and(|f| f.iter().all(|&v| v == 0.0)));
+            prop_assert!(c.output.iter().flatten().all(|&v| (PRE..=PEAK).contains(&v)));
+            prop_assert_eq!(check_limits(&c.output, &Limits::default()), Ok(()));
+        }
+
+        /// Normalisation divides the scale out: any positive factor gives the same currents.
+        #[test]
+        fn conditioning_is_scale_invariant(psi in scenes(), exp in -30i32..30) {
+            let scale = 10f64.powi(exp);
+            let scaled: [Vec<f64>; CHANNELS] =
+                std::array::from_fn(|ch| psi[ch].iter().map(|v| v * scale).collect());
+            let (a, b) = (run(&psi, false), run(&scaled, false));
+            for (x, y) in a.output.iter().flatten().zip(b.output.iter().flatten()) {
+                prop_assert!((x - y).abs() <= 1e-9, "{} vs {}", x, y);
+            }
+        }
+    }
+}
