@@ -4,6 +4,10 @@
 
 pub mod config;
 pub mod geometry;
+pub mod trajectory;
+
+pub mod signals;
+pub mod condition;
+
 pub mod output;
 pub mod synth;
-pub mod trajectory;
