@@ -6,8 +6,8 @@ pub mod config;
 pub mod geometry;
 pub mod trajectory;
 
-pub mod signals;
 pub mod condition;
+pub mod signals;
 
 pub mod output;
 pub mod synth;

@@ -206,7 +206,10 @@ fn gesture(kind: Gesture, t0: f64, rng: &mut Rng) -> (Vec<Contact>, f64) {
                 peak_psi: rng.range(0.8, 1.2),
                 sigma: (1.0, 1.0),
                 path: Box::new(move |u| {
-                    (x, 4.0 + 2.0 * (2.0 * std::f64::consts::PI * 3.0 * 1.5 * u).sin())
+                    (
+                        x,
+                        4.0 + 2.0 * (2.0 * std::f64::consts::PI * 3.0 * 1.5 * u).sin(),
+                    )
                 }),
             });
             1.5
@@ -263,7 +266,10 @@ mod tests {
     #[test]
     fn mask_counts_and_nan_padding() {
         for (mask, cells) in [(Mask::Cells142, 142), (Mask::Cells120, 120)] {
-            let rec = generate(&SynthSpec { mask, ..SynthSpec::default() });
+            let rec = generate(&SynthSpec {
+                mask,
+                ..SynthSpec::default()
+            });
             let frame = rec.index_axis(ndarray::Axis(0), 0);
             assert_eq!(frame.iter().filter(|v| !v.is_nan()).count(), cells);
         }
@@ -271,7 +277,10 @@ mod tests {
 
     #[test]
     fn a_stroke_moves_along_the_arm() {
-        let rec = generate(&SynthSpec { noise_psi: 0.0, ..SynthSpec::default() });
+        let rec = generate(&SynthSpec {
+            noise_psi: 0.0,
+            ..SynthSpec::default()
+        });
         // Column of the strongest cell, frame by frame, while touched.
         let cols: Vec<usize> = rec
             .outer_iter()
@@ -288,6 +297,9 @@ mod tests {
         assert!(cols.windows(2).all(|w| w[1] >= w[0]), "{cols:?}");
         assert!(cols.last().unwrap() - cols[0] >= 10, "{cols:?}");
         // Quiet frames at both ends.
-        assert!(rec.index_axis(ndarray::Axis(0), 0).iter().all(|v| v.is_nan() || *v == 0.0));
+        assert!(rec
+            .index_axis(ndarray::Axis(0), 0)
+            .iter()
+            .all(|v| v.is_nan() || *v == 0.0));
     }
 }
