@@ -7,6 +7,7 @@ pub mod geometry;
 pub mod trajectory;
 
 pub mod condition;
+pub mod keyframes;
 pub mod signals;
 
 pub mod output;
