@@ -505,17 +505,20 @@ pub struct Limits {
 }
 
 impl Default for Limits {
-    /// The sleeve's defaults: 1 A peak (amplifier full scale, the paper's span is
-    /// -0.9..1 A); 0.1 A/ms slew (the paper's 4 Hz signals need about 0.03 A/ms);
-    /// 0.612 A continuous (3 W into the 8-ohm TEAX19C01-8); and 30 A^2 s, which lets the
-    /// paper's longest scene (705 frames, 35 s, plus padding and ramps) pass even if it
-    /// sat at 1 A throughout (0.625 A^2/s for 41 s = 25.6 A^2 s).
+    /// The sleeve's hard limits, [`touch_protocol::Limits::SLEEVE`], in amperes: the
+    /// compiler checks against the same numbers the firmware enforces.
     fn default() -> Self {
+        touch_protocol::Limits::SLEEVE.into()
+    }
+}
+
+impl From<touch_protocol::Limits> for Limits {
+    fn from(l: touch_protocol::Limits) -> Self {
         Self {
-            peak_a: 1.0,
-            slew_a_per_ms: 0.1,
-            continuous_a: 0.612,
-            thermal_budget_a2s: 30.0,
+            peak_a: f64::from(l.peak_ma) / 1e3,
+            slew_a_per_ms: f64::from(l.slew_ma_per_ms) / 1e3,
+            continuous_a: f64::from(l.continuous_ma) / 1e3,
+            thermal_budget_a2s: f64::from(l.i2t_budget_ma2s) / 1e6,
         }
     }
 }

@@ -573,18 +573,18 @@ fn each_limit_is_detected_at_the_right_sample() {
         check_limits(&cut, &limits),
         Err(LimitViolation::Slew { sample: 1, .. })
     ));
-    let cut = vec![[0.05; CHANNELS], [0.12; CHANNELS], [0.15; CHANNELS]];
+    let cut = vec![[0.03; CHANNELS], [0.07; CHANNELS], [0.1; CHANNELS]];
     assert!(matches!(
         check_limits(&cut, &limits),
         Err(LimitViolation::Slew { sample: 3, .. })
     ));
-    // Thermal: 1 A fills the bucket at 1 - 0.612^2 A^2 per s: 30 A^2 s last about 48 s.
+    // Thermal: 1 A fills the bucket at 1 - 0.6^2 A^2 per s: 30 A^2 s last about 47 s.
     let long = constant(60_000, 1.0);
     match check_limits(&long, &limits) {
         Err(LimitViolation::Thermal {
             channel: 6, sample, ..
         }) => {
-            let expected = 30.0 / (1.0 - 0.612 * 0.612) * 1000.0;
+            let expected = 30.0 / (1.0 - 0.6 * 0.6) * 1000.0;
             assert!(
                 (sample as f64 - expected).abs() < 200.0,
                 "{sample} vs {expected}"
