@@ -2,6 +2,7 @@
 //!
 //! One module per pipeline stage, in data-flow order.
 
+pub mod bnb;
 pub mod config;
 pub mod geometry;
 pub mod layout;
