@@ -6,4 +6,5 @@ pub mod bnb;
 pub mod config;
 pub mod geometry;
 pub mod layout;
+pub mod placement;
 pub mod trajectory;
