@@ -2,60 +2,18 @@
 //! (`tests/data/*.reference.json`, copied from `shared/reference/`): every one of the
 //! 4,200 transform scores, the chosen transform and the selected trajectories.
 
-use serde::Deserialize;
+mod common;
+
+use common::Reference;
 use touchc::config::Config;
 use touchc::layout::Layout;
 use touchc::placement::place;
-use touchc::trajectory::Trajectory;
-
-#[derive(Deserialize)]
-struct RefTrajectory {
-    times: Vec<usize>,
-    rows: Vec<usize>,
-    cols: Vec<usize>,
-    costs: Vec<f64>,
-    total_cost: f64,
-}
-
-#[derive(Deserialize)]
-struct Reference {
-    tared_shape: [usize; 3],
-    trajectories: Vec<RefTrajectory>,
-    n_transforms: usize,
-    transform_scores: Vec<f64>,
-    best_transform_index: usize,
-    best_transform: [f64; 5],
-    best_score: f64,
-    selected_trajectories: Vec<usize>,
-}
-
-fn load(name: &str) -> Reference {
-    let path = format!(
-        "{}/tests/data/{name}.reference.json",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let text = std::fs::read_to_string(&path).unwrap();
-    serde_json::from_str(&text).unwrap()
-}
-
-fn trajectories(r: &Reference) -> Vec<Trajectory> {
-    r.trajectories
-        .iter()
-        .map(|t| Trajectory {
-            frames: t.times.clone(),
-            rows: t.rows.clone(),
-            cols: t.cols.clone(),
-            costs: t.costs.clone(),
-            values: vec![0.0; t.times.len()],
-        })
-        .collect()
-}
 
 fn check(name: &str) {
-    let r = load(name);
+    let r = Reference::load(name);
     let cfg = Config::default();
     let k = cfg.preprocess.upsample;
-    let trajs = trajectories(&r);
+    let trajs = r.trajectories();
     for (t, rt) in trajs.iter().zip(&r.trajectories) {
         // The objective's weights are the published `total_cost`, to the last bit.
         assert_eq!(t.total_cost(), rt.total_cost);
