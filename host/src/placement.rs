@@ -332,6 +332,28 @@ struct Scratch {
 /// upsampled frame (a cropped scene must pass the uncropped size and coordinates, so
 /// that the grid, and hence the result, does not depend on the crop); `pitch_mm` is the
 /// pixel pitch (`cell_mm / upsample`).
+///
+/// # Example
+/// ```
+/// use touchc::{config::PlacementConfig, layout::Layout, placement::place};
+/// use touchc::trajectory::Trajectory;
+///
+/// // One strong contact held still for three frames on a 56 x 147 px (8 x 21 cell) frame.
+/// let touch = Trajectory {
+///     frames: vec![0, 1, 2],
+///     rows: vec![28; 3],
+///     cols: vec![70; 3],
+///     costs: vec![-3.9; 3],
+///     values: vec![1.0; 3],
+/// };
+/// let cfg = PlacementConfig::default();
+/// let p = place(&[touch], 56, 147, 25.4 / 7.0, &Layout::paper(), &cfg)?;
+/// assert_eq!(p.scores.len(), 4200);
+/// assert_eq!(p.selected, vec![0]);
+/// // The winner puts the contact in column 1, whose weight is 1.02.
+/// assert!(p.score <= -3.0 * 3.9 * 1.02);
+/// # Ok::<(), touchc::placement::PlacementError>(())
+/// ```
 pub fn place(
     trajs: &[Trajectory],
     frame_rows_px: usize,
