@@ -310,6 +310,16 @@ struct Point {
     cost: f64,
 }
 
+/// The trajectories as the search needs them, computed once per call.
+struct Scene {
+    /// Every detection, trajectory-major and in detection order.
+    points: Vec<Point>,
+    /// Point indices sorted by x, so a circle finds its candidates by binary search.
+    by_x: Vec<usize>,
+    /// Per trajectory: what choosing it earns (`-total_cost`).
+    gains: Vec<f64>,
+}
+
 /// Per-transform work buffers, reused so the search allocates only when it must.
 struct Scratch {
     /// Workspace bitmask of each point under the current transform.
@@ -378,15 +388,20 @@ pub fn place(
             });
         }
     }
-    // The published objective: maximise the summed -total_cost of the chosen set.
-    let gains: Vec<f64> = trajs.iter().map(|t| -t.total_cost()).collect();
     let mut by_x: Vec<usize> = (0..points.len()).collect();
     by_x.sort_by(|&a, &b| points[a].x.total_cmp(&points[b].x));
     let sorted_x: Vec<f64> = by_x.iter().map(|&p| points[p].x).collect();
+    // The published objective: maximise the summed -total_cost of the chosen set.
+    let gains = trajs.iter().map(|t| -t.total_cost()).collect();
+    let scene = Scene {
+        points,
+        by_x,
+        gains,
+    };
 
     let mut scratch = Scratch {
-        mask: vec![0; points.len()],
-        weight: vec![0.0; points.len()],
+        mask: vec![0; scene.points.len()],
+        weight: vec![0.0; scene.points.len()],
         touched: Vec::new(),
         hits: Vec::new(),
         chosen: vec![false; trajs.len()],
@@ -399,7 +414,8 @@ pub fn place(
     for (k, transform) in grid.iter().enumerate() {
         let circles = transform.circles(layout);
         if transform.x_mm != current_x {
-            // Circle x positions depend on x only: find each circle's slice of points once.
+            // Grid transforms have scale 1 and no rotation, so circle x positions depend
+            // on x only: find each circle's slice of points once per x.
             current_x = transform.x_mm;
             for (range, c) in ranges.iter_mut().zip(&circles) {
                 // Widened by a hair: the exact test below decides membership.
@@ -412,16 +428,7 @@ pub fn place(
         if ranges.iter().all(|&(lo, hi)| lo == hi) {
             continue;
         }
-        if let Some(score) = score_transform(
-            &circles,
-            &ranges,
-            &by_x,
-            &points,
-            &gains,
-            cfg,
-            &mut scratch,
-            None,
-        ) {
+        if let Some(score) = score_transform(&circles, &ranges, &scene, cfg, &mut scratch, None) {
             scores[k] = score;
             evaluated += 1;
         }
@@ -436,15 +443,12 @@ pub fn place(
     }
     let transform = grid[index];
     let circles = transform.circles(layout);
-    let mut all = [(0usize, 0usize); CHANNELS];
-    all.fill((0, by_x.len()));
+    let all = [(0, scene.by_x.len()); CHANNELS];
     let mut selected = Vec::new();
     score_transform(
         &circles,
         &all,
-        &by_x,
-        &points,
-        &gains,
+        &scene,
         cfg,
         &mut scratch,
         Some(&mut selected),
@@ -462,19 +466,21 @@ pub fn place(
 
 /// Scores one transform; `None` when no point lies in any circle (score 0).
 ///
-/// `ranges[a]` is the slice of `by_x` that circle `a` may contain. When `selected` is
-/// given, the chosen trajectories with a point inside a circle are written to it.
-#[allow(clippy::too_many_arguments)]
+/// `ranges[a]` is the slice of `scene.by_x` that circle `a` may contain. When `selected`
+/// is given, the chosen trajectories with a point inside a circle are written to it.
 fn score_transform(
     circles: &[Circle; CHANNELS],
     ranges: &[(usize, usize); CHANNELS],
-    by_x: &[usize],
-    points: &[Point],
-    gains: &[f64],
+    scene: &Scene,
     cfg: &PlacementConfig,
     s: &mut Scratch,
     selected: Option<&mut Vec<usize>>,
 ) -> Option<f64> {
+    let Scene {
+        points,
+        by_x,
+        gains,
+    } = scene;
     let bonus = cfg.centre_bonus;
     // Channel order, later circles overwriting the weight, as the published code does.
     for (a, (c, &(lo, hi))) in circles.iter().zip(ranges).enumerate() {
