@@ -2,8 +2,11 @@
 //!
 //! One module per pipeline stage, in data-flow order.
 
+pub mod bnb;
 pub mod config;
 pub mod geometry;
+pub mod layout;
+pub mod placement;
 pub mod trajectory;
 
 pub mod condition;
