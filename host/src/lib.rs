@@ -5,3 +5,9 @@
 pub mod config;
 pub mod geometry;
 pub mod trajectory;
+
+pub mod detect;
+pub mod flow;
+pub mod preprocess;
+pub mod recording;
+pub mod track;
