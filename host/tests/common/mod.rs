@@ -38,13 +38,14 @@ pub fn moving_blobs(frames: usize, blobs: usize, seed: u64) -> Array3<f64> {
                 let mut v = 0.004 * noise.next();
                 if t >= 20 && t + 20 < frames {
                     for b in 0..blobs {
-                        // Each blob lives for 60 frames, staggered, sliding along the arm.
-                        let start = 20 + b * 37 % frames.max(1);
-                        let age = (t + frames - start) % frames;
+                        // Blob b recurs every 90 + 17 b frames, pressing for 60 of them
+                        // while it slides along the arm: many contacts, some overlapping.
+                        let period = 90 + 17 * b;
+                        let age = (t + period - (20 + 13 * b) % period) % period;
                         if age >= 60 {
                             continue;
                         }
-                        let x = 2.0 + age as f64 * 0.28 + b as f64 * 1.3 % 5.0;
+                        let x = 2.0 + age as f64 * 0.28 + (b as f64 * 1.3) % 5.0;
                         let y = 2.0 + (b % 4) as f64;
                         let d2 = (c as f64 - x).powi(2) + (r as f64 - y).powi(2);
                         v += 0.6 * (-d2 / 1.5).exp();
