@@ -66,19 +66,12 @@ pub struct FlowEdge {
 pub struct FlowGraph {
     n_nodes: usize,
     edges: Vec<FlowEdge>,
-    out_edges: Vec<Vec<usize>>,
-    in_edges: Vec<Vec<usize>>,
 }
 
 impl FlowGraph {
     /// An empty graph with `n_nodes` nodes.
     pub fn new(n_nodes: usize) -> Self {
-        Self {
-            n_nodes,
-            edges: Vec::new(),
-            out_edges: vec![Vec::new(); n_nodes],
-            in_edges: vec![Vec::new(); n_nodes],
-        }
+        Self { n_nodes, edges: Vec::new() }
     }
 
     /// Adds a unit-capacity edge and returns its index; insertion order breaks ties.
@@ -99,8 +92,6 @@ impl FlowGraph {
         }
         let idx = self.edges.len();
         self.edges.push(FlowEdge { from, to, cost });
-        self.out_edges[from].push(idx);
-        self.in_edges[to].push(idx);
         Ok(idx)
     }
 
@@ -148,6 +139,37 @@ impl Ord for Dist {
     }
 }
 
+/// Edge lists per node in compressed form (one allocation, not one per node), each
+/// node's list in insertion order: that order is the documented tie-break.
+struct Adjacency {
+    start: Vec<usize>,
+    list: Vec<usize>,
+}
+
+impl Adjacency {
+    fn new(n: usize, edges: &[FlowEdge], node_of: impl Fn(&FlowEdge) -> usize) -> Self {
+        let mut start = vec![0usize; n + 1];
+        for e in edges {
+            start[node_of(e) + 1] += 1;
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut list = vec![0usize; edges.len()];
+        for (idx, e) in edges.iter().enumerate() {
+            let v = node_of(e);
+            list[fill[v]] = idx;
+            fill[v] += 1;
+        }
+        Self { start, list }
+    }
+
+    fn of(&self, v: usize) -> &[usize] {
+        &self.list[self.start[v]..self.start[v + 1]]
+    }
+}
+
 /// How a node was reached: over an edge forwards, or backwards over a used edge.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Step {
@@ -172,6 +194,8 @@ pub fn min_cost_flow(
         }
     }
     let n = g.n_nodes;
+    let out_edges = Adjacency::new(n, &g.edges, |e| e.from);
+    let in_edges = Adjacency::new(n, &g.edges, |e| e.to);
     let mut used = vec![false; g.edges.len()];
     let mut first_used_at = vec![usize::MAX; g.edges.len()];
     let mut units = 0usize;
@@ -191,7 +215,7 @@ pub fn min_cost_flow(
     pot[source] = 0.0;
     for v in source + 1..n {
         let mut best = f64::INFINITY;
-        for &e in &g.in_edges[v] {
+        for &e in in_edges.of(v) {
             let edge = &g.edges[e];
             let d = pot[edge.from] + edge.cost;
             if d < best {
@@ -209,7 +233,7 @@ pub fn min_cost_flow(
     let mut suffix = vec![f64::INFINITY; n];
     suffix[sink] = 0.0;
     for u in (source..sink).rev() {
-        for &e in &g.out_edges[u] {
+        for &e in out_edges.of(u) {
             let edge = &g.edges[e];
             suffix[u] = suffix[u].min(edge.cost + suffix[edge.to]);
         }
@@ -287,12 +311,12 @@ pub fn min_cost_flow(
                     heap.push(Reverse((Dist(nd), v)));
                 }
             };
-            for &e in &g.out_edges[u] {
+            for &e in out_edges.of(u) {
                 if !used[e] {
                     relax(g.edges[e].to, g.edges[e].cost, Step::Forward(e), &mut heap);
                 }
             }
-            for &e in &g.in_edges[u] {
+            for &e in in_edges.of(u) {
                 if used[e] {
                     relax(
                         g.edges[e].from,
@@ -310,7 +334,7 @@ pub fn min_cost_flow(
         }
     }
 
-    let paths = decompose(g, source, sink, &used, &first_used_at);
+    let paths = decompose(g, &in_edges, source, sink, &used, &first_used_at);
     Ok(FlowSolution {
         units,
         total_cost,
@@ -322,12 +346,13 @@ pub fn min_cost_flow(
 /// Splits the flow into paths, walking back from each used sink edge.
 fn decompose(
     g: &FlowGraph,
+    in_edges: &Adjacency,
     source: usize,
     sink: usize,
     used: &[bool],
     first_used_at: &[usize],
 ) -> Vec<Vec<usize>> {
-    let mut ends: Vec<usize> = g.in_edges[sink]
+    let mut ends: Vec<usize> = in_edges.of(sink)
         .iter()
         .copied()
         .filter(|&e| used[e])
@@ -340,7 +365,7 @@ fn decompose(
         taken[end] = true;
         let mut v = g.edges[end].from;
         while v != source {
-            let next = g.in_edges[v]
+            let next = in_edges.of(v)
                 .iter()
                 .copied()
                 .find(|&e| used[e] && !taken[e]);
