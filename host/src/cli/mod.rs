@@ -5,10 +5,12 @@ mod bank;
 mod inspect;
 mod render;
 mod synth;
+mod track;
 
 use std::path::Path;
 
 use anyhow::Context;
+use touchc::config::Config;
 use clap::{Parser, Subcommand};
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
@@ -21,6 +23,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Track contacts in a recording (stages 0-3) and print the trajectories.
+    Track(track::TrackArgs),
     /// Show a stimulus or bank file: header, duration, size, CRC status.
     Inspect(inspect::Args),
     /// Play a stimulus through the player (the firmware's code) and write its output.
@@ -34,6 +38,7 @@ enum Command {
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Track(args) => track::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Bank(args) => bank::run(&args),
@@ -44,4 +49,16 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// Reads a whole input file, naming it in the error.
 pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
+}
+
+/// Reads a TOML config, or the paper preset when no file is given.
+pub(crate) fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
+    match path {
+        None => Ok(Config::default()),
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("{}: cannot read config", p.display()))?;
+            toml::from_str(&text).with_context(|| format!("{}: invalid config", p.display()))
+        }
+    }
 }
