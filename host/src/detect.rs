@@ -78,9 +78,17 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
     let mut out = Vec::new();
     for r in 0..h {
         let row = &f[r * w..(r + 1) * w];
-        let up = if r > 0 { &hmax[(r - 1) * w..r * w] } else { &zeros[..] };
+        let up = if r > 0 {
+            &hmax[(r - 1) * w..r * w]
+        } else {
+            &zeros[..]
+        };
         let mid = &hmax[r * w..(r + 1) * w];
-        let down = if r + 1 < h { &hmax[(r + 1) * w..(r + 2) * w] } else { &zeros[..] };
+        let down = if r + 1 < h {
+            &hmax[(r + 1) * w..(r + 2) * w]
+        } else {
+            &zeros[..]
+        };
         for c in 0..w {
             let v = row[c];
             if v > min_value && v > fmin && v >= up[c].max(mid[c]).max(down[c]) {

@@ -71,7 +71,10 @@ pub struct FlowGraph {
 impl FlowGraph {
     /// An empty graph with `n_nodes` nodes.
     pub fn new(n_nodes: usize) -> Self {
-        Self { n_nodes, edges: Vec::new() }
+        Self {
+            n_nodes,
+            edges: Vec::new(),
+        }
     }
 
     /// Adds a unit-capacity edge and returns its index; insertion order breaks ties.
@@ -352,7 +355,8 @@ fn decompose(
     used: &[bool],
     first_used_at: &[usize],
 ) -> Vec<Vec<usize>> {
-    let mut ends: Vec<usize> = in_edges.of(sink)
+    let mut ends: Vec<usize> = in_edges
+        .of(sink)
         .iter()
         .copied()
         .filter(|&e| used[e])
@@ -365,7 +369,8 @@ fn decompose(
         taken[end] = true;
         let mut v = g.edges[end].from;
         while v != source {
-            let next = in_edges.of(v)
+            let next = in_edges
+                .of(v)
                 .iter()
                 .copied()
                 .find(|&e| used[e] && !taken[e]);

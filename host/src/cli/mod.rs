@@ -10,8 +10,8 @@ mod track;
 use std::path::Path;
 
 use anyhow::Context;
-use touchc::config::Config;
 use clap::{Parser, Subcommand};
+use touchc::config::Config;
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
