@@ -33,5 +33,8 @@ pub mod signals;
 pub mod condition;
 pub mod keyframes;
 
+pub mod scene;
+pub mod compile;
+
 pub mod output;
 pub mod synth;

@@ -2,6 +2,7 @@
 //! and the `touch-protocol` crate; errors carry the file they concern.
 
 mod bank;
+mod compile;
 mod inspect;
 mod render;
 mod synth;
@@ -23,6 +24,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Compile a recording into a stimulus file (tracking, placement, signals, keyframes).
+    Compile(compile::Args),
     /// Track contacts in a recording (stages 0-3) and print the trajectories.
     Track(track::TrackArgs),
     /// Show a stimulus or bank file: header, duration, size, CRC status.
@@ -38,6 +41,7 @@ enum Command {
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Compile(args) => compile::run(&args),
         Command::Track(args) => track::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
