@@ -7,7 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 /// All stage parameters. `Config::default()` reproduces the paper.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Config {
     /// Stage 0: loading and tare.
@@ -22,19 +22,6 @@ pub struct Config {
     pub placement: PlacementConfig,
     /// Stages 5 and 6: per-actuator signals and conditioning.
     pub signal: SignalConfig,
-}
-
-impl Default for Config {
-    fn default() -> Self {
-        Self {
-            input: InputConfig::default(),
-            preprocess: PreprocessConfig::default(),
-            detect: DetectConfig::default(),
-            track: TrackConfig::default(),
-            placement: PlacementConfig::default(),
-            signal: SignalConfig::default(),
-        }
-    }
 }
 
 /// Stage 0 parameters.
@@ -79,7 +66,11 @@ pub struct PreprocessConfig {
 
 impl Default for PreprocessConfig {
     fn default() -> Self {
-        Self { upsample: 7, blur_sigma: 3.0, blur_truncate: 4.0 }
+        Self {
+            upsample: 7,
+            blur_sigma: 3.0,
+            blur_truncate: 4.0,
+        }
     }
 }
 
@@ -97,7 +88,11 @@ pub struct DetectConfig {
 
 impl Default for DetectConfig {
     fn default() -> Self {
-        Self { min_value_psi: 1e-5, sigma_k: 1.25, max_probability: 0.98 }
+        Self {
+            min_value_psi: 1e-5,
+            sigma_k: 1.25,
+            max_probability: 0.98,
+        }
     }
 }
 
@@ -117,7 +112,12 @@ pub struct TrackConfig {
 
 impl Default for TrackConfig {
     fn default() -> Self {
-        Self { entry_cost: 8.0, exit_cost: 8.0, link_gate_px2: 50.0, max_trajectories: 200 }
+        Self {
+            entry_cost: 8.0,
+            exit_cost: 8.0,
+            link_gate_px2: 50.0,
+            max_trajectories: 200,
+        }
     }
 }
 
@@ -136,7 +136,11 @@ pub struct PlacementConfig {
 
 impl Default for PlacementConfig {
     fn default() -> Self {
-        Self { grid_x: 20, grid_y: 20, centre_bonus: 0.04 }
+        Self {
+            grid_x: 20,
+            grid_y: 20,
+            centre_bonus: 0.04,
+        }
     }
 }
 

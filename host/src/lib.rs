@@ -4,4 +4,5 @@
 
 pub mod config;
 pub mod geometry;
+pub mod output;
 pub mod trajectory;

@@ -1,0 +1,154 @@
+//! The bank: several stimuli, one per slot, flashed to the sleeve as one image.
+//!
+//! A container (see [`crate::container`]) with magic `b"TCHB"` whose payload is
+//!
+//! ```text
+//! count: u16 LE                       number of slots, 1..=MAX_SLOTS
+//! index: count x (offset u32 LE, length u32 LE)
+//!                                     each slot's stimulus, offset from the bank's first byte
+//! stimuli                             complete stimulus files, back to back, in slot order
+//! ```
+//!
+//! The fixed-width index makes a slot lookup O(1) and copy-free. Decoding checks
+//! every stimulus, so a bank that decodes plays without further checks.
+
+use crate::container::{self, PREFIX_LEN};
+use crate::{Error, Stimulus};
+
+/// Magic of a bank image.
+pub const MAGIC: [u8; 4] = *b"TCHB";
+/// The bank format version this build reads and writes.
+pub const VERSION: u16 = 1;
+/// Most slots a bank holds.
+pub const MAX_SLOTS: u16 = 32;
+
+const INDEX_ENTRY_LEN: usize = 8;
+
+/// A validated, zero-copy view of a bank image.
+#[derive(Debug, Clone, Copy)]
+pub struct Bank<'a> {
+    bytes: &'a [u8],
+    count: u16,
+}
+
+impl<'a> Bank<'a> {
+    /// Decodes and validates a bank and every stimulus in it.
+    ///
+    /// `bytes` may be longer than the bank (a whole flash region): the bank's
+    /// own length field says where it ends.
+    pub fn decode(bytes: &'a [u8]) -> Result<Self, Error> {
+        let c = container::open(bytes, MAGIC, VERSION)?;
+        let payload = c.payload;
+        if payload.len() < 2 {
+            return Err(Error::InvalidField("count"));
+        }
+        let count = u16::from_le_bytes([payload[0], payload[1]]);
+        if count == 0 || count > MAX_SLOTS {
+            return Err(Error::InvalidField("count"));
+        }
+        let index_end = PREFIX_LEN + 2 + usize::from(count) * INDEX_ENTRY_LEN;
+        let data_end = c.bytes.len() - container::CRC_LEN;
+        if index_end > data_end {
+            return Err(Error::InvalidField("count"));
+        }
+        let bank = Bank {
+            bytes: c.bytes,
+            count,
+        };
+        let mut expected_offset = index_end;
+        for slot in 0..count {
+            let (offset, len) = bank.entry(slot);
+            if offset != expected_offset || offset.checked_add(len).is_none_or(|e| e > data_end) {
+                return Err(Error::BadIndex(slot));
+            }
+            let stimulus = Stimulus::decode(&bank.bytes[offset..offset + len])?;
+            if stimulus.as_bytes().len() != len {
+                return Err(Error::BadIndex(slot));
+            }
+            expected_offset = offset + len;
+        }
+        if expected_offset != data_end {
+            return Err(Error::TrailingBytes);
+        }
+        Ok(bank)
+    }
+
+    /// Index entry of `slot` as (offset, length); `slot` must be below `count`.
+    fn entry(&self, slot: u16) -> (usize, usize) {
+        let at = PREFIX_LEN + 2 + usize::from(slot) * INDEX_ENTRY_LEN;
+        let b = &self.bytes[at..at + INDEX_ENTRY_LEN];
+        let offset = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        let len = u32::from_le_bytes([b[4], b[5], b[6], b[7]]);
+        (offset as usize, len as usize)
+    }
+
+    /// Number of slots.
+    pub fn len(&self) -> usize {
+        usize::from(self.count)
+    }
+
+    /// Always false: a valid bank has at least one slot.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// The whole bank image, prefix to CRC.
+    pub fn as_bytes(&self) -> &'a [u8] {
+        self.bytes
+    }
+
+    /// The stimulus in `slot`, borrowed from the bank.
+    pub fn slot(&self, slot: usize) -> Result<Stimulus<'a>, Error> {
+        let slot16 = u16::try_from(slot).unwrap_or(u16::MAX);
+        if slot16 >= self.count {
+            return Err(Error::NoSuchSlot(slot16));
+        }
+        let (offset, len) = self.entry(slot16);
+        Stimulus::decode(&self.bytes[offset..offset + len])
+    }
+
+    /// All stimuli in slot order.
+    pub fn stimuli(&self) -> impl Iterator<Item = Stimulus<'a>> + '_ {
+        (0..self.len()).filter_map(|i| self.slot(i).ok())
+    }
+}
+
+/// Builds a bank from encoded stimuli, one per slot, after checking each.
+///
+/// ```
+/// use touch_protocol::{bank, stimulus, Limits};
+/// let header = stimulus::Header {
+///     channels: 8, output_rate_hz: 1000, keyframe_period_ms: 40, keyframe_count: 0,
+///     duration_ms: 0, ramp_ms: 10, full_scale_ma: 1000, quant_shift: 0, layout_id: 1,
+///     limits: Limits::SLEEVE, name: "a",
+/// };
+/// let one = stimulus::encode(header, &[[0; 8]])?;
+/// let image = bank::encode(&[&one, &one])?;
+/// assert_eq!(&image[..4], b"TCHB");
+/// assert_eq!(bank::Bank::decode(&image)?.len(), 2);
+/// # Ok::<(), touch_protocol::Error>(())
+/// ```
+#[cfg(any(test, feature = "std"))]
+pub fn encode(stimuli: &[&[u8]]) -> Result<Vec<u8>, Error> {
+    let count = u16::try_from(stimuli.len()).map_err(|_| Error::TooLarge)?;
+    if count == 0 || count > MAX_SLOTS {
+        return Err(Error::InvalidField("count"));
+    }
+    let mut payload = Vec::new();
+    payload.extend_from_slice(&count.to_le_bytes());
+    let mut offset = PREFIX_LEN + 2 + stimuli.len() * INDEX_ENTRY_LEN;
+    let mut exact = Vec::with_capacity(stimuli.len());
+    for s in stimuli {
+        let bytes = Stimulus::decode(s)?.as_bytes();
+        let off = u32::try_from(offset).map_err(|_| Error::TooLarge)?;
+        let len = u32::try_from(bytes.len()).map_err(|_| Error::TooLarge)?;
+        payload.extend_from_slice(&off.to_le_bytes());
+        payload.extend_from_slice(&len.to_le_bytes());
+        offset += bytes.len();
+        exact.push(bytes);
+    }
+    for bytes in exact {
+        payload.extend_from_slice(bytes);
+    }
+    container::seal(MAGIC, VERSION, &payload)
+}

@@ -1,0 +1,345 @@
+//! The fixed-point player: a stimulus in, eight 12-bit output codes per 1 kHz tick out.
+//!
+//! The same code runs in the firmware's timer interrupt and in `touchc render`, so
+//! it uses integer arithmetic only (no floats, no 64-bit division) and produces
+//! bit-identical codes on x86 and on the Cortex-M4.
+//!
+//! Per tick and channel:
+//! 1. interpolate linearly between the two keyframes around the tick (Q15);
+//! 2. convert to microamperes and apply the ramp-in envelope (0 A to the signal
+//!    over `ramp_ms`);
+//! 3. enforce the limits, the stricter of the stimulus's and the device's: clamp to
+//!    the peak, clamp the change since the last tick to the slew bound, and account
+//!    the thermal I^2 t budget. While playing, any limit hit is a [`Fault`]: the
+//!    player reports it once and ramps every channel from where it is to 0 A;
+//! 4. convert to a DAC/PWM code, 2048 = 0 A, 0 and 4095 = -/+ device full scale.
+//!
+//! After the last keyframe, and after [`Player::stop`], the outputs ramp linearly
+//! from their last value to 0 A over `ramp_ms` (still slew-limited), then the player
+//! reports [`Status::Finished`] and emits [`IDLE_CODE`] forever.
+
+use crate::stimulus::Keyframes;
+use crate::{Limits, Stimulus, CHANNELS, IDLE_CODE};
+
+/// Largest output code (12-bit converters).
+pub const MAX_CODE: u16 = 4095;
+
+/// What the output hardware can do, and its own hard limits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DeviceConfig {
+    /// Current at codes 0 and 4095 (negative and positive), mA.
+    pub full_scale_ma: u16,
+    /// The device's hard limits; the player enforces the stricter of these and the
+    /// stimulus's.
+    pub limits: Limits,
+}
+
+impl Default for DeviceConfig {
+    /// The sleeve: 1 A full scale (LM675T at 1 A/V), [`Limits::SLEEVE`].
+    fn default() -> Self {
+        DeviceConfig {
+            full_scale_ma: 1000,
+            limits: Limits::SLEEVE,
+        }
+    }
+}
+
+/// Which limit was hit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LimitKind {
+    /// The current exceeded the peak limit.
+    Peak,
+    /// The current changed faster than the slew limit.
+    Slew,
+    /// The thermal I^2 t budget ran out.
+    Thermal,
+}
+
+/// A limit hit while playing: the player ramps to 0 A after reporting it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Fault {
+    /// Which limit.
+    pub kind: LimitKind,
+    /// The first channel (in channel order) that hit it.
+    pub channel: u8,
+}
+
+/// The player's state after a tick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    /// Playing the signal (including the ramp in).
+    Playing,
+    /// A limit was hit at this tick; the player now ramps down. Reported once.
+    Fault(Fault),
+    /// Ramping to 0 A after the end, a stop, or a fault.
+    RampingDown,
+    /// All outputs are at 0 A and stay there.
+    Finished,
+}
+
+/// One tick's output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Tick {
+    /// The eight output codes, channel order.
+    pub codes: [u16; CHANNELS],
+    /// The state after this tick.
+    pub status: Status,
+}
+
+/// Where the codes go: PWM compare registers, DAC, a test buffer.
+pub trait OutputSink {
+    /// Presents one frame; all eight channels must change together.
+    fn write(&mut self, codes: &[u16; CHANNELS]);
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    Signal,
+    RampDown { from: [i32; CHANNELS], step: u32 },
+    Done,
+}
+
+/// Plays one stimulus, one [`Player::tick`] per millisecond.
+///
+/// A plain struct without allocation (about 200 bytes), so the firmware can keep it
+/// in a static and step it from an interrupt.
+#[derive(Debug, Clone)]
+pub struct Player<'a> {
+    keyframes: Keyframes<'a>,
+    /// Keyframe values around the current tick, Q15.
+    a: [i32; CHANNELS],
+    b: [i32; CHANNELS],
+    period: u32,
+    phase: u32,
+    ramp_ms: u32,
+    /// Ticks emitted while in [`Mode::Signal`].
+    t: u32,
+    duration_ms: u32,
+    /// Q15 -> uA multiplier: the stimulus full scale in uA.
+    full_scale_ua: i64,
+    peak_ua: i32,
+    slew_ua: i32,
+    continuous_ma2: u32,
+    budget_ma2ms: u64,
+    /// uA -> code offset multiplier, 2048 * 2^32 / device full scale in uA.
+    code_mul: i64,
+    heat: [u64; CHANNELS],
+    out: [i32; CHANNELS],
+    mode: Mode,
+    fault: Option<Fault>,
+}
+
+impl<'a> Player<'a> {
+    /// Prepares to play `stimulus` on `device`; the first [`Player::tick`] starts the ramp in.
+    pub fn new(stimulus: &Stimulus<'a>, device: &DeviceConfig) -> Self {
+        let h = stimulus.header();
+        let limits = h.limits.min(device.limits);
+        let mut keyframes = stimulus.keyframes();
+        let first = widen(keyframes.next().unwrap_or([0; CHANNELS]));
+        let second = keyframes.next().map(widen).unwrap_or(first);
+        let device_ua = i64::from(device.full_scale_ma.max(1)) * 1000;
+        let mut player = Player {
+            keyframes,
+            a: first,
+            b: second,
+            period: u32::from(h.keyframe_period_ms.max(1)),
+            phase: 0,
+            ramp_ms: u32::from(h.ramp_ms.max(1)),
+            t: 0,
+            duration_ms: h.duration_ms,
+            full_scale_ua: i64::from(h.full_scale_ma) * 1000,
+            peak_ua: i32::from(limits.peak_ma) * 1000,
+            slew_ua: i32::from(limits.slew_ma_per_ms) * 1000,
+            continuous_ma2: u32::from(limits.continuous_ma) * u32::from(limits.continuous_ma),
+            budget_ma2ms: u64::from(limits.i2t_budget_ma2s) * 1000,
+            code_mul: (2048i64 << 32) / device_ua,
+            heat: [0; CHANNELS],
+            out: [0; CHANNELS],
+            mode: Mode::Signal,
+            fault: None,
+        };
+        if player.slew_ua == 0 || player.peak_ua == 0 {
+            // Nothing may move: finish at once rather than pretend to play.
+            player.mode = Mode::Done;
+        }
+        player
+    }
+
+    /// Requests a stop: the outputs ramp from where they are to 0 A.
+    pub fn stop(&mut self) {
+        if self.mode == Mode::Signal {
+            self.mode = Mode::RampDown {
+                from: self.out,
+                step: 0,
+            };
+        }
+    }
+
+    /// True once every output is back at 0 A for good.
+    pub fn is_done(&self) -> bool {
+        self.mode == Mode::Done
+    }
+
+    /// The first limit hit, if any.
+    pub fn fault(&self) -> Option<Fault> {
+        self.fault
+    }
+
+    /// The outputs of the last tick, microamperes.
+    pub fn output_ua(&self) -> [i32; CHANNELS] {
+        self.out
+    }
+
+    /// Computes the next tick and hands its codes to `sink`.
+    pub fn tick_into(&mut self, sink: &mut impl OutputSink) -> Status {
+        let tick = self.tick();
+        sink.write(&tick.codes);
+        tick.status
+    }
+
+    /// Computes the next 1 kHz tick.
+    pub fn tick(&mut self) -> Tick {
+        let status = match self.mode {
+            Mode::Signal => self.signal_tick(),
+            Mode::RampDown { from, step } => self.ramp_tick(from, step),
+            Mode::Done => Status::Finished,
+        };
+        Tick {
+            codes: self.codes(),
+            status,
+        }
+    }
+
+    fn signal_tick(&mut self) -> Status {
+        // Ramp-in envelope, Q16: (t + 1) / ramp, reaching 1 after `ramp_ms` ticks.
+        let env = if self.t + 1 < self.ramp_ms {
+            ((self.t + 1) << 16) / self.ramp_ms
+        } else {
+            1 << 16
+        };
+        let mut fault = None;
+        for c in 0..CHANNELS {
+            let (a, b) = (self.a[c], self.b[c]);
+            // |b - a| < 2^16 and phase < period <= 1000: the product fits in i32.
+            let q = a + (b - a) * self.phase as i32 / self.period as i32;
+            let ua = ((i64::from(q) * self.full_scale_ua) >> 15) as i32;
+            let target = ((i64::from(ua) * i64::from(env)) >> 16) as i32;
+            let (value, hit) = self.limit(c, target);
+            self.out[c] = value;
+            if fault.is_none() {
+                fault = hit.map(|kind| Fault {
+                    kind,
+                    channel: c as u8,
+                });
+            }
+        }
+        self.advance();
+        if let Some(f) = fault {
+            self.fault.get_or_insert(f);
+            self.mode = Mode::RampDown {
+                from: self.out,
+                step: 0,
+            };
+            return Status::Fault(f);
+        }
+        Status::Playing
+    }
+
+    /// Moves to the next tick's keyframe position; at the end, starts the ramp down.
+    fn advance(&mut self) {
+        if self.t >= self.duration_ms {
+            self.mode = Mode::RampDown {
+                from: self.out,
+                step: 0,
+            };
+            return;
+        }
+        self.t += 1;
+        self.phase += 1;
+        if self.phase == self.period {
+            self.phase = 0;
+            self.a = self.b;
+            match self.keyframes.next() {
+                Some(k) => self.b = widen(k),
+                None => self.b = self.a,
+            }
+        }
+    }
+
+    fn ramp_tick(&mut self, from: [i32; CHANNELS], step: u32) -> Status {
+        let step = step + 1;
+        let left = self.ramp_ms.saturating_sub(step);
+        let env = (left << 16) / self.ramp_ms;
+        let mut all_zero = true;
+        for (c, &from) in from.iter().enumerate() {
+            let target = ((i64::from(from) * i64::from(env)) >> 16) as i32;
+            // Limits still bound every output; hits while ramping down are not faults.
+            let (value, _) = self.limit(c, target);
+            self.out[c] = value;
+            all_zero &= value == 0;
+        }
+        if left == 0 && all_zero {
+            self.mode = Mode::Done;
+            Status::Finished
+        } else {
+            self.mode = Mode::RampDown { from, step };
+            Status::RampingDown
+        }
+    }
+
+    /// Applies peak, slew and thermal limits to channel `c`'s target.
+    fn limit(&mut self, c: usize, target: i32) -> (i32, Option<LimitKind>) {
+        let mut hit = None;
+        let mut v = target;
+        if v > self.peak_ua || v < -self.peak_ua {
+            v = v.clamp(-self.peak_ua, self.peak_ua);
+            hit = Some(LimitKind::Peak);
+        }
+        let prev = self.out[c];
+        if v - prev > self.slew_ua || prev - v > self.slew_ua {
+            v = v.clamp(prev - self.slew_ua, prev + self.slew_ua);
+            hit = hit.or(Some(LimitKind::Slew));
+        }
+        let ma = (v / 1000).unsigned_abs();
+        let heat = self.heat[c] + u64::from(ma * ma);
+        self.heat[c] = heat.saturating_sub(u64::from(self.continuous_ma2));
+        if self.heat[c] > self.budget_ma2ms {
+            hit = hit.or(Some(LimitKind::Thermal));
+        }
+        (v, hit)
+    }
+
+    fn codes(&self) -> [u16; CHANNELS] {
+        let mut codes = [IDLE_CODE; CHANNELS];
+        for (code, &ua) in codes.iter_mut().zip(&self.out) {
+            let offset = (i64::from(ua) * self.code_mul + (1 << 31)) >> 32;
+            *code = (i64::from(IDLE_CODE) + offset).clamp(0, i64::from(MAX_CODE)) as u16;
+        }
+        codes
+    }
+}
+
+/// Iterates ticks until (and including) the first [`Status::Finished`].
+impl Iterator for Player<'_> {
+    type Item = Tick;
+
+    fn next(&mut self) -> Option<Tick> {
+        if self.is_done() {
+            return None;
+        }
+        Some(self.tick())
+    }
+}
+
+fn widen(k: [i16; CHANNELS]) -> [i32; CHANNELS] {
+    k.map(i32::from)
+}
+
+/// The current a code stands for on a device, in amperes (for plots and CSV).
+pub fn code_to_amps(code: u16, device_full_scale_ma: u16) -> f64 {
+    (f64::from(code) - f64::from(IDLE_CODE)) / 2048.0 * f64::from(device_full_scale_ma) / 1000.0
+}

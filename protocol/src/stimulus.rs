@@ -1,0 +1,310 @@
+//! The stimulus file: one haptic pattern for the eight channels.
+//!
+//! A container (see [`crate::container`]) with magic `b"TCHS"` whose payload is a
+//! postcard [`Header`] followed by the keyframe body. The body holds
+//! `keyframe_count` records, one per keyframe, for all channels at once (so the
+//! player streams it with a single cursor):
+//!
+//! ```text
+//! mask: u8                       bit c set = channel c changed since the last keyframe
+//! delta: postcard i32 (zigzag varint), once per set bit, channel order
+//! ```
+//!
+//! A channel's stored value starts at 0 and accumulates its deltas; the current it
+//! stands for is `(stored << quant_shift) / 32768 * full_scale_ma` mA (Q15 of the
+//! full scale). A set bit with a zero delta is refused, so every signal has exactly
+//! one encoding. `SPEC.md` describes every byte.
+
+use serde::{Deserialize, Serialize};
+
+use crate::container::{self, Container};
+use crate::{Error, Limits, CHANNELS};
+
+/// Magic of a stimulus file.
+pub const MAGIC: [u8; 4] = *b"TCHS";
+/// The stimulus format version this build reads and writes.
+pub const VERSION: u16 = 1;
+/// The only output rate the format defines, Hz.
+pub const OUTPUT_RATE_HZ: u16 = 1000;
+/// Longest name, bytes of UTF-8.
+pub const MAX_NAME_LEN: usize = 32;
+/// Longest keyframe period, ms (one keyframe per second).
+pub const MAX_KEYFRAME_PERIOD_MS: u16 = 1000;
+/// Upper bound of an encoded header, bytes (fixed fields plus the longest name).
+pub const HEADER_MAX_LEN: usize = 40 + MAX_NAME_LEN;
+/// Largest full scale, mA: keeps the player's fixed-point products inside 32 bits.
+pub const MAX_FULL_SCALE_MA: u16 = 10_000;
+
+/// Everything about a stimulus but its keyframes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Header<'a> {
+    /// Number of output channels; always [`CHANNELS`].
+    pub channels: u8,
+    /// Player output rate in Hz; always [`OUTPUT_RATE_HZ`].
+    pub output_rate_hz: u16,
+    /// Time between keyframes, ms (the keyframe rate is `1000 / period` Hz).
+    pub keyframe_period_ms: u16,
+    /// Number of keyframes; at least one.
+    pub keyframe_count: u32,
+    /// Length of the keyframed signal, `(keyframe_count - 1) * keyframe_period_ms`.
+    pub duration_ms: u32,
+    /// Length of the player's ramp from 0 A in, and back to 0 A after the end or a stop.
+    pub ramp_ms: u16,
+    /// Current that the Q15 value 32768 stands for, mA.
+    pub full_scale_ma: u16,
+    /// Quantisation: a stored value `s` stands for Q15 `s << quant_shift` (0..=15).
+    pub quant_shift: u8,
+    /// Which actuator layout the channels were compiled for.
+    pub layout_id: u16,
+    /// The safety limits the signal was compiled and checked against.
+    pub limits: Limits,
+    /// A short name ("love", "calming", ...).
+    pub name: &'a str,
+}
+
+impl Header<'_> {
+    /// Checks every field's range; the error names the first bad field.
+    pub fn validate(&self) -> Result<(), Error> {
+        let bad = |field| Err(Error::InvalidField(field));
+        if usize::from(self.channels) != CHANNELS {
+            return bad("channels");
+        }
+        if self.output_rate_hz != OUTPUT_RATE_HZ {
+            return bad("output_rate_hz");
+        }
+        if self.keyframe_period_ms == 0 || self.keyframe_period_ms > MAX_KEYFRAME_PERIOD_MS {
+            return bad("keyframe_period_ms");
+        }
+        if self.keyframe_count == 0 {
+            return bad("keyframe_count");
+        }
+        let span = u64::from(self.keyframe_count - 1) * u64::from(self.keyframe_period_ms);
+        if span != u64::from(self.duration_ms) {
+            return bad("duration_ms");
+        }
+        if self.ramp_ms == 0 {
+            return bad("ramp_ms");
+        }
+        if self.full_scale_ma == 0 || self.full_scale_ma > MAX_FULL_SCALE_MA {
+            return bad("full_scale_ma");
+        }
+        if self.quant_shift > 15 {
+            return bad("quant_shift");
+        }
+        if self.name.len() > MAX_NAME_LEN {
+            return bad("name");
+        }
+        Ok(())
+    }
+
+    /// Keyframe rate in Hz.
+    pub fn keyframe_rate_hz(&self) -> f64 {
+        1000.0 / f64::from(self.keyframe_period_ms)
+    }
+
+    /// Ticks the player runs for: the signal, then the ramp back to 0 A.
+    pub fn playback_ms(&self) -> u32 {
+        self.duration_ms.saturating_add(u32::from(self.ramp_ms))
+    }
+}
+
+/// A validated, zero-copy view of a stimulus file.
+///
+/// [`Stimulus::decode`] checks the container, the header and every keyframe once,
+/// so playing it can never meet malformed data; nothing is copied or allocated.
+#[derive(Debug, Clone, Copy)]
+pub struct Stimulus<'a> {
+    header: Header<'a>,
+    body: &'a [u8],
+    bytes: &'a [u8],
+}
+
+impl<'a> Stimulus<'a> {
+    /// Decodes and fully validates a stimulus. `bytes` may extend past its end.
+    pub fn decode(bytes: &'a [u8]) -> Result<Self, Error> {
+        let Container { bytes, payload } = container::open(bytes, MAGIC, VERSION)?;
+        let (header, body) =
+            postcard::take_from_bytes::<Header<'a>>(payload).map_err(|_| Error::BadHeader)?;
+        header.validate()?;
+        let stimulus = Stimulus {
+            header,
+            body,
+            bytes,
+        };
+        let mut cursor = stimulus.keyframes();
+        for _ in 0..header.keyframe_count {
+            cursor.try_next()?;
+        }
+        if !cursor.rest.is_empty() {
+            return Err(Error::TrailingBytes);
+        }
+        Ok(stimulus)
+    }
+
+    /// The header.
+    pub fn header(&self) -> &Header<'a> {
+        &self.header
+    }
+
+    /// The stimulus's name.
+    pub fn name(&self) -> &'a str {
+        self.header.name
+    }
+
+    /// Length of the keyframed signal, ms (playback adds one ramp, see [`Header::playback_ms`]).
+    pub fn duration_ms(&self) -> u32 {
+        self.header.duration_ms
+    }
+
+    /// The limits the stimulus was compiled for.
+    pub fn limits(&self) -> Limits {
+        self.header.limits
+    }
+
+    /// The whole file, prefix to CRC.
+    pub fn as_bytes(&self) -> &'a [u8] {
+        self.bytes
+    }
+
+    /// The stored CRC-32.
+    pub fn crc(&self) -> u32 {
+        let n = self.bytes.len();
+        u32::from_le_bytes([
+            self.bytes[n - 4],
+            self.bytes[n - 3],
+            self.bytes[n - 2],
+            self.bytes[n - 1],
+        ])
+    }
+
+    /// Streams the keyframes as Q15 values of the full scale, without copying.
+    pub fn keyframes(&self) -> Keyframes<'a> {
+        Keyframes {
+            rest: self.body,
+            stored: [0; CHANNELS],
+            shift: self.header.quant_shift,
+            remaining: self.header.keyframe_count,
+        }
+    }
+}
+
+/// Streaming keyframe decoder: one cursor over the body and the running values.
+#[derive(Debug, Clone)]
+pub struct Keyframes<'a> {
+    rest: &'a [u8],
+    stored: [i32; CHANNELS],
+    shift: u8,
+    remaining: u32,
+}
+
+impl Keyframes<'_> {
+    /// Decodes the next keyframe, or reports malformed data.
+    ///
+    /// On a [`Stimulus`] this cannot fail: decoding validated every keyframe.
+    pub fn try_next(&mut self) -> Result<[i16; CHANNELS], Error> {
+        let (&mask, rest) = self.rest.split_first().ok_or(Error::BadKeyframes)?;
+        self.rest = rest;
+        let lo = i32::from(i16::MIN) >> self.shift;
+        let hi = i32::from(i16::MAX) >> self.shift;
+        for (c, stored) in self.stored.iter_mut().enumerate() {
+            if mask & (1 << c) == 0 {
+                continue;
+            }
+            let (delta, rest) =
+                postcard::take_from_bytes::<i32>(self.rest).map_err(|_| Error::BadKeyframes)?;
+            self.rest = rest;
+            let next = stored.checked_add(delta).ok_or(Error::KeyframeOutOfRange)?;
+            if delta == 0 || next < lo || next > hi {
+                return Err(Error::KeyframeOutOfRange);
+            }
+            *stored = next;
+        }
+        self.remaining = self.remaining.saturating_sub(1);
+        let mut out = [0i16; CHANNELS];
+        for (o, &s) in out.iter_mut().zip(&self.stored) {
+            // In range by the check above: |s << shift| fits i16.
+            *o = (s << self.shift) as i16;
+        }
+        Ok(out)
+    }
+
+    /// Keyframes not yet decoded.
+    pub fn remaining(&self) -> u32 {
+        self.remaining
+    }
+}
+
+impl Iterator for Keyframes<'_> {
+    type Item = [i16; CHANNELS];
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.remaining == 0 {
+            return None;
+        }
+        self.try_next().ok()
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let n = self.remaining as usize;
+        (n, Some(n))
+    }
+}
+
+/// Quantises a Q15 value to the stored resolution, rounding to nearest.
+pub fn quantise(q15: i16, shift: u8) -> i32 {
+    let shift = u32::from(shift.min(15));
+    let lo = i32::from(i16::MIN) >> shift;
+    let hi = i32::from(i16::MAX) >> shift;
+    let half = if shift == 0 { 0 } else { 1 << (shift - 1) };
+    ((i32::from(q15) + half) >> shift).clamp(lo, hi)
+}
+
+/// Encodes a stimulus. `keyframes` are Q15 values of `header.full_scale_ma`; they are
+/// quantised to `header.quant_shift`, and `header.keyframe_count` and
+/// `header.duration_ms` are set from them.
+///
+/// ```
+/// use touch_protocol::{stimulus, Limits};
+/// let header = stimulus::Header {
+///     channels: 8, output_rate_hz: 1000, keyframe_period_ms: 50, keyframe_count: 0,
+///     duration_ms: 0, ramp_ms: 20, full_scale_ma: 1000, quant_shift: 4, layout_id: 1,
+///     limits: Limits::SLEEVE, name: "tap",
+/// };
+/// let bytes = stimulus::encode(header, &[[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]])?;
+/// assert_eq!(bytes.len(), 43); // 10 prefix + 24 header + 5 keyframes + 4 CRC
+/// let decoded = stimulus::Stimulus::decode(&bytes)?;
+/// assert_eq!(decoded.duration_ms(), 50);
+/// assert_eq!(decoded.keyframes().last(), Some([1600, 0, 0, 0, 0, 0, 0, -160]));
+/// # Ok::<(), touch_protocol::Error>(())
+/// ```
+#[cfg(any(test, feature = "std"))]
+pub fn encode(mut header: Header<'_>, keyframes: &[[i16; CHANNELS]]) -> Result<Vec<u8>, Error> {
+    header.keyframe_count = u32::try_from(keyframes.len()).map_err(|_| Error::TooLarge)?;
+    let span =
+        u64::from(header.keyframe_count.saturating_sub(1)) * u64::from(header.keyframe_period_ms);
+    header.duration_ms = u32::try_from(span).map_err(|_| Error::TooLarge)?;
+    header.validate()?;
+    let mut head = [0u8; HEADER_MAX_LEN];
+    let mut payload = postcard::to_slice(&header, &mut head)
+        .map_err(|_| Error::BadHeader)?
+        .to_vec();
+    let mut prev = [0i32; CHANNELS];
+    let mut buf = [0u8; 5];
+    for frame in keyframes {
+        let mask_at = payload.len();
+        payload.push(0);
+        let mut mask = 0u8;
+        for (c, (&q15, prev)) in frame.iter().zip(prev.iter_mut()).enumerate() {
+            let stored = quantise(q15, header.quant_shift);
+            let delta = stored - *prev;
+            if delta != 0 {
+                mask |= 1 << c;
+                let used = postcard::to_slice(&delta, &mut buf).map_err(|_| Error::TooLarge)?;
+                payload.extend_from_slice(used);
+                *prev = stored;
+            }
+        }
+        payload[mask_at] = mask;
+    }
+    container::seal(MAGIC, VERSION, &payload)
+}

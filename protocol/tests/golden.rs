@@ -1,0 +1,113 @@
+//! Byte-exact pins of small files: any change to these bytes is a format change
+//! and needs a new version number (see SPEC.md).
+
+use touch_protocol::{bank, stimulus, Bank, Error, Limits, Stimulus};
+
+fn header(name: &str) -> stimulus::Header<'_> {
+    stimulus::Header {
+        channels: 8,
+        output_rate_hz: 1000,
+        keyframe_period_ms: 50,
+        keyframe_count: 0,
+        duration_ms: 0,
+        ramp_ms: 20,
+        full_scale_ma: 1000,
+        quant_shift: 4,
+        layout_id: 1,
+        limits: Limits::SLEEVE,
+        name,
+    }
+}
+
+#[test]
+fn stimulus_bytes_are_pinned() {
+    let bytes = stimulus::encode(header("tap"), &[[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]]).unwrap();
+    #[rustfmt::skip]
+    let expected: Vec<u8> = [
+        &b"TCHS"[..],                 // magic
+        &[0x01, 0x00],                // version 1, u16 LE
+        &[43, 0, 0, 0],               // total length, u32 LE
+        // postcard header
+        &[0x08],                      // channels = 8
+        &[0xE8, 0x07],                // output_rate_hz = 1000 (varint)
+        &[50],                        // keyframe_period_ms
+        &[2],                         // keyframe_count
+        &[50],                        // duration_ms = (2 - 1) * 50
+        &[20],                        // ramp_ms
+        &[0xE8, 0x07],                // full_scale_ma = 1000
+        &[4],                         // quant_shift
+        &[1],                         // layout_id
+        &[0xE8, 0x07, 50, 0xD8, 0x04, 0x80, 0x87, 0xA7, 0x0E], // limits 1000, 50, 600, 30e6
+        &[3, b't', b'a', b'p'],       // name
+        // keyframes
+        &[0x00],                      // keyframe 0: nothing changed from zero
+        &[0x81, 0xC8, 0x01, 0x13],    // keyframe 1: ch0 += 100 (zigzag 200), ch7 += -10 (zigzag 19)
+    ]
+    .concat();
+    assert_eq!(&bytes[..bytes.len() - 4], &expected[..]);
+    let crc = touch_protocol::container::crc32(&expected);
+    assert_eq!(&bytes[bytes.len() - 4..], &crc.to_le_bytes());
+    assert_eq!(
+        crc, 0x824E_C576,
+        "CRC of the pinned bytes (Python zlib.crc32 agrees)"
+    );
+    let s = Stimulus::decode(&bytes).unwrap();
+    assert_eq!(s.name(), "tap");
+    assert_eq!(
+        s.keyframes().collect::<Vec<_>>(),
+        vec![[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]]
+    );
+}
+
+#[test]
+fn bank_bytes_are_pinned() {
+    let one = stimulus::encode(header("a"), &[[0; 8]]).unwrap();
+    assert_eq!(one.len(), 10 + 22 + 1 + 4);
+    let image = bank::encode(&[&one]).unwrap();
+    #[rustfmt::skip]
+    let prefix: Vec<u8> = [
+        &b"TCHB"[..],                 // magic
+        &[0x01, 0x00],                // version 1
+        &[61, 0, 0, 0],               // total length = 10 + 2 + 8 + 37 + 4
+        &[1, 0],                      // one slot
+        &[20, 0, 0, 0, 37, 0, 0, 0],  // slot 0 at offset 20, 37 bytes
+    ]
+    .concat();
+    assert_eq!(image.len(), 61);
+    assert_eq!(&image[..20], &prefix[..20]);
+    assert_eq!(&image[20..57], &one[..]);
+    let b = Bank::decode(&image).unwrap();
+    assert_eq!(b.len(), 1);
+    assert_eq!(b.slot(0).unwrap().name(), "a");
+    assert_eq!(b.slot(1).unwrap_err(), Error::NoSuchSlot(1));
+}
+
+#[test]
+fn version_and_crc_errors_say_which() {
+    let mut bytes = stimulus::encode(header("v"), &[[0; 8]]).unwrap();
+    // A future version with a valid CRC is "unsupported version"...
+    bytes[4] = 2;
+    let n = bytes.len();
+    let crc = touch_protocol::container::crc32(&bytes[..n - 4]);
+    bytes[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    assert_eq!(
+        Stimulus::decode(&bytes).unwrap_err(),
+        Error::UnsupportedVersion {
+            found: 2,
+            supported: 1
+        }
+    );
+    // ...and any flipped bit is "bad CRC".
+    bytes[12] ^= 0x10;
+    assert!(matches!(
+        Stimulus::decode(&bytes),
+        Err(Error::BadCrc { .. })
+    ));
+    // A bank is not a stimulus.
+    let one = stimulus::encode(header("v"), &[[0; 8]]).unwrap();
+    let image = bank::encode(&[&one]).unwrap();
+    assert!(matches!(
+        Stimulus::decode(&image),
+        Err(Error::BadMagic { .. })
+    ));
+}
