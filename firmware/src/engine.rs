@@ -188,4 +188,72 @@ mod tests {
         assert_eq!(*e.sink().0.last().unwrap(), IDLE_FRAME);
         assert_eq!(e.controller().playing(), None);
     }
+
+    mod invariants {
+        use super::*;
+        use crate::testutil::stimulus_from;
+        use proptest::prelude::*;
+        use touch_protocol::{Limits, CHANNELS, IDLE_CODE};
+
+        /// 50 mA/ms at 1000 mA full scale is 102.4 codes; one more for rounding.
+        const MAX_STEP: u16 = 104;
+
+        fn any_stimulus() -> impl Strategy<Value = Vec<u8>> {
+            (
+                10u16..=100,
+                proptest::collection::vec(proptest::array::uniform8(any::<i16>()), 1..20),
+                (1u16..=3000, 1u16..=200, 1u16..=2000, 1u32..=50_000_000),
+            )
+                .prop_map(
+                    |(
+                        period,
+                        frames,
+                        (peak_ma, slew_ma_per_ms, continuous_ma, i2t_budget_ma2s),
+                    )| {
+                        let limits = Limits {
+                            peak_ma,
+                            slew_ma_per_ms,
+                            continuous_ma,
+                            i2t_budget_ma2s,
+                        };
+                        stimulus_from("p", period, &frames, limits)
+                    },
+                )
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(48))]
+
+            /// Whatever the stimuli and however the buttons are pressed: no output
+            /// ever steps faster than the hard slew limit (starts, stops, switches and
+            /// faults included), and once the presses stop everything rests at 0 A.
+            #[test]
+            fn never_steps_and_always_comes_to_rest(
+                stimuli in proptest::collection::vec(any_stimulus(), 1..4),
+                presses in proptest::collection::vec((0usize..2500, 0usize..4, 5usize..900), 0..8),
+            ) {
+                let image = bank(&stimuli);
+                let bank = Bank::decode(&image).unwrap();
+                let ctrl = Controller::new(bank, device_config());
+                let mut e = Engine::new(Recorder::default(), CountingDog::default(), Buttons::<4>::new(Mode::PerSlot), ctrl);
+                let mut edges = std::vec::Vec::new();
+                for &(at, button, held) in &presses {
+                    edges.push((at, button, true));
+                    edges.push((at + held, button, false));
+                }
+                // Longest stimulus: 19 keyframes * 100 ms, plus ramps.
+                drive(&mut e, 3500 + 2100, &edges);
+                let frames = &e.sink().0;
+                let mut prev = [IDLE_CODE; CHANNELS];
+                for (t, f) in frames.iter().enumerate() {
+                    for c in 0..CHANNELS {
+                        prop_assert!(f[c].abs_diff(prev[c]) <= MAX_STEP, "tick {} channel {}: {} -> {}", t, c, prev[c], f[c]);
+                    }
+                    prev = *f;
+                }
+                prop_assert_eq!(*frames.last().unwrap(), IDLE_FRAME);
+                prop_assert_eq!(e.controller().playing(), None);
+            }
+        }
+    }
 }
