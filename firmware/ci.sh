@@ -86,15 +86,15 @@ step "host: fmt, clippy, tests of the firmware logic"
 cd "$root"
 cargo fmt -p sleeve-firmware -- --check
 (cd "$here/qemu-test" && cargo fmt -- --check)
-cargo clippy -p sleeve-firmware --no-deps --all-targets -- -D warnings
-cargo test -p sleeve-firmware
+cargo clippy -p sleeve-firmware --no-deps --all-targets --locked -- -D warnings
+cargo test -p sleeve-firmware --locked
 
 step "target: clippy, release build"
 cd "$here"
 for features in "" "dac-outputs" "button-per-slot" "dac-outputs,button-per-slot"; do
-    cargo clippy --release --no-deps --features "$features" -- -D warnings
+    cargo clippy --release --no-deps --locked --features "$features" -- -D warnings
 done
-cargo build --release
+cargo build --release --locked
 elf="$root/target/$target/release/sleeve-firmware"
 read -r flash ram < <(elf_use "$elf")
 echo "sleeve-firmware release: flash $flash B ($((flash / 1024)) KB, budget $((flash_budget / 1024)) KB), static RAM $ram B ($((ram / 1024)) KB, budget $((ram_budget / 1024)) KB)"
@@ -105,8 +105,8 @@ fi
 
 step "QEMU: player on the STM32F405 vs the host"
 cd "$here/qemu-test"
-cargo clippy --release --no-deps -- -D warnings
-cargo build --release
+cargo clippy --release --no-deps --locked -- -D warnings
+cargo build --release --locked
 log="$(mktemp)"
 status=0
 timeout 120 qemu-system-arm -M netduinoplus2 -display none -icount shift=4,sleep=off \
@@ -118,4 +118,18 @@ if [ "$status" != 0 ] || ! grep -q '^1 passed, 0 failed$' "$log"; then
     exit 1
 fi
 rm -f "$log"
+
+step "default bank linked into the BANK region"
+bank="$(realpath "$(ls -t target/$target/release/build/sleeve-qemu-test-*/out/bank.bin | head -n1)")"
+cd "$here"
+SLEEVE_DEFAULT_BANK="$bank" cargo build --release --locked --features default-bank
+# The .bank section must sit at 0x080C0000 and hold the whole image.
+read -r addr size < <(readelf -SW "$elf" | sed -n 's/^ *\[ *[0-9]*\] *//p' | awk '$1 == ".bank" { print $3, $5 }')
+if [ "$addr" != 080c0000 ] || [ "$((16#$size))" != "$(stat -c %s "$bank")" ]; then
+    echo "default bank not linked at 0x080C0000 (got ${addr:-none}, ${size:-0} bytes)" >&2
+    exit 1
+fi
+echo "default bank: $((16#$size)) bytes at 0x$addr"
+# Leave the plain build in place for `cargo run --release`.
+cargo build --release --locked
 echo "firmware checks passed"
