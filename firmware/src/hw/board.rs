@@ -19,13 +19,52 @@
 //! Channel numbering is the sleeve's: `channel = row * 4 + column`.
 
 use embassy_stm32::exti::{self, ExtiInput};
-use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
-use embassy_stm32::time::Hertz;
-use embassy_stm32::timer::low_level::CountingMode;
-use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
-use embassy_stm32::{bind_interrupts, interrupt, Config, Peripherals};
+use embassy_stm32::gpio::{Level, Output, Pull, Speed};
+use embassy_stm32::{bind_interrupts, interrupt, pac, Config, Peripherals};
 
 use super::outputs::Outputs;
+
+/// A pin driven by the output stage, configured by register (see `outputs.rs`).
+#[derive(Clone, Copy)]
+pub struct OutputPin {
+    /// GPIO port.
+    pub port: pac::gpio::Gpio,
+    /// Pin number in the port.
+    pub pin: usize,
+}
+
+const fn out(port: pac::gpio::Gpio, pin: usize) -> OutputPin {
+    OutputPin { port, pin }
+}
+
+/// Alternate function of TIM3/TIM4 on every PWM pin below (AF2 on the F405).
+pub const PWM_AF: u8 = 2;
+
+/// PWM pins in channel order: TIM3 CH1-CH4, TIM4 CH1-CH4.
+#[cfg(not(feature = "dac-outputs"))]
+pub const PWM_PINS: &[OutputPin] = &[
+    out(pac::GPIOA, 6),
+    out(pac::GPIOA, 7),
+    out(pac::GPIOB, 0),
+    out(pac::GPIOB, 1),
+    out(pac::GPIOB, 6),
+    out(pac::GPIOB, 7),
+    out(pac::GPIOB, 8),
+    out(pac::GPIOB, 9),
+];
+/// PWM pins of channels 2-7 (channels 0-1 are on the DAC).
+#[cfg(feature = "dac-outputs")]
+pub const PWM_PINS: &[OutputPin] = &[
+    out(pac::GPIOB, 0),
+    out(pac::GPIOB, 1),
+    out(pac::GPIOB, 6),
+    out(pac::GPIOB, 7),
+    out(pac::GPIOB, 8),
+    out(pac::GPIOB, 9),
+];
+/// DAC pins of channels 0 and 1.
+#[cfg(feature = "dac-outputs")]
+pub const DAC_PINS: &[OutputPin] = &[out(pac::GPIOA, 4), out(pac::GPIOA, 5)];
 
 bind_interrupts!(
     /// EXTI lines of the buttons.
@@ -90,43 +129,15 @@ pub struct Board {
 
 /// Takes the board's pins. The outputs come first and start at 0 A.
 pub fn take(p: Peripherals) -> Board {
-    macro_rules! pin {
-        ($p:expr) => {
-            Some(PwmPin::new($p, OutputType::PushPull))
-        };
-    }
-    // Carrier 84 MHz / 4096; `Outputs::new` pins the period to exactly 4096 counts.
-    let carrier = Hertz(20_508);
+    // The output pins are configured by register in `Outputs::new`; taking their
+    // singletons here keeps anything else from using them.
     #[cfg(not(feature = "dac-outputs"))]
-    let (ch0, ch1) = (pin!(p.PA6), pin!(p.PA7));
+    let _pins = (p.PA6, p.PA7, p.PB0, p.PB1, p.PB6, p.PB7, p.PB8, p.PB9);
     #[cfg(feature = "dac-outputs")]
-    let (ch0, ch1) = (None, None);
-    let tim3 = SimplePwm::new(
-        p.TIM3,
-        ch0,
-        ch1,
-        pin!(p.PB0),
-        pin!(p.PB1),
-        carrier,
-        CountingMode::EdgeAlignedUp,
+    let _pins = (
+        p.PA4, p.PA5, p.DAC1, p.PB0, p.PB1, p.PB6, p.PB7, p.PB8, p.PB9,
     );
-    let tim4 = SimplePwm::new(
-        p.TIM4,
-        pin!(p.PB6),
-        pin!(p.PB7),
-        pin!(p.PB8),
-        pin!(p.PB9),
-        carrier,
-        CountingMode::EdgeAlignedUp,
-    );
-    #[cfg(feature = "dac-outputs")]
-    let outputs = Outputs::new(
-        tim3,
-        tim4,
-        embassy_stm32::dac::Dac::new_blocking(p.DAC1, p.PA4, p.PA5),
-    );
-    #[cfg(not(feature = "dac-outputs"))]
-    let outputs = Outputs::new(tim3, tim4);
+    let outputs = Outputs::new(p.TIM3, p.TIM4);
 
     let led = Output::new(p.PC12, Level::Low, Speed::Low);
     #[cfg(not(feature = "button-per-slot"))]

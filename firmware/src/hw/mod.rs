@@ -78,10 +78,9 @@ pub async fn run(spawner: Spawner) -> ! {
     loop {
         let report = tick::REPORTS.receive().await;
         match report {
-            Report::Started(_) | Report::Stopping(_) | Report::Selected(_) => info!("{}", report),
-            Report::Finished(_) => info!("{}", report),
             Report::Fault(..) => warn!("limit hit, ramping to 0 A: {}", report),
             Report::BadSlot(_) => error!("{}", report),
+            _ => info!("{}", report),
         }
         match report {
             Report::Started(_) => led.set_high(),

@@ -60,8 +60,8 @@ pub fn start(engine: SleeveEngine, _tim7: Peri<'static, TIM7>) {
     t.egr().write(|w| w.set_ug(true));
     t.sr().write(|w| w.set_uif(false));
     t.dier().modify(|w| w.set_uie(true));
-    // Above EXTI and the time driver: the tick must not wait for them.
-    interrupt::TIM7.set_priority(Priority::P1);
+    // The highest priority: nothing preempts the frame write at the start of the tick.
+    interrupt::TIM7.set_priority(Priority::P0);
     // SAFETY: the handler below only touches ENGINE (behind a critical section), the
     // mailboxes and the report channel, all of which are ready.
     unsafe { interrupt::TIM7.enable() };
