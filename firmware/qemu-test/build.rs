@@ -4,14 +4,49 @@
 
 #[path = "src/crc32.rs"]
 mod crc32;
+#[path = "src/scenario.rs"]
+mod scenario;
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::{env, fs};
 
+use sleeve_firmware::button::{Buttons, Mode};
+use sleeve_firmware::control::Controller;
+use sleeve_firmware::engine::{Engine, Watchdog};
+use sleeve_firmware::output::{device_config, Frame};
 use touch_protocol::player::{DeviceConfig, Player, Status};
-use touch_protocol::{bank, stimulus, Bank, Limits, CHANNELS};
+use touch_protocol::{bank, stimulus, Bank, Limits, OutputSink, CHANNELS};
+
+/// Keeps the last frame the engine wrote.
+struct Last(Frame);
+impl OutputSink for Last {
+    fn write(&mut self, codes: &Frame) {
+        self.0 = *codes;
+    }
+}
+struct NoDog;
+impl Watchdog for NoDog {
+    fn feed(&mut self) {}
+}
+
+/// The firmware's engine through the button scenario: CRC-32 of every frame written.
+fn engine_crc(bank: Bank<'_>) -> u32 {
+    let controller = Controller::new(bank, device_config());
+    let mut engine = Engine::new(
+        Last([0; CHANNELS]),
+        NoDog,
+        Buttons::<1>::new(Mode::PlayNext),
+        controller,
+    );
+    let mut crc = !0u32;
+    for t in 0..scenario::TICKS {
+        engine.tick([scenario::edge(t)], |_| {});
+        crc = crc32::update_frame(crc, &engine.sink().0);
+    }
+    !crc
+}
 
 /// Q15 of `ma` at `full_scale_ma`.
 fn q15(ma: f64, full_scale_ma: u16) -> i16 {
@@ -101,6 +136,7 @@ fn main() {
     println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-changed=src/crc32.rs");
+    println!("cargo:rerun-if-changed=src/scenario.rs");
     println!("cargo:rerun-if-changed=../../protocol/src");
 
     let stimuli = [stroke(), tap(), bold()];
@@ -127,5 +163,6 @@ fn main() {
         writeln!(rs, "    ({ticks}, {:#010x}, {faulted}),", !crc).expect("write to string");
     }
     rs.push_str("];\n");
+    writeln!(rs, "/// CRC-32 of the frames the engine writes through the button scenario.\npub const ENGINE_CRC: u32 = {:#010x};", engine_crc(bank)).expect("write to string");
     fs::write(out.join("expected.rs"), rs).expect("write expected");
 }

@@ -5,7 +5,7 @@ use touch_protocol::{Bank, Error};
 /// Why the bank in flash is not used. Nothing plays; the LED blinks
 /// [`BootError::blinks`] times, pauses, and repeats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[cfg_attr(all(target_os = "none", feature = "hw"), derive(defmt::Format))]
 pub enum BootError {
     /// The region is erased (all 0xFF): no bank was flashed.
     Empty,

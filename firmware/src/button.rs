@@ -93,7 +93,7 @@ impl Debouncer {
 
 /// What the buttons ask of the controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[cfg_attr(all(target_os = "none", feature = "hw"), derive(defmt::Format))]
 pub enum Event {
     /// Play the selected slot, or stop (ramping down) if it plays.
     Toggle,

@@ -3,16 +3,21 @@
 //! Safety rules kept here: a new stimulus never starts on top of another (the
 //! running one ramps down first, the new one is queued), a stop always ramps, and
 //! with nothing playing the frame is [`IDLE_FRAME`].
+//!
+//! Every slot is decoded once, at boot: decoding checks a stimulus's CRC and every
+//! keyframe, far too slow for the tick, so starting one in the tick is only
+//! [`Player::new`].
 
+use touch_protocol::bank::MAX_SLOTS;
 use touch_protocol::player::{Fault, Status};
-use touch_protocol::{Bank, DeviceConfig, Player};
+use touch_protocol::{Bank, DeviceConfig, Player, Stimulus};
 
 use crate::button::Event;
 use crate::output::{Frame, IDLE_FRAME};
 
 /// What happened, for the log (the tick interrupt never logs itself).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[cfg_attr(all(target_os = "none", feature = "hw"), derive(defmt::Format))]
 pub enum Report {
     /// Slot started playing.
     Started(usize),
@@ -31,7 +36,8 @@ pub enum Report {
 /// The playback state machine, stepped once per 1 kHz tick.
 #[derive(Debug)]
 pub struct Controller<'a> {
-    bank: Bank<'a>,
+    /// The bank's slots, decoded (`None`: the slot did not decode).
+    stimuli: heapless::Vec<Option<Stimulus<'a>>, { MAX_SLOTS as usize }>,
     device: DeviceConfig,
     selected: usize,
     /// The slot playing (or ramping down) and its player.
@@ -43,16 +49,24 @@ pub struct Controller<'a> {
 }
 
 impl<'a> Controller<'a> {
-    /// Nothing playing, slot 0 selected.
+    /// Nothing playing, slot 0 selected. Decodes every slot (slow: call at boot).
     pub fn new(bank: Bank<'a>, device: DeviceConfig) -> Self {
+        let stimuli = (0..bank.len().min(MAX_SLOTS as usize))
+            .map(|slot| bank.slot(slot).ok())
+            .collect();
         Controller {
-            bank,
+            stimuli,
             device,
             selected: 0,
             playing: None,
             stopping: false,
             queued: None,
         }
+    }
+
+    /// Number of slots.
+    pub fn slots(&self) -> usize {
+        self.stimuli.len()
     }
 
     /// The selected slot (what a short press plays).
@@ -69,7 +83,7 @@ impl<'a> Controller<'a> {
     pub fn handle(&mut self, event: Event) -> Option<Report> {
         match event {
             Event::Toggle => self.toggle(self.selected),
-            Event::Slot(slot) if slot < self.bank.len() => {
+            Event::Slot(slot) if slot < self.slots() => {
                 self.selected = slot;
                 self.toggle(slot)
             }
@@ -77,7 +91,7 @@ impl<'a> Controller<'a> {
             Event::Next => {
                 self.queued = None;
                 self.stop();
-                self.selected = (self.selected + 1) % self.bank.len().max(1);
+                self.selected = (self.selected + 1) % self.slots().max(1);
                 Some(Report::Selected(self.selected))
             }
         }
@@ -111,13 +125,13 @@ impl<'a> Controller<'a> {
     }
 
     fn start(&mut self, slot: usize) -> Option<Report> {
-        match self.bank.slot(slot) {
-            Ok(stimulus) => {
+        match self.stimuli.get(slot).copied().flatten() {
+            Some(stimulus) => {
                 self.playing = Some((slot, Player::new(&stimulus, &self.device)));
                 self.stopping = false;
                 Some(Report::Started(slot))
             }
-            Err(_) => Some(Report::BadSlot(slot)),
+            None => Some(Report::BadSlot(slot)),
         }
     }
 

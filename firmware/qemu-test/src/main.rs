@@ -9,6 +9,7 @@
 #![no_main]
 
 mod crc32;
+mod scenario;
 
 use core::cell::RefCell;
 
@@ -17,8 +18,12 @@ use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
+use sleeve_firmware::button::{Buttons, Mode};
+use sleeve_firmware::control::Controller;
+use sleeve_firmware::engine::{Engine, Watchdog};
+use sleeve_firmware::output::{device_config, pwm_compare, Frame, PWM_PERIOD};
 use touch_protocol::player::{DeviceConfig, Player, Status};
-use touch_protocol::Bank;
+use touch_protocol::{Bank, OutputSink, CHANNELS};
 
 include!(concat!(env!("OUT_DIR"), "/expected.rs"));
 
@@ -37,8 +42,41 @@ const RELOAD: u32 = 168_000 - 1;
 /// SysTick counts per instruction under `-icount shift=4` (16 ns each): 16 * 0.168.
 const COUNTS_PER_INSN_X1000: u32 = 2688;
 
+/// TIM3 and TIM4 capture/compare registers (CCR1-4 at offset 0x34), which QEMU
+/// emulates: the engine's frames go to the real registers, as in the firmware.
+const CCR: [usize; 2] = [0x4000_0434, 0x4000_0834];
+
+/// Writes frames to the timers' compare registers and keeps the last for the hash.
+struct Ccr(Frame);
+impl OutputSink for Ccr {
+    fn write(&mut self, codes: &Frame) {
+        for (c, &code) in codes.iter().enumerate() {
+            let reg = (CCR[c / 4] + 4 * (c % 4)) as *mut u32;
+            // SAFETY: a TIM3/TIM4 CCR register, word-aligned, write-only use.
+            unsafe { reg.write_volatile(pwm_compare(code, PWM_PERIOD)) };
+        }
+        self.0 = *codes;
+    }
+}
+
+/// No watchdog under QEMU.
+struct NoDog;
+impl Watchdog for NoDog {
+    fn feed(&mut self) {}
+}
+
+/// What the SysTick handler steps.
+// One at a time, in a static: the size difference costs nothing.
+#[allow(clippy::large_enum_variant)]
+enum Job {
+    /// The protocol player alone, one slot.
+    Player(Player<'static>),
+    /// The firmware's whole tick: buttons, controller, player, output write.
+    Engine(Engine<'static, Ccr, NoDog, 1>),
+}
+
 struct State {
-    player: Player<'static>,
+    job: Job,
     ticks: u32,
     crc: u32,
     faulted: bool,
@@ -85,7 +123,7 @@ fn main() -> ! {
     for (slot, &(ticks, crc, faulted)) in EXPECTED.iter().enumerate() {
         let stim = bank.slot(slot).unwrap_or_else(|_| fail("slot refused"));
         let state = State {
-            player: Player::new(&stim, &device),
+            job: Job::Player(Player::new(&stim, &device)),
             ticks: 0,
             crc: !0,
             faulted: false,
@@ -93,22 +131,7 @@ fn main() -> ! {
             max_counts: 0,
             sum_counts: 0,
         };
-        cortex_m::interrupt::free(|cs| STATE.borrow(cs).replace(Some(state)));
-        cp.SYST.clear_current();
-        cp.SYST.enable_interrupt();
-        cp.SYST.enable_counter();
-        let s = loop {
-            cortex_m::asm::wfi();
-            let done = cortex_m::interrupt::free(|cs| {
-                STATE.borrow(cs).borrow().as_ref().is_some_and(|s| s.done)
-            });
-            if done {
-                cp.SYST.disable_interrupt();
-                cp.SYST.disable_counter();
-                let s = cortex_m::interrupt::free(|cs| STATE.borrow(cs).borrow_mut().take());
-                break s.unwrap_or_else(|| fail("state lost"));
-            }
-        };
+        let s = run(&mut cp.SYST, state);
         let got_crc = !s.crc;
         let max_insns = s.max_counts * 1000 / COUNTS_PER_INSN_X1000;
         let mean_insns = (s.sum_counts * 1000
@@ -133,8 +156,46 @@ fn main() -> ! {
         );
     }
     hprintln!(
-        "instructions per 1 kHz tick (8 channels), worst: {}",
+        "player: instructions per 1 kHz tick (8 channels), worst: {}",
         worst_insns
+    );
+
+    // The firmware's engine through the button scenario, codes to TIM3/TIM4.
+    let controller = Controller::new(bank, device_config());
+    let engine = Engine::new(
+        Ccr([0; CHANNELS]),
+        NoDog,
+        Buttons::<1>::new(Mode::PlayNext),
+        controller,
+    );
+    let state = State {
+        job: Job::Engine(engine),
+        ticks: 0,
+        crc: !0,
+        faulted: false,
+        done: false,
+        max_counts: 0,
+        sum_counts: 0,
+    };
+    let s = run(&mut cp.SYST, state);
+    let got = !s.crc;
+    let max_insns = s.max_counts * 1000 / COUNTS_PER_INSN_X1000;
+    let mean_insns =
+        (s.sum_counts * 1000 / u64::from(COUNTS_PER_INSN_X1000) / u64::from(s.ticks.max(1))) as u32;
+    let pass = got == ENGINE_CRC && s.ticks == scenario::TICKS;
+    ok &= pass;
+    hprintln!(
+        "engine scenario: {} ticks, crc {:#010x} (host {:#010x}), insns/tick max {} mean {}: {}",
+        s.ticks,
+        got,
+        ENGINE_CRC,
+        max_insns,
+        mean_insns,
+        if pass { "ok" } else { "MISMATCH" }
+    );
+    hprintln!(
+        "firmware tick (buttons + controller + player + CCR writes), worst: {}",
+        max_insns
     );
     hprintln!(
         "{} passed, {} failed",
@@ -160,17 +221,54 @@ fn SysTick() {
             return;
         }
         // SysTick counts down from RELOAD: the counts spent are start - end.
-        let start = SYST::get_current();
-        let tick = s.player.tick();
-        let end = SYST::get_current();
+        let t = s.ticks;
+        // Only the tick itself is measured, not the bookkeeping around it.
+        let (codes, status, start, end) = match &mut s.job {
+            Job::Player(player) => {
+                let start = SYST::get_current();
+                let tick = player.tick();
+                let end = SYST::get_current();
+                (tick.codes, Some(tick.status), start, end)
+            }
+            Job::Engine(engine) => {
+                let edges = [scenario::edge(t)];
+                let start = SYST::get_current();
+                engine.tick(edges, |_| {});
+                let end = SYST::get_current();
+                (engine.sink().0, None, start, end)
+            }
+        };
         let spent = elapsed(start, end);
         s.max_counts = s.max_counts.max(spent);
         s.sum_counts += u64::from(spent);
         s.ticks += 1;
-        s.crc = crc32::update_frame(s.crc, &tick.codes);
-        s.faulted |= matches!(tick.status, Status::Fault(_));
-        s.done = tick.status == Status::Finished || s.ticks > 1_000_000;
+        s.crc = crc32::update_frame(s.crc, &codes);
+        s.faulted |= matches!(status, Some(Status::Fault(_)));
+        s.done = match status {
+            Some(status) => status == Status::Finished || s.ticks > 1_000_000,
+            None => s.ticks >= scenario::TICKS,
+        };
     });
+}
+
+/// Runs one job at 1 kHz until it is done; returns its final state.
+fn run(syst: &mut SYST, state: State) -> State {
+    cortex_m::interrupt::free(|cs| STATE.borrow(cs).replace(Some(state)));
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+    loop {
+        cortex_m::asm::wfi();
+        let done = cortex_m::interrupt::free(|cs| {
+            STATE.borrow(cs).borrow().as_ref().is_some_and(|s| s.done)
+        });
+        if done {
+            syst.disable_interrupt();
+            syst.disable_counter();
+            let s = cortex_m::interrupt::free(|cs| STATE.borrow(cs).borrow_mut().take());
+            return s.unwrap_or_else(|| fail("state lost"));
+        }
+    }
 }
 
 /// SysTick counts spent between two reads of the down-counter (at most one wrap).
