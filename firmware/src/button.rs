@@ -15,6 +15,8 @@ pub const LONG_PRESS_TICKS: u32 = 600;
 
 const PENDING: u8 = 1;
 const PRESSED: u8 = 2;
+/// Sticky: a press was posted. Read once, before the tick starts (see [`boot_events`]).
+const LATCH: u8 = 4;
 
 /// Last edge of one button, from the EXTI task to the tick interrupt, lock-free.
 ///
@@ -31,14 +33,33 @@ impl EdgeMailbox {
 
     /// Records an edge after which the button reads `pressed`.
     pub fn post(&self, pressed: bool) {
-        let v = PENDING | if pressed { PRESSED } else { 0 };
-        self.0.store(v, Ordering::Release);
+        let new = if pressed {
+            PENDING | PRESSED | LATCH
+        } else {
+            PENDING
+        };
+        // The closure never fails: the update always happens.
+        let _ = self
+            .0
+            .fetch_update(Ordering::Release, Ordering::Relaxed, |v| {
+                Some((v & LATCH) | new)
+            });
     }
 
     /// Takes the newest edge, if any: `Some(pressed)`.
     pub fn take(&self) -> Option<bool> {
-        let v = self.0.swap(0, Ordering::Acquire);
+        let v = self.0.fetch_and(LATCH, Ordering::Acquire);
         (v & PENDING != 0).then_some(v & PRESSED != 0)
+    }
+
+    /// True if a press was posted since the last call; clears the latch.
+    pub fn take_latch(&self) -> bool {
+        self.0.fetch_and(!LATCH, Ordering::AcqRel) & LATCH != 0
+    }
+
+    /// The newest level posted (released if none), without taking the edge.
+    pub fn level(&self) -> bool {
+        self.0.load(Ordering::Acquire) & PRESSED != 0
     }
 }
 
@@ -167,6 +188,28 @@ impl<const N: usize> Buttons<N> {
     }
 }
 
+/// Presses that began and ended while the firmware booted, before the tick ran:
+/// each becomes its event now, so the first press after power-up is never lost.
+/// (A press still held is not one of them: the tick sees its level and handles it.)
+/// Call once, just before the tick starts.
+pub fn boot_events<const N: usize>(
+    mode: Mode,
+    mailboxes: &[EdgeMailbox; N],
+) -> heapless::Vec<Event, N> {
+    let mut events = heapless::Vec::new();
+    for (i, mailbox) in mailboxes.iter().enumerate() {
+        if mailbox.take_latch() && !mailbox.level() {
+            let event = match mode {
+                Mode::PlayNext => Event::Toggle,
+                Mode::PerSlot => Event::Slot(i),
+            };
+            // Capacity is N and each button adds at most one event.
+            let _ = events.push(event);
+        }
+    }
+    events
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,6 +238,20 @@ mod tests {
         m.post(false);
         assert_eq!(m.take(), Some(false));
         assert_eq!(m.take(), None);
+    }
+
+    #[test]
+    fn a_press_during_boot_is_kept() {
+        let boxes = [EdgeMailbox::new(), EdgeMailbox::new(), EdgeMailbox::new()];
+        boxes[0].post(false); // initial level, never pressed
+        boxes[1].post(true); // pressed and released during boot
+        boxes[1].post(false);
+        boxes[2].post(true); // still held: the tick handles it
+        assert_eq!(boot_events(Mode::PerSlot, &boxes), [Event::Slot(1)]);
+        assert_eq!(boxes[2].take(), Some(true));
+        // Read once: the latch is cleared, the edges stay for the tick.
+        assert!(boot_events(Mode::PlayNext, &boxes).is_empty());
+        assert_eq!(boxes[1].take(), Some(false));
     }
 
     #[test]

@@ -11,7 +11,7 @@ use embassy_stm32::gpio::Output;
 use embassy_stm32::mode::Async;
 use embassy_time::{with_timeout, Duration, Timer};
 use sleeve_firmware::boot::{check_bank, BootError};
-use sleeve_firmware::button::{Buttons, EdgeMailbox, DEBOUNCE_TICKS};
+use sleeve_firmware::button::{boot_events, Buttons, EdgeMailbox, DEBOUNCE_TICKS};
 use sleeve_firmware::control::{Controller, Report};
 use sleeve_firmware::engine::Engine;
 use sleeve_firmware::output::device_config;
@@ -48,6 +48,12 @@ pub async fn run(spawner: Spawner) -> ! {
         tick: tim7,
     } = board::take(p);
     info!("sleeve: outputs at 0 A");
+    // The buttons next: their tasks arm EXTI at their first poll (the yield), so a
+    // press during the rest of the boot is posted, and latched (see `boot_events`).
+    for (i, button) in buttons.into_iter().enumerate() {
+        spawner.spawn(defmt::unwrap!(button_task(button, &tick::EDGES[i])));
+    }
+    Timer::after_millis(1).await;
 
     let bank = match check_bank(bank_region()) {
         Ok(bank) => bank,
@@ -61,17 +67,20 @@ pub async fn run(spawner: Spawner) -> ! {
         info!("  slot {}: {} ({} ms)", i, s.name(), s.duration_ms());
     }
 
-    // Buttons first, so an edge during the rest of the boot is already posted.
-    for (i, button) in buttons.into_iter().enumerate() {
-        spawner.spawn(defmt::unwrap!(button_task(button, &tick::EDGES[i])));
-    }
     let controller = Controller::new(bank, device_config());
-    let engine = Engine::new(
+    let mut engine = Engine::new(
         outputs,
         tick::Iwdg::start(iwdg),
         Buttons::<BUTTONS>::new(board::BUTTON_MODE),
         controller,
     );
+    // Let the button tasks post what happened while the bank was checked.
+    Timer::after_millis(1).await;
+    for event in boot_events(board::BUTTON_MODE, &tick::EDGES) {
+        if let Some(report) = engine.inject(event) {
+            info!("press during boot: {}", report);
+        }
+    }
     tick::start(engine, tim7);
     info!("ready: press to play slot 0, hold to select the next");
 
@@ -92,22 +101,34 @@ pub async fn run(spawner: Spawner) -> ! {
 
 /// Posts every edge of one button, with the level read after it. After a quiet
 /// debounce window the level is posted again, so an edge that came while this task
-/// was not yet waiting still ends in the right level.
+/// was not yet waiting still ends in the right level. An edge that reads the same
+/// level as before was a whole press (or glitch) while the task was busy or not yet
+/// running: it is posted as both, so the press latch sees it.
 #[embassy_executor::task(pool_size = 4)]
 async fn button_task(mut button: ExtiInput<'static, Async>, mailbox: &'static EdgeMailbox) {
     // The level at start counts: a button held through boot is a press.
-    mailbox.post(board::pressed(&button));
+    let mut last = board::pressed(&button);
+    mailbox.post(last);
     let window = Duration::from_millis(u64::from(DEBOUNCE_TICKS));
+    let post = |level: bool, last: &mut bool| {
+        if level == *last {
+            mailbox.post(!level);
+        }
+        mailbox.post(level);
+        *last = level;
+    };
     loop {
         button.wait_for_any_edge().await;
-        mailbox.post(board::pressed(&button));
+        post(board::pressed(&button), &mut last);
         while with_timeout(window, button.wait_for_any_edge())
             .await
             .is_ok()
         {
-            mailbox.post(board::pressed(&button));
+            post(board::pressed(&button), &mut last);
         }
-        mailbox.post(board::pressed(&button));
+        // Quiet: re-read without inventing an edge.
+        last = board::pressed(&button);
+        mailbox.post(last);
     }
 }
 
