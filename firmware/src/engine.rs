@@ -113,6 +113,18 @@ mod tests {
         reports
     }
 
+    /// An engine on the bank `image`, recording every frame it writes.
+    fn engine<const N: usize>(image: &[u8], mode: Mode) -> Engine<'_, Recorder, CountingDog, N> {
+        let bank = Bank::decode(image).unwrap();
+        let ctrl = Controller::new(bank, device_config());
+        Engine::new(
+            Recorder::default(),
+            CountingDog::default(),
+            Buttons::new(mode),
+            ctrl,
+        )
+    }
+
     fn first_active(frames: &[Frame]) -> usize {
         frames
             .iter()
@@ -123,14 +135,7 @@ mod tests {
     #[test]
     fn one_button_latency_is_one_tick_after_debouncing() {
         let image = bank(&[constant_stimulus("a", 300, 400)]);
-        let bank = Bank::decode(&image).unwrap();
-        let ctrl = Controller::new(bank, device_config());
-        let mut e = Engine::new(
-            Recorder::default(),
-            CountingDog::default(),
-            Buttons::<1>::new(Mode::PlayNext),
-            ctrl,
-        );
+        let mut e = engine::<1>(&image, Mode::PlayNext);
         // First press right at power-up (tick 0), released 80 ms later.
         let reports = drive(&mut e, 300, &[(0, 0, true), (80, 0, false)]);
         let (started, r) = reports[0];
@@ -155,14 +160,7 @@ mod tests {
             constant_stimulus("a", 300, 400),
             constant_stimulus("b", 500, 400),
         ]);
-        let bank = Bank::decode(&image).unwrap();
-        let ctrl = Controller::new(bank, device_config());
-        let mut e = Engine::new(
-            Recorder::default(),
-            CountingDog::default(),
-            Buttons::<2>::new(Mode::PerSlot),
-            ctrl,
-        );
+        let mut e = engine::<2>(&image, Mode::PerSlot);
         let reports = drive(&mut e, 100, &[(10, 1, true), (60, 1, false)]);
         assert_eq!(
             reports[0],
@@ -174,14 +172,7 @@ mod tests {
     #[test]
     fn plays_to_the_end_and_rests_at_zero() {
         let image = bank(&[constant_stimulus("a", 300, 400)]);
-        let bank = Bank::decode(&image).unwrap();
-        let ctrl = Controller::new(bank, device_config());
-        let mut e = Engine::new(
-            Recorder::default(),
-            CountingDog::default(),
-            Buttons::<1>::new(Mode::PlayNext),
-            ctrl,
-        );
+        let mut e = engine::<1>(&image, Mode::PlayNext);
         assert_eq!(e.inject(Event::Toggle), Some(Report::Started(0)));
         let reports = drive(&mut e, 1000, &[]);
         assert!(matches!(reports.last(), Some((_, Report::Finished(0)))));
@@ -233,9 +224,7 @@ mod tests {
                 presses in proptest::collection::vec((0usize..2500, 0usize..4, 5usize..900), 0..8),
             ) {
                 let image = bank(&stimuli);
-                let bank = Bank::decode(&image).unwrap();
-                let ctrl = Controller::new(bank, device_config());
-                let mut e = Engine::new(Recorder::default(), CountingDog::default(), Buttons::<4>::new(Mode::PerSlot), ctrl);
+                let mut e = engine::<4>(&image, Mode::PerSlot);
                 let mut edges = std::vec::Vec::new();
                 for &(at, button, held) in &presses {
                     edges.push((at, button, true));

@@ -85,6 +85,29 @@ struct State {
     sum_counts: u64,
 }
 
+impl State {
+    fn new(job: Job) -> Self {
+        State {
+            job,
+            ticks: 0,
+            crc: !0,
+            faulted: false,
+            done: false,
+            max_counts: 0,
+            sum_counts: 0,
+        }
+    }
+
+    /// Worst and mean instructions per tick.
+    fn insns(&self) -> (u32, u32) {
+        let max = self.max_counts * 1000 / COUNTS_PER_INSN_X1000;
+        let mean = self.sum_counts * 1000
+            / u64::from(COUNTS_PER_INSN_X1000)
+            / u64::from(self.ticks.max(1));
+        (max, mean as u32)
+    }
+}
+
 static STATE: Mutex<RefCell<Option<State>>> = Mutex::new(RefCell::new(None));
 
 fn bank_region() -> &'static [u8] {
@@ -122,21 +145,10 @@ fn main() -> ! {
     let mut worst_insns = 0;
     for (slot, &(ticks, crc, faulted)) in EXPECTED.iter().enumerate() {
         let stim = bank.slot(slot).unwrap_or_else(|_| fail("slot refused"));
-        let state = State {
-            job: Job::Player(Player::new(&stim, &device)),
-            ticks: 0,
-            crc: !0,
-            faulted: false,
-            done: false,
-            max_counts: 0,
-            sum_counts: 0,
-        };
+        let state = State::new(Job::Player(Player::new(&stim, &device)));
         let s = run(&mut cp.SYST, state);
         let got_crc = !s.crc;
-        let max_insns = s.max_counts * 1000 / COUNTS_PER_INSN_X1000;
-        let mean_insns = (s.sum_counts * 1000
-            / u64::from(COUNTS_PER_INSN_X1000)
-            / u64::from(s.ticks.max(1))) as u32;
+        let (max_insns, mean_insns) = s.insns();
         worst_insns = worst_insns.max(max_insns);
         let pass = s.ticks == ticks && got_crc == crc && s.faulted == faulted;
         ok &= pass;
@@ -168,20 +180,10 @@ fn main() -> ! {
         Buttons::<1>::new(Mode::PlayNext),
         controller,
     );
-    let state = State {
-        job: Job::Engine(engine),
-        ticks: 0,
-        crc: !0,
-        faulted: false,
-        done: false,
-        max_counts: 0,
-        sum_counts: 0,
-    };
+    let state = State::new(Job::Engine(engine));
     let s = run(&mut cp.SYST, state);
     let got = !s.crc;
-    let max_insns = s.max_counts * 1000 / COUNTS_PER_INSN_X1000;
-    let mean_insns =
-        (s.sum_counts * 1000 / u64::from(COUNTS_PER_INSN_X1000) / u64::from(s.ticks.max(1))) as u32;
+    let (max_insns, mean_insns) = s.insns();
     let pass = got == ENGINE_CRC && s.ticks == scenario::TICKS;
     ok &= pass;
     hprintln!(

@@ -40,9 +40,8 @@ const fn out(port: pac::gpio::Gpio, pin: usize) -> OutputPin {
 /// Alternate function of TIM3/TIM4 on every PWM pin below (AF2 on the F405).
 pub const PWM_AF: u8 = 2;
 
-/// PWM pins in channel order: TIM3 CH1-CH4, TIM4 CH1-CH4.
-#[cfg(not(feature = "dac-outputs"))]
-pub const PWM_PINS: &[OutputPin] = &[
+/// Timer pins in channel order: TIM3 CH1-CH4, TIM4 CH1-CH4.
+const TIMER_PINS: [OutputPin; 8] = [
     out(pac::GPIOA, 6),
     out(pac::GPIOA, 7),
     out(pac::GPIOB, 0),
@@ -52,16 +51,12 @@ pub const PWM_PINS: &[OutputPin] = &[
     out(pac::GPIOB, 8),
     out(pac::GPIOB, 9),
 ];
-/// PWM pins of channels 2-7 (channels 0-1 are on the DAC).
-#[cfg(feature = "dac-outputs")]
-pub const PWM_PINS: &[OutputPin] = &[
-    out(pac::GPIOB, 0),
-    out(pac::GPIOB, 1),
-    out(pac::GPIOB, 6),
-    out(pac::GPIOB, 7),
-    out(pac::GPIOB, 8),
-    out(pac::GPIOB, 9),
-];
+/// The PWM pins in use: all eight, or channels 2-7 when 0-1 are on the DAC.
+pub const PWM_PINS: &[OutputPin] = if cfg!(feature = "dac-outputs") {
+    TIMER_PINS.split_at(2).1
+} else {
+    &TIMER_PINS
+};
 /// DAC pins of channels 0 and 1.
 #[cfg(feature = "dac-outputs")]
 pub const DAC_PINS: &[OutputPin] = &[out(pac::GPIOA, 4), out(pac::GPIOA, 5)];
