@@ -59,7 +59,7 @@ install_tools() {
 # image; static RAM = data + bss + uninit (the stack comes on top).
 elf_use() {
     local elf=$1 llvm_size
-    llvm_size="$(find "$(rustc --print sysroot)/lib/rustlib" -name llvm-size -type f 2>/dev/null | head -n1)"
+    llvm_size="$(find "$(rustc --print sysroot)/lib/rustlib" -name llvm-size -type f -print -quit 2>/dev/null)"
     if [ -n "$llvm_size" ]; then
         "$llvm_size" -A "$elf" | awk '{ s[$1] = $2 } END {
             print s[".vector_table"] + s[".text"] + s[".rodata"] + s[".data"],

@@ -18,6 +18,7 @@ use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
+use sleeve_firmware::boot::{check_bank, BootError};
 use sleeve_firmware::button::{Buttons, Mode};
 use sleeve_firmware::control::Controller;
 use sleeve_firmware::engine::{Engine, Watchdog};
@@ -126,6 +127,20 @@ fn main() -> ! {
     if BANK.as_ptr() as usize != BANK_ADDR || bank.len() != EXPECTED.len() {
         fail("bank not at 0x080C0000 or wrong slot count");
     }
+    // The firmware's boot check, on the target: refuses an erased region and a
+    // corrupted copy of the bank.
+    let mut copy = [0u8; BANK.len()];
+    copy.copy_from_slice(&BANK);
+    copy[BANK.len() / 2] ^= 0x10;
+    let erased = [0xFFu8; 64];
+    let boot_ok = check_bank(bank_region()).is_ok()
+        && matches!(check_bank(&erased), Err(BootError::Empty))
+        && matches!(check_bank(&copy), Err(BootError::Corrupt(_)));
+    hprintln!(
+        "boot check: good bank accepted, erased and corrupted refused: {}",
+        if boot_ok { "ok" } else { "FAILED" }
+    );
+
     let device = DeviceConfig::default();
     cp.SYST.set_clock_source(SystClkSource::Core);
     cp.SYST.set_reload(RELOAD);
@@ -141,7 +156,7 @@ fn main() -> ! {
     cp.SYST.disable_counter();
     let nop_insns = elapsed(start, end) * 1000 / COUNTS_PER_INSN_X1000;
     hprintln!("calibration: 1000 nops measure {} instructions", nop_insns);
-    let mut ok = (1000..1010).contains(&nop_insns);
+    let mut ok = boot_ok && (1000..1010).contains(&nop_insns);
     let mut worst_insns = 0;
     for (slot, &(ticks, crc, faulted)) in EXPECTED.iter().enumerate() {
         let stim = bank.slot(slot).unwrap_or_else(|_| fail("slot refused"));
