@@ -2,7 +2,16 @@
 //!
 //! One module per pipeline stage, in data-flow order.
 
+pub mod bnb;
 pub mod config;
 pub mod geometry;
-pub mod output;
+pub mod layout;
+pub mod placement;
 pub mod trajectory;
+
+pub mod condition;
+pub mod keyframes;
+pub mod signals;
+
+pub mod output;
+pub mod synth;

@@ -44,9 +44,9 @@ pub enum Error {
     BadHeader,
     /// A header field is outside its allowed range; the string names the field.
     InvalidField(&'static str),
-    /// The keyframe body ended early, or a delta is not a valid varint.
+    /// The keyframe body ended early, or a residual is not a valid varint.
     BadKeyframes,
-    /// A keyframe value left the 16-bit range, or a delta was encoded non-canonically.
+    /// A keyframe value left the 16-bit range, or a residual of zero was encoded (non-canonical).
     KeyframeOutOfRange,
     /// Bytes remain between the last keyframe (or bank entry) and the CRC.
     TrailingBytes,
@@ -83,7 +83,7 @@ impl fmt::Display for Error {
             Error::InvalidField(name) => write!(f, "header field `{name}` is out of range"),
             Error::BadKeyframes => write!(f, "keyframe data is truncated or malformed"),
             Error::KeyframeOutOfRange => {
-                write!(f, "keyframe value out of range or non-canonical delta")
+                write!(f, "keyframe value out of range or non-canonical residual")
             }
             Error::TrailingBytes => write!(f, "unexpected bytes before the CRC"),
             Error::BadIndex(slot) => write!(f, "bank index entry {slot} points outside the bank"),

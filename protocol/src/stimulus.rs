@@ -6,14 +6,18 @@
 //! player streams it with a single cursor):
 //!
 //! ```text
-//! mask: u8                       bit c set = channel c changed since the last keyframe
-//! delta: postcard i32 (zigzag varint), once per set bit, channel order
+//! mask: u8                       bit c set = channel c left its linear prediction
+//! residual: postcard i32 (zigzag varint), once per set bit, channel order
 //! ```
 //!
-//! A channel's stored value starts at 0 and accumulates its deltas; the current it
-//! stands for is `(stored << quant_shift) / 32768 * full_scale_ma` mA (Q15 of the
-//! full scale). A set bit with a zero delta is refused, so every signal has exactly
-//! one encoding. `SPEC.md` describes every byte.
+//! Each channel's stored value `s[k]` is predicted by extending the line through
+//! the two before it, `2 s[k-1] - s[k-2]` (both 0 before the first keyframe), and
+//! the record holds only the residual. A band-limited signal bends slowly, so the
+//! residuals are small (one varint byte) where plain deltas would need two, and a
+//! channel that holds still or ramps costs nothing but its mask bit. The current a
+//! stored value stands for is `(s << quant_shift) / 32768 * full_scale_ma` mA (Q15
+//! of the full scale). A set bit with a zero residual is refused, so every signal
+//! has exactly one encoding. `SPEC.md` describes every byte.
 
 use serde::{Deserialize, Serialize};
 
@@ -182,6 +186,7 @@ impl<'a> Stimulus<'a> {
         Keyframes {
             rest: self.body,
             stored: [0; CHANNELS],
+            before: [0; CHANNELS],
             shift: self.header.quant_shift,
             remaining: self.header.keyframe_count,
         }
@@ -192,7 +197,10 @@ impl<'a> Stimulus<'a> {
 #[derive(Debug, Clone)]
 pub struct Keyframes<'a> {
     rest: &'a [u8],
+    /// Stored values of the last keyframe, `s[k-1]`.
     stored: [i32; CHANNELS],
+    /// Stored values of the keyframe before it, `s[k-2]`.
+    before: [i32; CHANNELS],
     shift: u8,
     remaining: u32,
 }
@@ -206,18 +214,25 @@ impl Keyframes<'_> {
         self.rest = rest;
         let lo = i32::from(i16::MIN) >> self.shift;
         let hi = i32::from(i16::MAX) >> self.shift;
-        for (c, stored) in self.stored.iter_mut().enumerate() {
-            if mask & (1 << c) == 0 {
-                continue;
+        for c in 0..CHANNELS {
+            // In range: stored values are within i16, so the prediction fits in i32.
+            let mut next = 2 * self.stored[c] - self.before[c];
+            if mask & (1 << c) != 0 {
+                let (residual, rest) =
+                    postcard::take_from_bytes::<i32>(self.rest).map_err(|_| Error::BadKeyframes)?;
+                self.rest = rest;
+                if residual == 0 {
+                    return Err(Error::KeyframeOutOfRange);
+                }
+                next = next
+                    .checked_add(residual)
+                    .ok_or(Error::KeyframeOutOfRange)?;
             }
-            let (delta, rest) =
-                postcard::take_from_bytes::<i32>(self.rest).map_err(|_| Error::BadKeyframes)?;
-            self.rest = rest;
-            let next = stored.checked_add(delta).ok_or(Error::KeyframeOutOfRange)?;
-            if delta == 0 || next < lo || next > hi {
+            if next < lo || next > hi {
                 return Err(Error::KeyframeOutOfRange);
             }
-            *stored = next;
+            self.before[c] = self.stored[c];
+            self.stored[c] = next;
         }
         self.remaining = self.remaining.saturating_sub(1);
         let mut out = [0i16; CHANNELS];
@@ -288,21 +303,23 @@ pub fn encode(mut header: Header<'_>, keyframes: &[[i16; CHANNELS]]) -> Result<V
     let mut payload = postcard::to_slice(&header, &mut head)
         .map_err(|_| Error::BadHeader)?
         .to_vec();
-    let mut prev = [0i32; CHANNELS];
+    let mut last = [0i32; CHANNELS];
+    let mut before = [0i32; CHANNELS];
     let mut buf = [0u8; 5];
     for frame in keyframes {
         let mask_at = payload.len();
         payload.push(0);
         let mut mask = 0u8;
-        for (c, (&q15, prev)) in frame.iter().zip(prev.iter_mut()).enumerate() {
+        for (c, &q15) in frame.iter().enumerate() {
             let stored = quantise(q15, header.quant_shift);
-            let delta = stored - *prev;
-            if delta != 0 {
+            let residual = stored - (2 * last[c] - before[c]);
+            if residual != 0 {
                 mask |= 1 << c;
-                let used = postcard::to_slice(&delta, &mut buf).map_err(|_| Error::TooLarge)?;
+                let used = postcard::to_slice(&residual, &mut buf).map_err(|_| Error::TooLarge)?;
                 payload.extend_from_slice(used);
-                *prev = stored;
             }
+            before[c] = last[c];
+            last[c] = stored;
         }
         payload[mask_at] = mask;
     }

@@ -21,18 +21,23 @@ fn header(name: &str) -> stimulus::Header<'_> {
 
 #[test]
 fn stimulus_bytes_are_pinned() {
-    let bytes = stimulus::encode(header("tap"), &[[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]]).unwrap();
+    let keyframes = [
+        [0; 8],
+        [1600, 0, 0, 0, 0, 0, 0, -160],
+        [3200, 0, 0, 0, 0, 0, 0, -320],
+    ];
+    let bytes = stimulus::encode(header("tap"), &keyframes).unwrap();
     #[rustfmt::skip]
     let expected: Vec<u8> = [
         &b"TCHS"[..],                 // magic
         &[0x01, 0x00],                // version 1, u16 LE
-        &[43, 0, 0, 0],               // total length, u32 LE
+        &[44, 0, 0, 0],               // total length, u32 LE
         // postcard header
         &[0x08],                      // channels = 8
         &[0xE8, 0x07],                // output_rate_hz = 1000 (varint)
         &[50],                        // keyframe_period_ms
-        &[2],                         // keyframe_count
-        &[50],                        // duration_ms = (2 - 1) * 50
+        &[3],                         // keyframe_count
+        &[100],                       // duration_ms = (3 - 1) * 50
         &[20],                        // ramp_ms
         &[0xE8, 0x07],                // full_scale_ma = 1000
         &[4],                         // quant_shift
@@ -41,22 +46,20 @@ fn stimulus_bytes_are_pinned() {
         &[3, b't', b'a', b'p'],       // name
         // keyframes
         &[0x00],                      // keyframe 0: nothing changed from zero
-        &[0x81, 0xC8, 0x01, 0x13],    // keyframe 1: ch0 += 100 (zigzag 200), ch7 += -10 (zigzag 19)
+        &[0x81, 0xC8, 0x01, 0x13],    // keyframe 1: ch0 residual 100 (zigzag 200), ch7 -10 (zigzag 19)
+        &[0x00],                      // keyframe 2: both continue their line: no residual
     ]
     .concat();
     assert_eq!(&bytes[..bytes.len() - 4], &expected[..]);
     let crc = touch_protocol::container::crc32(&expected);
     assert_eq!(&bytes[bytes.len() - 4..], &crc.to_le_bytes());
     assert_eq!(
-        crc, 0x824E_C576,
+        crc, 0xFB95_B465,
         "CRC of the pinned bytes (Python zlib.crc32 agrees)"
     );
     let s = Stimulus::decode(&bytes).unwrap();
     assert_eq!(s.name(), "tap");
-    assert_eq!(
-        s.keyframes().collect::<Vec<_>>(),
-        vec![[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]]
-    );
+    assert_eq!(s.keyframes().collect::<Vec<_>>(), keyframes.to_vec());
 }
 
 #[test]

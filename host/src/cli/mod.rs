@@ -4,6 +4,7 @@
 mod bank;
 mod inspect;
 mod render;
+mod synth;
 
 use std::path::Path;
 
@@ -26,6 +27,8 @@ enum Command {
     Render(render::Args),
     /// Pack stimuli into a bank image, one per button slot, for the sleeve's flash.
     Bank(bank::Args),
+    /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
+    Synth(synth::Args),
 }
 
 /// Runs the chosen subcommand.
@@ -34,6 +37,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Bank(args) => bank::run(&args),
+        Command::Synth(args) => synth::run(&args),
     }
 }
 

@@ -1,0 +1,355 @@
+//! Stage 7: keyframes. Chooses the keyframe rate and resolution the band-limited
+//! signal needs and encodes the stimulus file.
+//!
+//! After the 4 Hz low-pass the signal carries nothing a 1 kHz sample stream would
+//! add, so the file holds keyframes that the player interpolates linearly. The
+//! choice is measured, not guessed: every candidate is encoded, decoded and played
+//! by the protocol crate's player (the firmware's code), and its 1 kHz output is
+//! compared with the compiler's own f64 signal. The smallest file that meets the
+//! fidelity bounds wins.
+
+use touch_protocol::player::code_to_amps;
+use touch_protocol::{stimulus, DeviceConfig, Limits, Player, Status, Stimulus, CHANNELS};
+
+/// Bounds and fixed fields of the encoding.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyframeOptions {
+    /// Largest RMS difference between the player's output and the f64 signal, as a
+    /// fraction of the full scale (over all channels and ticks).
+    pub max_rms_error_fs: f64,
+    /// Largest difference at any tick and channel, fraction of the full scale.
+    pub max_abs_error_fs: f64,
+    /// Current of Q15 full scale, mA (the amplifier's full scale).
+    pub full_scale_ma: u16,
+    /// Player ramp in and out, ms.
+    pub ramp_ms: u16,
+    /// Keyframe periods to try, ms.
+    pub periods_ms: Vec<u16>,
+    /// Coarsest quantisation to try (`2^shift` Q15 units per step).
+    pub max_quant_shift: u8,
+}
+
+impl Default for KeyframeOptions {
+    fn default() -> Self {
+        KeyframeOptions {
+            max_rms_error_fs: 0.005,
+            max_abs_error_fs: 0.02,
+            full_scale_ma: 1000,
+            ramp_ms: 10,
+            periods_ms: vec![250, 200, 125, 100, 80, 50, 40, 25, 20, 10, 5, 2, 1],
+            max_quant_shift: 9,
+        }
+    }
+}
+
+/// The encoded stimulus and how faithful it is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Encoded {
+    /// The stimulus file.
+    pub bytes: Vec<u8>,
+    /// Chosen keyframe period, ms.
+    pub period_ms: u16,
+    /// Chosen quantisation shift.
+    pub quant_shift: u8,
+    /// RMS error of the player's output against the f64 signal, fraction of full scale.
+    pub rms_error_fs: f64,
+    /// Largest error, fraction of full scale.
+    pub max_error_fs: f64,
+    /// Candidates encoded and played to choose this one.
+    pub candidates_tried: usize,
+}
+
+/// Why no encoding was produced.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
+pub enum KeyframeError {
+    /// The signal is empty or not finite.
+    #[error("the signal is empty or has a non-finite sample")]
+    BadSignal,
+    /// Even the finest candidate misses the fidelity bounds.
+    #[error("no keyframe rate meets the fidelity bounds (best: {rms:.4} RMS, {max:.4} max of full scale)")]
+    Unfaithful {
+        /// Best RMS error found.
+        rms: f64,
+        /// Best max error found.
+        max: f64,
+    },
+    /// The player hit a safety limit while playing the encoding.
+    #[error("the player hit its {0} limit playing the signal")]
+    LimitHit(&'static str),
+    /// The protocol crate refused the header (name too long, ...).
+    #[error("cannot encode: {0}")]
+    Protocol(#[from] touch_protocol::Error),
+}
+
+/// Fields of the header that the caller decides.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeaderFields<'a> {
+    /// Stimulus name.
+    pub name: &'a str,
+    /// Actuator layout id.
+    pub layout_id: u16,
+    /// Limits the signal was checked against.
+    pub limits: Limits,
+}
+
+/// Encodes `signal` (1 kHz, amperes) as the smallest stimulus that plays back within
+/// the bounds of `opts`.
+pub fn encode(
+    signal: &[[f64; CHANNELS]],
+    fields: HeaderFields<'_>,
+    opts: &KeyframeOptions,
+) -> Result<Encoded, KeyframeError> {
+    if signal.is_empty() || signal.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(KeyframeError::BadSignal);
+    }
+    let fs_a = f64::from(opts.full_scale_ma) / 1000.0;
+    let mut best: Option<Encoded> = None;
+    let mut closest = (f64::INFINITY, f64::INFINITY);
+    let mut tried = 0;
+    let mut periods = opts.periods_ms.clone();
+    periods.sort_unstable_by(|a, b| b.cmp(a));
+    for &period in &periods {
+        // Interpolation error alone, in f64: a period that misses the bounds before
+        // quantisation cannot meet them after it.
+        let (rms, max) = interpolation_error(signal, usize::from(period.max(1)));
+        if rms / fs_a > opts.max_rms_error_fs || max / fs_a > opts.max_abs_error_fs {
+            closest = min_pair(closest, (rms / fs_a, max / fs_a));
+            continue;
+        }
+        // Coarsest passing resolution for this period: the error grows with the shift,
+        // so walk from fine to coarse and keep the last that passes.
+        let mut passing = None;
+        for shift in 0..=opts.max_quant_shift.min(15) {
+            tried += 1;
+            let candidate = try_encoding(signal, fields, opts, period, shift)?;
+            let ok = candidate.rms_error_fs <= opts.max_rms_error_fs
+                && candidate.max_error_fs <= opts.max_abs_error_fs;
+            closest = min_pair(closest, (candidate.rms_error_fs, candidate.max_error_fs));
+            if !ok {
+                break;
+            }
+            passing = Some(candidate);
+        }
+        if let Some(c) = passing {
+            if best.as_ref().is_none_or(|b| c.bytes.len() < b.bytes.len()) {
+                best = Some(c);
+            } else {
+                // Shorter periods only add keyframes once one period passes well.
+                break;
+            }
+        }
+    }
+    match best {
+        Some(mut b) => {
+            b.candidates_tried = tried;
+            Ok(b)
+        }
+        None => Err(KeyframeError::Unfaithful {
+            rms: closest.0,
+            max: closest.1,
+        }),
+    }
+}
+
+fn min_pair(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    if b.0 < a.0 {
+        b
+    } else {
+        a
+    }
+}
+
+/// RMS and max error of linear interpolation through every `period`-th sample.
+fn interpolation_error(signal: &[[f64; CHANNELS]], period: usize) -> (f64, f64) {
+    let n = signal.len();
+    let at = |i: usize| signal[i.min(n - 1)];
+    let (mut sum2, mut max) = (0.0f64, 0.0f64);
+    for (t, s) in signal.iter().enumerate() {
+        let k = t / period;
+        let (a, b) = (at(k * period), at((k + 1) * period));
+        let w = (t - k * period) as f64 / period as f64;
+        for c in 0..CHANNELS {
+            let e = a[c] + (b[c] - a[c]) * w - s[c];
+            sum2 += e * e;
+            max = max.max(e.abs());
+        }
+    }
+    ((sum2 / (n * CHANNELS) as f64).sqrt(), max)
+}
+
+/// Q15 of the full scale, rounded to nearest and saturated.
+fn to_q15(amps: f64, fs_a: f64) -> i16 {
+    (amps / fs_a * 32768.0).round().clamp(-32768.0, 32767.0) as i16
+}
+
+fn try_encoding(
+    signal: &[[f64; CHANNELS]],
+    fields: HeaderFields<'_>,
+    opts: &KeyframeOptions,
+    period: u16,
+    shift: u8,
+) -> Result<Encoded, KeyframeError> {
+    let fs_a = f64::from(opts.full_scale_ma) / 1000.0;
+    let p = usize::from(period);
+    let count = (signal.len() - 1).div_ceil(p) + 1;
+    let keyframes: Vec<[i16; CHANNELS]> = (0..count)
+        .map(|k| signal[(k * p).min(signal.len() - 1)].map(|a| to_q15(a, fs_a)))
+        .collect();
+    let header = stimulus::Header {
+        channels: CHANNELS as u8,
+        output_rate_hz: stimulus::OUTPUT_RATE_HZ,
+        keyframe_period_ms: period,
+        keyframe_count: 0,
+        duration_ms: 0,
+        ramp_ms: opts.ramp_ms,
+        full_scale_ma: opts.full_scale_ma,
+        quant_shift: shift,
+        layout_id: fields.layout_id,
+        limits: fields.limits,
+        name: fields.name,
+    };
+    let bytes = stimulus::encode(header, &keyframes)?;
+    let (rms, max) = playback_error(&bytes, signal, opts.full_scale_ma, fields.limits)?;
+    Ok(Encoded {
+        bytes,
+        period_ms: period,
+        quant_shift: shift,
+        rms_error_fs: rms,
+        max_error_fs: max,
+        candidates_tried: 1,
+    })
+}
+
+/// Plays `bytes` through the protocol player and compares its output, code by code
+/// converted back to amperes, with `signal`; both are 0 A outside their lengths.
+/// Returns RMS and max error as fractions of the full scale.
+pub fn playback_error(
+    bytes: &[u8],
+    signal: &[[f64; CHANNELS]],
+    full_scale_ma: u16,
+    limits: Limits,
+) -> Result<(f64, f64), KeyframeError> {
+    let stim = Stimulus::decode(bytes)?;
+    let device = DeviceConfig {
+        full_scale_ma,
+        limits,
+    };
+    let fs_a = f64::from(full_scale_ma) / 1000.0;
+    let mut player = Player::new(&stim, &device);
+    let (mut sum2, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
+    let mut t = 0;
+    loop {
+        let tick = player.tick();
+        if let Status::Fault(f) = tick.status {
+            return Err(KeyframeError::LimitHit(match f.kind {
+                touch_protocol::player::LimitKind::Peak => "peak",
+                touch_protocol::player::LimitKind::Slew => "slew",
+                touch_protocol::player::LimitKind::Thermal => "thermal",
+            }));
+        }
+        let want = signal.get(t).copied().unwrap_or([0.0; CHANNELS]);
+        for (c, &code) in tick.codes.iter().enumerate() {
+            let e = (code_to_amps(code, full_scale_ma) - want[c]) / fs_a;
+            sum2 += e * e;
+            max = max.max(e.abs());
+        }
+        n += 1;
+        t += 1;
+        if tick.status == Status::Finished && t >= signal.len() {
+            break;
+        }
+    }
+    Ok(((sum2 / (n * CHANNELS) as f64).sqrt(), max))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fields() -> HeaderFields<'static> {
+        HeaderFields {
+            name: "test",
+            layout_id: 1,
+            limits: Limits::SLEEVE,
+        }
+    }
+
+    /// What the compiler produces for a stroke: raised-cosine ramps from 0 A to the
+    /// -0.9 A pre-dent and back, and on each channel in turn a smooth press out to
+    /// +1 A lasting about half a second (a 4 Hz-band bump).
+    fn stroke(seconds: f64) -> Vec<[f64; CHANNELS]> {
+        let n = (seconds * 1000.0) as usize;
+        let ramp = |x: f64| {
+            let u = (x / 0.5)
+                .clamp(0.0, 1.0)
+                .min(((seconds - x) / 0.5).clamp(0.0, 1.0));
+            0.5 - 0.5 * (std::f64::consts::PI * u).cos()
+        };
+        (0..n)
+            .map(|t| {
+                let x = t as f64 / 1000.0;
+                std::array::from_fn(|c| {
+                    let centre = 1.0 + (seconds - 2.0) * c as f64 / 7.0;
+                    let bump = (-0.5 * ((x - centre) / 0.12).powi(2)).exp();
+                    ramp(x) * (-0.9 + 1.9 * bump)
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn smooth_signal_meets_the_bounds_in_few_bytes() {
+        let signal = stroke(6.0);
+        let e = encode(&signal, fields(), &KeyframeOptions::default()).unwrap();
+        assert!(e.rms_error_fs <= 0.005 && e.max_error_fs <= 0.02, "{e:?}");
+        let bytes_per_s = e.bytes.len() as f64 / 6.0;
+        assert!(
+            bytes_per_s < 200.0,
+            "{bytes_per_s} B/s, period {} shift {}",
+            e.period_ms,
+            e.quant_shift
+        );
+        // Independent check of the reported figures.
+        let (rms, max) = playback_error(&e.bytes, &signal, 1000, Limits::SLEEVE).unwrap();
+        assert_eq!((rms, max), (e.rms_error_fs, e.max_error_fs));
+    }
+
+    #[test]
+    fn tighter_bounds_cost_more_bytes() {
+        let signal = stroke(3.0);
+        let loose = encode(&signal, fields(), &KeyframeOptions::default()).unwrap();
+        let tight = KeyframeOptions {
+            max_rms_error_fs: 0.0005,
+            max_abs_error_fs: 0.002,
+            ..Default::default()
+        };
+        let tight = encode(&signal, fields(), &tight).unwrap();
+        assert!(tight.rms_error_fs <= 0.0005);
+        assert!(tight.bytes.len() > loose.bytes.len());
+    }
+
+    #[test]
+    fn silence_is_tiny_and_exact() {
+        let signal = vec![[0.0; CHANNELS]; 2000];
+        let e = encode(&signal, fields(), &KeyframeOptions::default()).unwrap();
+        assert_eq!(e.rms_error_fs, 0.0);
+        assert!(e.bytes.len() < 60, "{}", e.bytes.len());
+    }
+
+    #[test]
+    fn impossible_bounds_are_an_error() {
+        let signal = stroke(1.0);
+        let opts = KeyframeOptions {
+            max_abs_error_fs: 1e-9,
+            ..Default::default()
+        };
+        assert!(matches!(
+            encode(&signal, fields(), &opts),
+            Err(KeyframeError::Unfaithful { .. })
+        ));
+        assert_eq!(encode(&[], fields(), &opts), Err(KeyframeError::BadSignal));
+        let nan = vec![[f64::NAN; CHANNELS]; 3];
+        assert_eq!(encode(&nan, fields(), &opts), Err(KeyframeError::BadSignal));
+    }
+}

@@ -1,0 +1,155 @@
+//! `place` against a naive re-statement of the published algorithm on random scenes with
+//! crossing trajectories: every point tested against every circle (no x ranges, no
+//! skipping), one Hall constraint per frame (no pairwise shortcut), and the subset found
+//! by exhaustive search. Scores must agree bit for bit. Costs are small binary fractions
+//! so that sums are exact and ties between subsets (common in real data) are exercised.
+
+use proptest::prelude::*;
+use touchc::bnb::SubsetProblem;
+use touchc::config::PlacementConfig;
+use touchc::geometry::pixel_centre_mm;
+use touchc::layout::Layout;
+use touchc::placement::{place, transform_grid};
+use touchc::trajectory::Trajectory;
+
+const ROWS: usize = 56;
+const COLS: usize = 147;
+const PITCH: f64 = 25.4 / 7.0;
+
+/// Per transform: (score, chosen trajectories with a point in a circle).
+fn naive(trajs: &[Trajectory], layout: &Layout, cfg: &PlacementConfig) -> Vec<(f64, Vec<usize>)> {
+    let b = cfg.centre_bonus;
+    let gains: Vec<f64> = trajs.iter().map(|t| -t.total_cost()).collect();
+    let last_frame = trajs
+        .iter()
+        .flat_map(|t| t.frames.iter().copied())
+        .max()
+        .unwrap_or(0);
+    transform_grid(ROWS, COLS, PITCH, layout, cfg)
+        .iter()
+        .map(|t| {
+            let circles = t.circles(layout);
+            // masks[traj][detection], weights[traj][detection]
+            let mut masks = Vec::new();
+            let mut weights = Vec::new();
+            for traj in trajs {
+                let (mut m, mut w) = (vec![0u32; traj.len()], vec![0.0; traj.len()]);
+                for d in 0..traj.len() {
+                    let (x, y) = pixel_centre_mm(traj.rows[d], traj.cols[d], PITCH);
+                    for (a, c) in circles.iter().enumerate() {
+                        if c.contains(x, y) {
+                            m[d] |= 1 << a;
+                            let r2 = c.r_mm * c.r_mm;
+                            w[d] = c.weight * ((1.0 + b) - b * c.dist2(x, y) / r2);
+                        }
+                    }
+                }
+                masks.push(m);
+                weights.push(w);
+            }
+            let mut problem = SubsetProblem::new(gains.clone());
+            for frame in 0..=last_frame {
+                let group: Vec<(usize, u32)> = trajs
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, tr)| {
+                        let d = tr.frames.iter().position(|&f| f == frame)?;
+                        (masks[i][d] != 0).then_some((i, masks[i][d]))
+                    })
+                    .collect();
+                problem.add_hall_group(group);
+            }
+            let chosen = problem.solve_brute_force();
+            let mut score = 0.0;
+            let mut selected = Vec::new();
+            for &i in &chosen {
+                if masks[i].iter().any(|&m| m != 0) {
+                    let sum = (0..trajs[i].len())
+                        .filter(|&d| masks[i][d] != 0)
+                        .fold(0.0, |s, d| s + trajs[i].costs[d] * weights[i][d]);
+                    score += sum;
+                    selected.push(i);
+                }
+            }
+            (score, selected)
+        })
+        .collect()
+}
+
+fn trajectory() -> impl Strategy<Value = Trajectory> {
+    (0usize..6, 1usize..=8, 10usize..40, 30usize..90).prop_flat_map(|(start, len, r0, c0)| {
+        let steps = prop::collection::vec((-3i32..=3, -4i32..=4), len);
+        let costs =
+            prop::collection::vec(prop::sample::select(vec![-0.5, -1.0, -2.0, -4.0, 0.5]), len);
+        (steps, costs).prop_map(move |(steps, costs)| {
+            let (mut r, mut c) = (r0 as i32, c0 as i32);
+            let (mut rows, mut cols) = (Vec::new(), Vec::new());
+            for (dr, dc) in steps {
+                r = (r + dr).clamp(0, ROWS as i32 - 1);
+                c = (c + dc).clamp(0, COLS as i32 - 1);
+                rows.push(r as usize);
+                cols.push(c as usize);
+            }
+            Trajectory {
+                frames: (start..start + len).collect(),
+                rows,
+                cols,
+                costs,
+                values: vec![0.0; len],
+            }
+        })
+    })
+}
+
+/// The paper's sleeve with radius 26 mm: neighbouring circles overlap, so a point can be
+/// in two workspaces and compatibility needs a matching, not just pairwise checks.
+fn overlapping_layout() -> Layout {
+    let text = Layout::paper()
+        .to_toml_string()
+        .unwrap()
+        .replace("radius_mm = 18.5", "radius_mm = 26.0");
+    Layout::from_toml_str(&text, "overlapping").unwrap()
+}
+
+fn check(trajs: &[Trajectory], layout: &Layout) -> Result<(), TestCaseError> {
+    let cfg = PlacementConfig::default();
+    let p = place(trajs, ROWS, COLS, PITCH, layout, &cfg).unwrap();
+    let expected = naive(trajs, layout, &cfg);
+    for (k, (ours, (theirs, _))) in p.scores.iter().zip(&expected).enumerate() {
+        prop_assert_eq!(
+            ours.to_bits(),
+            theirs.to_bits(),
+            "transform {}: {} vs {}",
+            k,
+            ours,
+            theirs
+        );
+    }
+    let mut best = 0;
+    for (k, (s, _)) in expected.iter().enumerate() {
+        if *s < expected[best].0 {
+            best = k;
+        }
+    }
+    prop_assert_eq!(p.index, best);
+    prop_assert_eq!(&p.selected, &expected[best].1);
+    let hits = expected.iter().filter(|(_, sel)| !sel.is_empty()).count();
+    prop_assert!(p.transforms_evaluated >= hits);
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    #[test]
+    fn place_equals_the_naive_search(trajs in prop::collection::vec(trajectory(), 1..=6)) {
+        check(&trajs, &Layout::paper())?;
+    }
+
+    #[test]
+    fn place_equals_the_naive_search_with_overlapping_circles(
+        trajs in prop::collection::vec(trajectory(), 1..=6)
+    ) {
+        check(&trajs, &overlapping_layout())?;
+    }
+}
