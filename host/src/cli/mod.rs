@@ -2,14 +2,17 @@
 //! and the `touch-protocol` crate; errors carry the file they concern.
 
 mod bank;
+mod compile;
 mod inspect;
 mod render;
 mod synth;
+mod track;
 
 use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use touchc::config::Config;
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
@@ -21,6 +24,10 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Compile a recording into a stimulus file (tracking, placement, signals, keyframes).
+    Compile(compile::Args),
+    /// Track contacts in a recording (stages 0-3) and print the trajectories.
+    Track(track::TrackArgs),
     /// Show a stimulus or bank file: header, duration, size, CRC status.
     Inspect(inspect::Args),
     /// Play a stimulus through the player (the firmware's code) and write its output.
@@ -34,6 +41,8 @@ enum Command {
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Compile(args) => compile::run(&args),
+        Command::Track(args) => track::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Bank(args) => bank::run(&args),
@@ -44,4 +53,16 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// Reads a whole input file, naming it in the error.
 pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
+}
+
+/// Reads a TOML config, or the paper preset when no file is given.
+pub(crate) fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
+    match path {
+        None => Ok(Config::default()),
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("{}: cannot read config", p.display()))?;
+            toml::from_str(&text).with_context(|| format!("{}: invalid config", p.display()))
+        }
+    }
 }
