@@ -52,8 +52,9 @@ impl Detections {
 /// the frame counts as 0, plateaus count), strictly above the frame minimum and above
 /// `min_value`, in row-major order.
 ///
-/// Separable: a horizontal 3-max per row, then the vertical 3-max of those, so each
-/// pixel costs four comparisons instead of eight.
+/// Two-step: a pixel must first be a maximum of its row triple (two comparisons; rare in
+/// a blurred frame), and only those candidates are compared with the rows above and
+/// below. NaN-free input is assumed (the tare turned NaN into 0).
 pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
     let (h, w) = frame.dim();
     let buf: Vec<f64>;
@@ -64,26 +65,42 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
             &buf
         }
     };
-    let fmin = f.iter().fold(f64::INFINITY, |m, &v| m.min(v));
-    // Horizontal max over (c - 1, c, c + 1), 0 outside.
-    let mut hmax = vec![0.0f64; h * w];
-    for (src, dst) in f.chunks_exact(w).zip(hmax.chunks_exact_mut(w)) {
-        for c in 0..w {
-            let left = if c > 0 { src[c - 1] } else { 0.0 };
-            let right = if c + 1 < w { src[c + 1] } else { 0.0 };
-            dst[c] = left.max(src[c]).max(right);
+    // Plain comparisons instead of f64::min, which must special-case NaN and so does
+    // not vectorise.
+    let mut lanes = [f64::INFINITY; 8];
+    let mut chunks = f.chunks_exact(8);
+    for c in &mut chunks {
+        for (m, &v) in lanes.iter_mut().zip(c) {
+            *m = if v < *m { v } else { *m };
         }
     }
-    let zeros = vec![0.0f64; w];
+    let fmin = chunks.remainder().iter().chain(&lanes).fold(f64::INFINITY, |m, &v| if v < m { v } else { m });
+    let at = |r: usize, c: isize| -> f64 {
+        if c < 0 || c as usize >= w {
+            0.0
+        } else {
+            f[r * w + c as usize]
+        }
+    };
     let mut out = Vec::new();
     for r in 0..h {
         let row = &f[r * w..(r + 1) * w];
-        let up = if r > 0 { &hmax[(r - 1) * w..r * w] } else { &zeros[..] };
-        let mid = &hmax[r * w..(r + 1) * w];
-        let down = if r + 1 < h { &hmax[(r + 1) * w..(r + 2) * w] } else { &zeros[..] };
-        for c in 0..w {
-            let v = row[c];
-            if v > min_value && v > fmin && v >= up[c].max(mid[c]).max(down[c]) {
+        for (c, &v) in row.iter().enumerate() {
+            let left = if c > 0 { row[c - 1] } else { 0.0 };
+            let right = if c + 1 < w { row[c + 1] } else { 0.0 };
+            // Non-short-circuit `&`: one rarely-taken branch per pixel.
+            if !((v >= left) & (v >= right) & (v > min_value) & (v > fmin)) {
+                continue;
+            }
+            let ci = c as isize;
+            let beats = |rr: Option<usize>| match rr {
+                // Outside the frame counts as 0.
+                None => v >= 0.0,
+                Some(rr) => (ci - 1..=ci + 1).all(|cc| v >= at(rr, cc)),
+            };
+            let above = r.checked_sub(1);
+            let below = if r + 1 < h { Some(r + 1) } else { None };
+            if beats(above) && beats(below) {
                 out.push((r, c, v));
             }
         }
