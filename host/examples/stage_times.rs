@@ -13,6 +13,7 @@ fn cpu_ns() -> f64 {
         .unwrap_or(f64::NAN)
 }
 
+#[derive(Clone, Copy)]
 struct Instant(f64);
 
 impl Instant {
