@@ -34,13 +34,21 @@ fn stages(c: &mut Criterion) {
         trajs.len()
     );
 
-    c.bench_function("load", |b| b.iter(|| Recording::load(black_box(&path)).expect("load")));
-    c.bench_function("tare", |b| b.iter(|| rec.tare(black_box(&cfg.input)).expect("tare")));
+    c.bench_function("load", |b| {
+        b.iter(|| Recording::load(black_box(&path)).expect("load"))
+    });
+    c.bench_function("tare", |b| {
+        b.iter(|| rec.tare(black_box(&cfg.input)).expect("tare"))
+    });
     c.bench_function("blur", |b| {
         b.iter(|| preprocess(black_box(tared.view()), &cfg.preprocess, 25.4).expect("blur"))
     });
-    c.bench_function("detect", |b| b.iter(|| detect(black_box(&blurred), &cfg.detect)));
-    c.bench_function("flow", |b| b.iter(|| link(black_box(&dets), &cfg.track).expect("link")));
+    c.bench_function("detect", |b| {
+        b.iter(|| detect(black_box(&blurred), &cfg.detect))
+    });
+    c.bench_function("flow", |b| {
+        b.iter(|| link(black_box(&dets), &cfg.track).expect("link"))
+    });
     c.bench_function("total (load + track)", |b| {
         b.iter(|| {
             let rec = Recording::load(black_box(&path)).expect("load");

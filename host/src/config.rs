@@ -7,7 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 /// All stage parameters. `Config::default()` reproduces the paper.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Config {
     /// Stage 0: loading and tare.
@@ -22,19 +22,6 @@ pub struct Config {
     pub placement: PlacementConfig,
     /// Stages 5 and 6: per-actuator signals and conditioning.
     pub signal: SignalConfig,
-}
-
-impl Default for Config {
-    fn default() -> Self {
-        Self {
-            input: InputConfig::default(),
-            preprocess: PreprocessConfig::default(),
-            detect: DetectConfig::default(),
-            track: TrackConfig::default(),
-            placement: PlacementConfig::default(),
-            signal: SignalConfig::default(),
-        }
-    }
 }
 
 /// Stage 0 parameters.

@@ -74,7 +74,11 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
             *m = if v < *m { v } else { *m };
         }
     }
-    let fmin = chunks.remainder().iter().chain(&lanes).fold(f64::INFINITY, |m, &v| if v < m { v } else { m });
+    let fmin = chunks
+        .remainder()
+        .iter()
+        .chain(&lanes)
+        .fold(f64::INFINITY, |m, &v| if v < m { v } else { m });
     let at = |r: usize, c: isize| -> f64 {
         if c < 0 || c as usize >= w {
             0.0

@@ -73,7 +73,10 @@ pub struct FlowGraph {
 impl FlowGraph {
     /// An empty graph with `n_nodes` nodes.
     pub fn new(n_nodes: usize) -> Self {
-        Self { n_nodes, edges: Vec::new() }
+        Self {
+            n_nodes,
+            edges: Vec::new(),
+        }
     }
 
     /// Adds a unit-capacity edge and returns its index; insertion order breaks ties.
@@ -241,7 +244,8 @@ pub fn min_cost_flow(
         }
     }
     for v in 0..n {
-        if v != source && v != sink && !(pot[v] + suffix[v] < PRUNE_MARGIN) {
+        let through = pot[v] + suffix[v];
+        if v != source && v != sink && through.partial_cmp(&PRUNE_MARGIN) != Some(Ordering::Less) {
             pot[v] = f64::INFINITY;
         }
     }
@@ -362,7 +366,8 @@ fn decompose(
     used: &[bool],
     first_used_at: &[usize],
 ) -> Vec<Vec<usize>> {
-    let mut ends: Vec<usize> = in_edges.of(sink)
+    let mut ends: Vec<usize> = in_edges
+        .of(sink)
         .iter()
         .copied()
         .filter(|&e| used[e])
@@ -375,7 +380,8 @@ fn decompose(
         taken[end] = true;
         let mut v = g.edges[end].from;
         while v != source {
-            let next = in_edges.of(v)
+            let next = in_edges
+                .of(v)
                 .iter()
                 .copied()
                 .find(|&e| used[e] && !taken[e]);

@@ -271,7 +271,11 @@ fn blocked_sum(values: &[f64], f: impl Fn(f64) -> f64) -> f64 {
         let tail: f64 = it.remainder().iter().map(|&v| f(v)).sum();
         let b = lanes.iter().sum::<f64>() + tail;
         let t = sum + b;
-        comp += if sum.abs() >= b.abs() { (sum - t) + b } else { (b - t) + sum };
+        comp += if sum.abs() >= b.abs() {
+            (sum - t) + b
+        } else {
+            (b - t) + sum
+        };
         sum = t;
     }
     sum + comp
@@ -293,7 +297,11 @@ pub fn mean_std(values: &[f64]) -> (f64, f64) {
     if max_abs == 0.0 {
         return (0.0, 0.0);
     }
-    let scale = if (1e-100..1e100).contains(&max_abs) { 1.0 } else { 2f64.powf(-max_abs.log2().floor()) };
+    let scale = if (1e-100..1e100).contains(&max_abs) {
+        1.0
+    } else {
+        2f64.powf(-max_abs.log2().floor())
+    };
     let n = values.len() as f64;
     let mean_s = blocked_sum(values, |v| v * scale) / n;
     let var_s = blocked_sum(values, |v| {

@@ -40,11 +40,21 @@ fn oracle(frame: ArrayView2<f64>, k: usize, sigma: f64, truncate: f64) -> Array2
 fn matches_scipy_gaussian_filter1d_doc_example() {
     // scipy docs: gaussian_filter1d([1, 2, 3, 4, 5], 1) and (..., 4).
     let cases = [
-        (1.0, [1.427_040_95, 2.067_822_03, 3.0, 3.932_177_97, 4.572_959_05]),
-        (4.0, [2.919_483_43, 2.950_235_02, 3.0, 3.049_764_98, 3.080_516_57]),
+        (
+            1.0,
+            [1.427_040_95, 2.067_822_03, 3.0, 3.932_177_97, 4.572_959_05],
+        ),
+        (
+            4.0,
+            [2.919_483_43, 2.950_235_02, 3.0, 3.049_764_98, 3.080_516_57],
+        ),
     ];
     for (sigma, want) in cases {
-        let cfg = PreprocessConfig { upsample: 1, blur_sigma: sigma, blur_truncate: 4.0 };
+        let cfg = PreprocessConfig {
+            upsample: 1,
+            blur_sigma: sigma,
+            blur_truncate: 4.0,
+        };
         let op = BlurOperator::new(1, 5, &cfg).unwrap();
         let f = Array2::from_shape_vec((1, 5), vec![1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
         let out = op.apply(f.view());
@@ -59,7 +69,9 @@ fn paper_shape_matches_oracle() {
     let rec = common::moving_blobs(60, 2, 7);
     let cfg = PreprocessConfig::default();
     let op = BlurOperator::new(8, 21, &cfg).unwrap();
-    let frame = rec.index_axis(ndarray::Axis(0), 30).mapv(|v| if v.is_nan() { 0.0 } else { v });
+    let frame = rec
+        .index_axis(ndarray::Axis(0), 30)
+        .mapv(|v| if v.is_nan() { 0.0 } else { v });
     let got = op.apply(frame.view());
     let want = oracle(frame.view(), 7, 3.0, 4.0);
     let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));

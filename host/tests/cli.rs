@@ -11,8 +11,16 @@ fn touchc() -> Command {
 #[test]
 fn track_json_reproduces_the_reference() {
     let dir = common::reference_dir();
-    let out = touchc().args(["track", "--json"]).arg(dir.join("tap_pat_200.npy")).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = touchc()
+        .args(["track", "--json"])
+        .arg(dir.join("tap_pat_200.npy"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let text = std::fs::read_to_string(dir.join("tap_pat_200.reference.json")).unwrap();
     let want: serde_json::Value = serde_json::from_str(&text).unwrap();
@@ -22,7 +30,10 @@ fn track_json_reproduces_the_reference() {
     };
     assert!(rel(&got["mean"], &want["whole_mean"]) < 1e-9);
     assert!(rel(&got["std"], &want["whole_std"]) < 1e-9);
-    let (g, w) = (got["trajectories"].as_array().unwrap(), want["trajectories"].as_array().unwrap());
+    let (g, w) = (
+        got["trajectories"].as_array().unwrap(),
+        want["trajectories"].as_array().unwrap(),
+    );
     assert_eq!(g.len(), w.len());
     for (g, w) in g.iter().zip(w) {
         assert_eq!(g["frames"], w["times"]);

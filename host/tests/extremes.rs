@@ -39,9 +39,18 @@ fn a_million_psi_spike_keeps_costs_finite() {
     let out = run(&a);
     assert_costs_finite(&out);
     let saturated = (0.02f64 / 0.98).ln();
-    let spike = out.detections.in_frame(30).iter().max_by(|p, q| p.value.total_cmp(&q.value)).unwrap();
+    let spike = out
+        .detections
+        .in_frame(30)
+        .iter()
+        .max_by(|p, q| p.value.total_cmp(&q.value))
+        .unwrap();
     assert!(spike.value > 1e4 && (spike.cost - saturated).abs() < 1e-12);
-    let t = out.trajectories.iter().find(|t| t.frames.contains(&30)).unwrap();
+    let t = out
+        .trajectories
+        .iter()
+        .find(|t| t.frames.contains(&30))
+        .unwrap();
     assert_eq!(t.frames, (30..36).collect::<Vec<_>>());
 }
 
@@ -110,7 +119,15 @@ fn infinities_are_errors() {
     let mut a = common::moving_blobs(60, 1, 23);
     a[[40, 2, 20]] = f64::NEG_INFINITY;
     let err = Recording::from_array("dip.npy", a.view()).unwrap_err();
-    assert!(matches!(err, RecordingError::Infinite { frame: 40, row: 2, col: 20, .. }));
+    assert!(matches!(
+        err,
+        RecordingError::Infinite {
+            frame: 40,
+            row: 2,
+            col: 20,
+            ..
+        }
+    ));
     assert!(err.to_string().contains("dip.npy"));
 }
 
@@ -119,7 +136,10 @@ fn shorter_than_the_tare_buffer_is_an_error() {
     let a = common::moving_blobs(30, 1, 29);
     let rec = Recording::from_array("short", a.view()).unwrap();
     let err = track(&rec, &Config::default()).unwrap_err();
-    assert!(matches!(err, TrackError::Recording(RecordingError::TooShort { min: 41, .. })));
+    assert!(matches!(
+        err,
+        TrackError::Recording(RecordingError::TooShort { min: 41, .. })
+    ));
 }
 
 #[test]
@@ -128,7 +148,11 @@ fn seven_thousand_frames() {
     let out = run(&a);
     assert_eq!(out.frames().dim(), (6_960, 56, 147));
     assert_costs_finite(&out);
-    assert!(out.trajectories.len() > 50, "{} trajectories", out.trajectories.len());
+    assert!(
+        out.trajectories.len() > 50,
+        "{} trajectories",
+        out.trajectories.len()
+    );
     for t in &out.trajectories {
         assert!(t.frames.windows(2).all(|w| w[1] == w[0] + 1));
     }

@@ -16,7 +16,10 @@ fn write<T: WriteNpyExt>(dir: &tempfile::TempDir, name: &str, a: &T) -> std::pat
 
 fn load_err(p: &std::path::Path) -> RecordingError {
     let err = Recording::load(p).unwrap_err();
-    assert!(err.to_string().contains(&p.display().to_string()), "message must name the file: {err}");
+    assert!(
+        err.to_string().contains(&p.display().to_string()),
+        "message must name the file: {err}"
+    );
     err
 }
 
@@ -24,20 +27,29 @@ fn load_err(p: &std::path::Path) -> RecordingError {
 fn rejects_other_dtypes() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(&dir, "ints.npy", &Array3::<i64>::zeros((50, 2, 2)));
-    assert!(matches!(load_err(&p), RecordingError::UnsupportedDtype { .. }));
+    assert!(matches!(
+        load_err(&p),
+        RecordingError::UnsupportedDtype { .. }
+    ));
 }
 
 #[test]
 fn rejects_other_ranks() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(&dir, "flat.npy", &Array2::<f64>::zeros((50, 2)));
-    assert!(matches!(load_err(&p), RecordingError::WrongRank { ndim: 2, .. }));
+    assert!(matches!(
+        load_err(&p),
+        RecordingError::WrongRank { ndim: 2, .. }
+    ));
 }
 
 #[test]
 fn rejects_empty_axes() {
     let dir = tempfile::tempdir().unwrap();
-    for (i, shape) in [(0, 8, 21), (50, 0, 21), (50, 8, 0)].into_iter().enumerate() {
+    for (i, shape) in [(0, 8, 21), (50, 0, 21), (50, 8, 0)]
+        .into_iter()
+        .enumerate()
+    {
         let p = write(&dir, &format!("empty{i}.npy"), &Array3::<f64>::zeros(shape));
         assert!(matches!(load_err(&p), RecordingError::Empty { .. }));
     }
@@ -46,7 +58,11 @@ fn rejects_empty_axes() {
 #[test]
 fn rejects_all_nan() {
     let dir = tempfile::tempdir().unwrap();
-    let p = write(&dir, "nan.npy", &Array3::<f64>::from_elem((50, 8, 21), f64::NAN));
+    let p = write(
+        &dir,
+        "nan.npy",
+        &Array3::<f64>::from_elem((50, 8, 21), f64::NAN),
+    );
     assert!(matches!(load_err(&p), RecordingError::AllNan { .. }));
 }
 
@@ -58,7 +74,9 @@ fn rejects_infinities_with_their_position() {
         a[[33, 4, 5]] = v;
         let p = write(&dir, "inf.npy", &a);
         match load_err(&p) {
-            RecordingError::Infinite { frame, row, col, .. } => assert_eq!((frame, row, col), (33, 4, 5)),
+            RecordingError::Infinite {
+                frame, row, col, ..
+            } => assert_eq!((frame, row, col), (33, 4, 5)),
             e => panic!("{e:?}"),
         }
     }
@@ -74,8 +92,14 @@ fn rejects_files_that_are_not_npy_and_missing_files() {
     let full = write(&dir, "full.npy", &Array3::<f64>::zeros((50, 2, 2)));
     let bytes = std::fs::read(full).unwrap();
     std::fs::write(&truncated, &bytes[..bytes.len() - 8]).unwrap();
-    assert!(matches!(load_err(&truncated), RecordingError::NotNpy { .. }));
-    assert!(matches!(load_err(&dir.path().join("absent.npy")), RecordingError::Io { .. }));
+    assert!(matches!(
+        load_err(&truncated),
+        RecordingError::NotNpy { .. }
+    ));
+    assert!(matches!(
+        load_err(&dir.path().join("absent.npy")),
+        RecordingError::Io { .. }
+    ));
 }
 
 #[test]
@@ -85,7 +109,10 @@ fn too_short_for_the_tare_says_the_minimum() {
     let rec = Recording::load(&p).unwrap();
     let err = track(&rec, &Config::default()).unwrap_err();
     let msg = err.to_string();
-    assert!(msg.contains("short.npy") && msg.contains("at least 41 frames"), "{msg}");
+    assert!(
+        msg.contains("short.npy") && msg.contains("at least 41 frames"),
+        "{msg}"
+    );
     let ok = Recording::load(write(&dir, "just.npy", &common::moving_blobs(41, 1, 1))).unwrap();
     assert_eq!(track(&ok, &Config::default()).unwrap().frames().dim().0, 1);
 }
@@ -102,7 +129,10 @@ fn fortran_order_and_f32_load_the_same_values() {
     let f64_ = Recording::load(write(&dir, "f.npy", &f)).unwrap();
     let c32 = Recording::load(write(&dir, "c32.npy", &a.mapv(|v| v as f32))).unwrap();
     let nan_eq = |x: &Recording, y: &Recording| {
-        x.data().iter().zip(y.data().iter()).all(|(p, q)| p == q || (p.is_nan() && q.is_nan()))
+        x.data()
+            .iter()
+            .zip(y.data().iter())
+            .all(|(p, q)| p == q || (p.is_nan() && q.is_nan()))
     };
     assert!(nan_eq(&c64, &f64_) && nan_eq(&c64, &c32));
     let cfg = Config::default();

@@ -19,7 +19,11 @@ fn check(name: &str) {
 
     let mean = reference["whole_mean"].as_f64().unwrap();
     let std = reference["whole_std"].as_f64().unwrap();
-    assert!(rel(out.mean(), mean) < 1e-9, "mean {} vs {mean}", out.mean());
+    assert!(
+        rel(out.mean(), mean) < 1e-9,
+        "mean {} vs {mean}",
+        out.mean()
+    );
     assert!(rel(out.std(), std) < 1e-9, "std {} vs {std}", out.std());
 
     let expected = reference["trajectories"].as_array().unwrap();
@@ -27,17 +31,34 @@ fn check(name: &str) {
     // Same order as the reference (the solver's augmentation order), not just same set.
     for (i, (got, want)) in out.trajectories.iter().zip(expected).enumerate() {
         let ints = |k: &str| -> Vec<usize> {
-            want[k].as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as usize).collect()
+            want[k]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_u64().unwrap() as usize)
+                .collect()
         };
         assert_eq!(got.frames, ints("times"), "trajectory {i} frames");
         assert_eq!(got.rows, ints("rows"), "trajectory {i} rows");
         assert_eq!(got.cols, ints("cols"), "trajectory {i} cols");
-        let costs: Vec<f64> = want["costs"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let costs: Vec<f64> = want["costs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
         for (j, (g, w)) in got.costs.iter().zip(&costs).enumerate() {
-            assert!(rel(*g, *w) < 1e-9, "trajectory {i} detection {j}: cost {g} vs {w}");
+            assert!(
+                rel(*g, *w) < 1e-9,
+                "trajectory {i} detection {j}: cost {g} vs {w}"
+            );
         }
         let total = want["total_cost"].as_f64().unwrap();
-        assert!(rel(got.total_cost(), total) < 1e-9, "trajectory {i} total {} vs {total}", got.total_cost());
+        assert!(
+            rel(got.total_cost(), total) < 1e-9,
+            "trajectory {i} total {} vs {total}",
+            got.total_cost()
+        );
         // The rendered pressure is the blurred frame at the detection.
         for (j, &f) in got.frames.iter().enumerate() {
             assert_eq!(got.values[j], out.frames()[[f, got.rows[j], got.cols[j]]]);
