@@ -52,9 +52,11 @@ impl Detections {
 /// the frame counts as 0, plateaus count), strictly above the frame minimum and above
 /// `min_value`, in row-major order.
 ///
-/// Two-step: a pixel must first be a maximum of its row triple (two comparisons; rare in
-/// a blurred frame), and only those candidates are compared with the rows above and
-/// below. NaN-free input is assumed (the tare turned NaN into 0).
+/// Two-step, for speed: a branch-free pass marks the pixels that are maxima of their row
+/// triple and above `min_value` (rare in a blurred frame), and only those are compared
+/// with the rows above and below. The frame minimum is needed only for a candidate
+/// whose in-frame neighbours all equal it (a plateau), so it is computed lazily.
+/// NaN-free input is assumed (the tare turned NaN into 0).
 pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
     let (h, w) = frame.dim();
     let buf: Vec<f64>;
@@ -65,48 +67,51 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
             &buf
         }
     };
-    // Plain comparisons instead of f64::min, which must special-case NaN and so does
-    // not vectorise.
-    let mut lanes = [f64::INFINITY; 8];
-    let mut chunks = f.chunks_exact(8);
-    for c in &mut chunks {
-        for (m, &v) in lanes.iter_mut().zip(c) {
-            *m = if v < *m { v } else { *m };
-        }
-    }
-    let fmin = chunks
-        .remainder()
-        .iter()
-        .chain(&lanes)
-        .fold(f64::INFINITY, |m, &v| if v < m { v } else { m });
-    let at = |r: usize, c: isize| -> f64 {
-        if c < 0 || c as usize >= w {
-            0.0
-        } else {
-            f[r * w + c as usize]
-        }
-    };
+    let mut fmin: Option<f64> = None;
+    let mut cand = vec![false; w];
     let mut out = Vec::new();
     for r in 0..h {
         let row = &f[r * w..(r + 1) * w];
-        for (c, &v) in row.iter().enumerate() {
-            let left = if c > 0 { row[c - 1] } else { 0.0 };
-            let right = if c + 1 < w { row[c + 1] } else { 0.0 };
-            // Non-short-circuit `&`: one rarely-taken branch per pixel.
-            if !((v >= left) & (v >= right) & (v > min_value) & (v > fmin)) {
+        // Row triples, 0 outside; `&` on bools keeps the loop free of branches.
+        if w == 1 {
+            cand[0] = (row[0] >= 0.0) & (row[0] > min_value);
+        } else {
+            cand[0] = (row[0] >= 0.0) & (row[0] >= row[1]) & (row[0] > min_value);
+            let last = w - 1;
+            cand[last] = (row[last] >= row[last - 1]) & (row[last] >= 0.0) & (row[last] > min_value);
+            for (cd, t) in cand[1..last].iter_mut().zip(row.windows(3)) {
+                *cd = (t[1] >= t[0]) & (t[1] >= t[2]) & (t[1] > min_value);
+            }
+        }
+        for c in (0..w).filter(|&c| cand[c]) {
+            let v = row[c];
+            let mut all_equal = true;
+            let mut is_max = true;
+            for rr in [r.checked_sub(1), Some(r), Some(r + 1).filter(|&x| x < h)] {
+                let Some(rr) = rr else {
+                    // A missing row is 0 outside the frame.
+                    is_max &= v >= 0.0;
+                    continue;
+                };
+                let nrow = &f[rr * w..(rr + 1) * w];
+                for cc in c.saturating_sub(1)..(c + 2).min(w) {
+                    let n = nrow[cc];
+                    is_max &= v >= n;
+                    all_equal &= n == v;
+                }
+            }
+            if !is_max {
                 continue;
             }
-            let ci = c as isize;
-            let beats = |rr: Option<usize>| match rr {
-                // Outside the frame counts as 0.
-                None => v >= 0.0,
-                Some(rr) => (ci - 1..=ci + 1).all(|cc| v >= at(rr, cc)),
-            };
-            let above = r.checked_sub(1);
-            let below = if r + 1 < h { Some(r + 1) } else { None };
-            if beats(above) && beats(below) {
-                out.push((r, c, v));
+            // Some in-frame neighbour is lower, so v is above the frame minimum; only a
+            // flat neighbourhood needs the (lazily computed) minimum.
+            if all_equal {
+                let m = *fmin.get_or_insert_with(|| f.iter().fold(f64::INFINITY, |m, &x| m.min(x)));
+                if v <= m {
+                    continue;
+                }
             }
+            out.push((r, c, v));
         }
     }
     out
