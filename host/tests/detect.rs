@@ -18,7 +18,11 @@ fn naive(f: &Array2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
     for r in 0..h {
         for c in 0..w {
             let v = f[[r, c]];
-            let m = padded.slice(ndarray::s![r..r + 3, c..c + 3]).iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            let m = padded
+                .slice(ndarray::s![r..r + 3, c..c + 3])
+                .iter()
+                .cloned()
+                .fold(f64::NEG_INFINITY, f64::max);
             if v == m && v > fmin && v > min_value {
                 out.push((r, c, v));
             }
