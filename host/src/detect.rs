@@ -3,6 +3,11 @@
 //! Detections are enumerated frame by frame, each frame in row-major order (numpy's
 //! `np.where` order in the published code). That order numbers the flow graph's nodes and
 //! so decides every tie downstream.
+//!
+//! One deliberate difference from the published code: it also forbids maxima at pixels
+//! with fewer than 5 in-frame neighbours (`findBadCells`, which after the blur only ever
+//! hits the four frame corners). The contract (ALGORITHM.md section 2) has no such rule,
+//! so corners may be detections here (the reference trajectories are unaffected).
 
 use ndarray::ArrayView2;
 
@@ -59,6 +64,9 @@ impl Detections {
 /// NaN-free input is assumed (the tare turned NaN into 0).
 pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
     let (h, w) = frame.dim();
+    if h == 0 || w == 0 {
+        return Vec::new();
+    }
     let buf: Vec<f64>;
     let f: &[f64] = match frame.as_slice() {
         Some(s) => s,
