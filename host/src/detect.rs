@@ -182,24 +182,39 @@ pub fn detection_cost(z: f64, cfg: &DetectConfig) -> f64 {
 /// A zero (or non-finite) standard deviation means a featureless recording: it has no
 /// detections rather than NaN costs.
 pub fn detect(blurred: &Blurred, cfg: &DetectConfig) -> Detections {
-    let t = blurred.frames.dim().0;
+    let maxima = blurred
+        .frames
+        .outer_iter()
+        .map(|f| local_maxima(f, cfg.min_value_psi))
+        .collect();
+    score(maxima, blurred.mean, blurred.std, cfg)
+}
+
+/// Scores per-frame local maxima (`maxima[t]` as returned by [`local_maxima`] for frame
+/// `t`, e.g. found during the blur) against the global mean and std; same result as
+/// [`detect`] on the same frames.
+pub fn score(
+    maxima: Vec<Vec<(usize, usize, f64)>>,
+    mean: f64,
+    std: f64,
+    cfg: &DetectConfig,
+) -> Detections {
+    let usable = std > 0.0 && std.is_finite() && mean.is_finite();
     let mut all = Vec::new();
-    let mut frame_start = Vec::with_capacity(t + 1);
+    let mut frame_start = Vec::with_capacity(maxima.len() + 1);
     frame_start.push(0);
-    let usable = blurred.std > 0.0 && blurred.std.is_finite() && blurred.mean.is_finite();
-    for (frame, f) in blurred.frames.outer_iter().enumerate() {
+    for (frame, found) in maxima.into_iter().enumerate() {
         if usable {
-            for (row, col, value) in local_maxima(f, cfg.min_value_psi) {
-                let z = (value - blurred.mean) / blurred.std;
-                let cost = detection_cost(z, cfg);
-                all.push(Detection {
+            all.extend(found.into_iter().map(|(row, col, value)| {
+                let cost = detection_cost((value - mean) / std, cfg);
+                Detection {
                     frame,
                     row,
                     col,
                     value,
                     cost,
-                });
-            }
+                }
+            }));
         }
         frame_start.push(all.len());
     }
