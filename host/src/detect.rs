@@ -76,50 +76,56 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
         }
     };
     let mut fmin: Option<f64> = None;
-    let mut cand = vec![false; w];
+    let mut cand = vec![0u8; w];
     let mut out = Vec::new();
     for r in 0..h {
         let row = &f[r * w..(r + 1) * w];
         // Row triples, 0 outside; `&` on bools keeps the loop free of branches.
         if w == 1 {
-            cand[0] = (row[0] >= 0.0) & (row[0] > min_value);
+            cand[0] = ((row[0] >= 0.0) & (row[0] > min_value)) as u8;
         } else {
-            cand[0] = (row[0] >= 0.0) & (row[0] >= row[1]) & (row[0] > min_value);
+            cand[0] = ((row[0] >= 0.0) & (row[0] >= row[1]) & (row[0] > min_value)) as u8;
             let last = w - 1;
             cand[last] =
-                (row[last] >= row[last - 1]) & (row[last] >= 0.0) & (row[last] > min_value);
+                ((row[last] >= row[last - 1]) & (row[last] >= 0.0) & (row[last] > min_value)) as u8;
             for (cd, t) in cand[1..last].iter_mut().zip(row.windows(3)) {
-                *cd = (t[1] >= t[0]) & (t[1] >= t[2]) & (t[1] > min_value);
+                *cd = ((t[1] >= t[0]) & (t[1] >= t[2]) & (t[1] > min_value)) as u8;
             }
         }
-        for c in (0..w).filter(|&c| cand[c]) {
-            let v = row[c];
-            let mut all_equal = true;
-            let mut is_max = true;
-            for rr in [r.checked_sub(1), Some(r), Some(r + 1).filter(|&x| x < h)] {
-                let Some(rr) = rr else {
-                    // A missing row is 0 outside the frame.
-                    is_max &= v >= 0.0;
-                    continue;
-                };
-                let nrow = &f[rr * w..(rr + 1) * w];
-                for &n in &nrow[c.saturating_sub(1)..(c + 2).min(w)] {
-                    is_max &= v >= n;
-                    all_equal &= n == v;
-                }
-            }
-            if !is_max {
+        // Candidates are rare: skip eight flags at a time.
+        for (k, chunk) in cand.chunks(8).enumerate() {
+            if chunk.iter().fold(0u8, |a, &b| a | b) == 0 {
                 continue;
             }
-            // Some in-frame neighbour is lower, so v is above the frame minimum; only a
-            // flat neighbourhood needs the (lazily computed) minimum.
-            if all_equal {
-                let m = *fmin.get_or_insert_with(|| frame_min(f));
-                if v <= m {
+            for c in (k * 8..k * 8 + chunk.len()).filter(|&c| cand[c] != 0) {
+                let v = row[c];
+                let mut all_equal = true;
+                let mut is_max = true;
+                for rr in [r.checked_sub(1), Some(r), Some(r + 1).filter(|&x| x < h)] {
+                    let Some(rr) = rr else {
+                        // A missing row is 0 outside the frame.
+                        is_max &= v >= 0.0;
+                        continue;
+                    };
+                    let nrow = &f[rr * w..(rr + 1) * w];
+                    for &n in &nrow[c.saturating_sub(1)..(c + 2).min(w)] {
+                        is_max &= v >= n;
+                        all_equal &= n == v;
+                    }
+                }
+                if !is_max {
                     continue;
                 }
+                // Some in-frame neighbour is lower, so v is above the frame minimum;
+                // only a flat neighbourhood needs the (lazily computed) minimum.
+                if all_equal {
+                    let m = *fmin.get_or_insert_with(|| frame_min(f));
+                    if v <= m {
+                        continue;
+                    }
+                }
+                out.push((r, c, v));
             }
-            out.push((r, c, v));
         }
     }
     out
