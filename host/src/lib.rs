@@ -15,3 +15,4 @@ pub mod signals;
 
 pub mod output;
 pub mod synth;
+pub mod viz;

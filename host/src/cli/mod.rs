@@ -3,6 +3,7 @@
 
 mod bank;
 mod inspect;
+mod plot;
 mod render;
 mod synth;
 
@@ -10,6 +11,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use touch_protocol::{Bank, Stimulus};
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
@@ -25,6 +27,8 @@ enum Command {
     Inspect(inspect::Args),
     /// Play a stimulus through the player (the firmware's code) and write its output.
     Render(render::Args),
+    /// Plot a stimulus's eight currents as the sleeve outputs them (SVG or PNG).
+    Plot(plot::Args),
     /// Pack stimuli into a bank image, one per button slot, for the sleeve's flash.
     Bank(bank::Args),
     /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
@@ -36,6 +40,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::Plot(args) => plot::run(&args),
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
     }
@@ -44,4 +49,20 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// Reads a whole input file, naming it in the error.
 pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
+}
+
+/// The stimulus in `bytes`: the file itself, or slot `slot` when it is a bank.
+pub(crate) fn stimulus_in<'a>(
+    bytes: &'a [u8],
+    path: &Path,
+    slot: usize,
+) -> anyhow::Result<Stimulus<'a>> {
+    let name = path.display();
+    if bytes.starts_with(&touch_protocol::bank::MAGIC) {
+        let bank = Bank::decode(bytes).with_context(|| format!("{name}: not a valid bank"))?;
+        bank.slot(slot)
+            .with_context(|| format!("{name}: slot {slot}"))
+    } else {
+        Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
+    }
 }

@@ -1,0 +1,164 @@
+//! Drives the real `touchc` binary: `plot` (PNG, SVG, bank slots).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use touch_protocol::{bank, stimulus, Limits};
+
+fn touchc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_touchc"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A 1 s stimulus: channel `active` swells to +0.95 A, channel `silent` stays at 0 A,
+/// the others hold the -0.9 A pre-dent.
+fn stimulus_bytes(name: &str, active: usize, silent: usize) -> Vec<u8> {
+    let header = stimulus::Header {
+        channels: 8,
+        output_rate_hz: 1000,
+        keyframe_period_ms: 40,
+        keyframe_count: 0,
+        duration_ms: 0,
+        ramp_ms: 10,
+        full_scale_ma: 1000,
+        quant_shift: 5,
+        layout_id: 1,
+        limits: Limits::SLEEVE,
+        name,
+    };
+    let kf: Vec<[i16; 8]> = (0..26)
+        .map(|k| {
+            let x = k as f64 / 25.0;
+            let ramp = (x * 5.0).min(1.0).min((1.0 - x) * 5.0);
+            let q = |a: f64| (a * 32768.0).round() as i16;
+            let mut f = [q(-0.9 * ramp); 8];
+            f[active] = q(0.95 * ramp * (std::f64::consts::PI * x).sin().powi(2));
+            f[silent] = 0;
+            f
+        })
+        .collect();
+    stimulus::encode(header, &kf).unwrap()
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// Decodes a PNG into (width, height, RGB bytes).
+fn decode_png(path: &Path) -> (u32, u32, Vec<u8>) {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+/// Per panel of the 2 x 4 grid, the trace-coloured pixels above and below the 0 A line,
+/// found halfway between the panel's two peak-limit lines (a 3 px band around it counts
+/// as neither). `title` = height of the title band above the panels.
+fn trace_pixels(w: u32, h: u32, rgb: &[u8], title: u32) -> [[usize; 2]; 8] {
+    use touchc::viz::plot::{LIMIT, TRACE};
+    let px = |x: u32, y: u32| {
+        let i = 3 * (y * w + x) as usize;
+        [rgb[i], rgb[i + 1], rgb[i + 2]]
+    };
+    let (pw, ph) = (w / 4, (h - title) / 2);
+    let mut counts = [[0; 2]; 8];
+    for (ch, count) in counts.iter_mut().enumerate() {
+        let (x0, y0) = (pw * (ch as u32 % 4), title + ph * (ch as u32 / 4));
+        let red: Vec<u32> = (y0..y0 + ph)
+            .filter(|&y| {
+                (x0..x0 + pw)
+                    .filter(|&x| px(x, y) == [LIMIT.0, LIMIT.1, LIMIT.2])
+                    .count()
+                    > 20
+            })
+            .collect();
+        let (top, bottom) = (red[0], red[red.len() - 1]);
+        assert!(bottom > top + 50, "ch{ch}: limit lines at {red:?}");
+        let zero = (top + bottom) / 2;
+        for y in y0..y0 + ph {
+            for x in x0..x0 + pw {
+                if px(x, y) == [TRACE.0, TRACE.1, TRACE.2] {
+                    if y + 3 < zero {
+                        count[0] += 1;
+                    } else if y > zero + 3 {
+                        count[1] += 1;
+                    }
+                }
+            }
+        }
+    }
+    counts
+}
+
+#[test]
+fn plot_png_lays_channels_out_like_the_sleeve() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "a.touch", &stimulus_bytes("a", 6, 1));
+    let png = dir.path().join("a.png");
+    ok(&touchc(&[
+        "plot",
+        file.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "1000",
+        "--height",
+        "600",
+    ]));
+    let (w, h, rgb) = decode_png(&png);
+    assert_eq!((w, h), (1000, 600));
+    let counts = trace_pixels(w, h, &rgb, 30);
+    // Channel 6 = row 1, column 2: bottom row, third panel; its swell is above 0 A.
+    assert!(counts[6][0] > 100, "{counts:?}");
+    // Channel 1 is silent: nothing off its 0 A line.
+    assert_eq!(counts[1], [0, 0], "{counts:?}");
+    for ch in [0, 2, 3, 4, 5, 7] {
+        assert!(counts[ch][1] > 100, "ch{ch}: {counts:?}");
+        assert!(counts[ch][0] < counts[ch][1] / 4, "ch{ch}: {counts:?}");
+    }
+}
+
+#[test]
+fn plot_reads_a_bank_slot_and_writes_svg() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = stimulus_bytes("first", 0, 7);
+    let b = stimulus_bytes("second", 7, 0);
+    let image = bank::encode(&[&a, &b]).unwrap();
+    let file = write(dir.path(), "sleeve.bank", &image);
+    let svg_path = dir.path().join("slot1.svg");
+    ok(&touchc(&[
+        "plot",
+        file.to_str().unwrap(),
+        "--slot",
+        "1",
+        "-o",
+        svg_path.to_str().unwrap(),
+    ]));
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    assert!(svg.starts_with("<svg"));
+    assert!(svg.contains("second: 1.011 s"), "title names slot 1");
+
+    // A missing slot and an unknown extension are errors naming the file.
+    let out = touchc(&["plot", file.to_str().unwrap(), "--slot", "5", "-o", "x.svg"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("sleeve.bank"));
+    let out = touchc(&["plot", file.to_str().unwrap(), "-o", "x.jpg"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("x.jpg"));
+}
