@@ -1,4 +1,4 @@
-//! Drives the real `touchc` binary: `plot` (PNG, SVG, bank slots).
+//! Drives the real `touchc` binary: `plot` (PNG, SVG, bank slots) and `render --wav`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -161,4 +161,66 @@ fn plot_reads_a_bank_slot_and_writes_svg() {
     let out = touchc(&["plot", file.to_str().unwrap(), "-o", "x.jpg"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("x.jpg"));
+}
+
+#[test]
+fn render_wav_is_the_players_output_at_the_chosen_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "a.touch", &stimulus_bytes("a", 2, 5));
+    let wav_path = dir.path().join("a.wav");
+    let csv_path = dir.path().join("a.csv");
+    ok(&touchc(&[
+        "render",
+        file.to_str().unwrap(),
+        "--wav",
+        wav_path.to_str().unwrap(),
+        "--rate",
+        "8000",
+        "--csv",
+        "-o",
+        csv_path.to_str().unwrap(),
+    ]));
+    let wav = std::fs::read(&wav_path).unwrap();
+    // 1011 ticks (1001 signal + 10 ramp down) span 1.010 s: 8081 frames at 8 kHz.
+    let frames = 1010 * 8 + 1;
+    assert_eq!(wav.len(), 68 + frames * 16);
+    assert_eq!(&wav[..4], b"RIFF");
+    assert_eq!(&wav[8..16], b"WAVEfmt ");
+    assert_eq!(u16::from_le_bytes([wav[20], wav[21]]), 0xFFFE);
+    assert_eq!(u16::from_le_bytes([wav[22], wav[23]]), 8);
+    assert_eq!(u32::from_le_bytes(wav[24..28].try_into().unwrap()), 8000);
+    assert_eq!(&wav[60..64], b"data");
+    assert_eq!(
+        u32::from_le_bytes(wav[64..68].try_into().unwrap()) as usize,
+        frames * 16
+    );
+    let sample = |frame: usize, ch: usize| {
+        let i = 68 + frame * 16 + ch * 2;
+        f64::from(i16::from_le_bytes([wav[i], wav[i + 1]])) / 32768.0
+    };
+    // The WAV agrees with the CSV (amperes, 1 A full scale) at every tick.
+    let csv = std::fs::read_to_string(&csv_path).unwrap();
+    for (t, line) in csv.lines().skip(1).enumerate() {
+        let amps: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        for ch in 0..8 {
+            let s = sample(t * 8, ch);
+            assert!((s - amps[ch + 1]).abs() < 1e-4, "t {t} ch{ch}: {s}");
+        }
+    }
+    // Mid-signal: channel 2 near +0.95 A, channel 5 silent, the others pre-dented.
+    assert!((sample(4000, 2) - 0.95).abs() < 0.01, "{}", sample(4000, 2));
+    assert_eq!(sample(4000, 5), 0.0);
+    assert!((sample(4000, 0) + 0.9).abs() < 0.01);
+
+    // Rates outside 1 kHz ..= 768 kHz are refused, naming the output.
+    let out = touchc(&[
+        "render",
+        file.to_str().unwrap(),
+        "--wav",
+        wav_path.to_str().unwrap(),
+        "--rate",
+        "500",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("a.wav"));
 }

@@ -25,7 +25,8 @@ pub struct Cli {
 enum Command {
     /// Show a stimulus or bank file: header, duration, size, CRC status.
     Inspect(inspect::Args),
-    /// Play a stimulus through the player (the firmware's code) and write its output.
+    /// Play a stimulus through the player (the firmware's code) and write its output
+    /// as CSV or as an 8-channel WAV.
     Render(render::Args),
     /// Plot a stimulus's eight currents as the sleeve outputs them (SVG or PNG).
     Plot(plot::Args),

@@ -1,4 +1,5 @@
-//! Seeing a stimulus without the sleeve: plots of the player's output ([`plot`]).
+//! Seeing and feeling a stimulus without the sleeve: plots of the player's output
+//! ([`plot`]) and a multichannel WAV of the drive signal ([`wav`]).
 //!
 //! Plots and WAVs start from what the sleeve would output, not from the compiler's
 //! floating-point signals: [`play`] runs the protocol crate's fixed-point [`Player`],
@@ -6,6 +7,7 @@
 //! be felt.
 
 pub mod plot;
+pub mod wav;
 
 use std::sync::OnceLock;
 
