@@ -1,5 +1,135 @@
 #!/usr/bin/env bash
-# Firmware checks (replaced by the firmware issue's full version).
+# The firmware's checks, as CI runs them. Re-runnable; on a fresh Debian machine
+# (as root) it installs what it needs first.
+#
+#   bash firmware/ci.sh            # from anywhere
+#
+# 1. tools: the thumbv7em target, llvm-tools, qemu-system-arm (bookworm-backports
+#    when available: QEMU 10; else the distribution's)
+# 2. host: fmt check, clippy -D warnings, tests of the firmware logic
+# 3. target: clippy -D warnings (all feature sets), release build, flash/RAM use
+# 4. QEMU: the player on the F405 checked against the host, instructions per tick
 set -euo pipefail
-cd "$(dirname "$0")/.."
-cargo build -p sleeve-firmware --target thumbv7em-none-eabihf --release --locked
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$(cd "$here/.." && pwd)"
+target=thumbv7em-none-eabihf
+flash_budget=$((64 * 1024))
+ram_budget=$((16 * 1024))
+
+step() { printf '\n== %s\n' "$*"; }
+
+install_tools() {
+    if ! rustup target list --installed | grep -qx "$target"; then
+        rustup target add "$target"
+    fi
+    if ! rustup component list --installed | grep -q '^llvm-tools'; then
+        rustup component add llvm-tools || echo "llvm-tools unavailable: sizes from readelf"
+    fi
+    if command -v qemu-system-arm >/dev/null; then
+        return
+    fi
+    if [ "$(id -u)" != 0 ]; then
+        echo "qemu-system-arm missing and not root: install it (apt-get install qemu-system-arm)" >&2
+        exit 1
+    fi
+    export DEBIAN_FRONTEND=noninteractive
+    # shellcheck disable=SC1091
+    codename="$(. /etc/os-release && echo "${VERSION_CODENAME:-}")"
+    src=/etc/apt/sources.list.d/debian.sources
+    if [ -n "$codename" ] && [ -f "$src" ]; then
+        # A private sources dir: the system's sources plus the same mirror's
+        # backports suite (QEMU 10 emulates the F405 better than bookworm's 7.2).
+        parts="$(mktemp -d)"
+        cp "$src" "$parts/"
+        awk -v suite="$codename-backports" 'BEGIN { RS = ""; ORS = "\n\n" }
+            NR == 1 { sub(/Suites:[^\n]*/, "Suites: " suite); print }' "$src" >"$parts/backports.sources"
+        if apt-get -o Dir::Etc::SourceParts="$parts" update &&
+            apt-get -o Dir::Etc::SourceParts="$parts" install -y -t "$codename-backports" qemu-system-arm; then
+            rm -rf "$parts"
+            return
+        fi
+        rm -rf "$parts"
+    fi
+    apt-get update
+    apt-get install -y qemu-system-arm
+}
+
+# Prints "flash ram" in bytes for an ELF: flash = vectors + code + rodata + data
+# image; static RAM = data + bss + uninit (the stack comes on top).
+elf_use() {
+    local elf=$1 llvm_size
+    llvm_size="$(find "$(rustc --print sysroot)/lib/rustlib" -name llvm-size -type f -print -quit 2>/dev/null)"
+    if [ -n "$llvm_size" ]; then
+        "$llvm_size" -A "$elf" | awk '{ s[$1] = $2 } END {
+            print s[".vector_table"] + s[".text"] + s[".rodata"] + s[".data"],
+                  s[".data"] + s[".bss"] + s[".uninit"] }'
+    else
+        local name size flash=0 ram=0
+        while read -r name size; do
+            case $name in
+            .vector_table | .text | .rodata) flash=$((flash + 16#$size)) ;;
+            .data) flash=$((flash + 16#$size)) ram=$((ram + 16#$size)) ;;
+            .bss | .uninit) ram=$((ram + 16#$size)) ;;
+            esac
+        done < <(readelf -SW "$elf" | sed -n 's/^ *\[ *[0-9]*\] *//p' | awk '{ print $1, $5 }')
+        echo "$flash $ram"
+    fi
+}
+
+if [ "${SLEEVE_CI_NO_INSTALL:-}" != 1 ]; then
+    step "tools"
+    install_tools
+fi
+
+step "host: fmt, clippy, tests of the firmware logic"
+cd "$root"
+cargo fmt -p sleeve-firmware -- --check
+(cd "$here/qemu-test" && cargo fmt -- --check)
+cargo clippy -p sleeve-firmware --no-deps --all-targets --locked -- -D warnings
+cargo test -p sleeve-firmware --locked
+
+step "target: clippy, release build"
+cd "$here"
+for features in "" "dac-outputs" "button-per-slot" "dac-outputs,button-per-slot"; do
+    cargo clippy --release --no-deps --locked --features "$features" -- -D warnings
+done
+cargo build --release --locked
+elf="$root/target/$target/release/sleeve-firmware"
+read -r flash ram < <(elf_use "$elf")
+echo "sleeve-firmware release: flash $flash B ($((flash / 1024)) KB, budget $((flash_budget / 1024)) KB), static RAM $ram B ($((ram / 1024)) KB, budget $((ram_budget / 1024)) KB)"
+if [ "$flash" -gt "$flash_budget" ] || [ "$ram" -gt "$ram_budget" ]; then
+    echo "firmware over its flash or RAM budget" >&2
+    exit 1
+fi
+
+step "QEMU: player on the STM32F405 vs the host"
+cd "$here/qemu-test"
+cargo clippy --release --no-deps --locked -- -D warnings
+cargo build --release --locked
+log="$(mktemp)"
+status=0
+timeout 120 qemu-system-arm -M netduinoplus2 -display none -icount shift=4,sleep=off \
+    -semihosting-config enable=on,target=native \
+    -kernel "target/$target/release/sleeve-qemu-test" | tee "$log" || status=$?
+if [ "$status" != 0 ] || ! grep -q '^1 passed, 0 failed$' "$log"; then
+    rm -f "$log"
+    echo "QEMU test failed (exit $status)" >&2
+    exit 1
+fi
+rm -f "$log"
+
+step "default bank linked into the BANK region"
+bank="$(realpath "$(ls -t target/$target/release/build/sleeve-qemu-test-*/out/bank.bin | head -n1)")"
+cd "$here"
+SLEEVE_DEFAULT_BANK="$bank" cargo build --release --locked --features default-bank
+# The .bank section must sit at 0x080C0000 and hold the whole image.
+read -r addr size < <(readelf -SW "$elf" | sed -n 's/^ *\[ *[0-9]*\] *//p' | awk '$1 == ".bank" { print $3, $5 }')
+if [ "$addr" != 080c0000 ] || [ "$((16#$size))" != "$(stat -c %s "$bank")" ]; then
+    echo "default bank not linked at 0x080C0000 (got ${addr:-none}, ${size:-0} bytes)" >&2
+    exit 1
+fi
+echo "default bank: $((16#$size)) bytes at 0x$addr"
+# Leave the plain build in place for `cargo run --release`.
+cargo build --release --locked
+echo "firmware checks passed"

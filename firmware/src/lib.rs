@@ -1,1 +1,23 @@
-#![no_std]
+//! The sleeve firmware's logic, free of hardware so it runs on the host too.
+//!
+//! The data flow, top to bottom:
+//! - [`boot`]: is the bank in flash usable? If not, which LED code says why.
+//! - [`button`]: EXTI edges -> debounced levels -> gestures (press, long press).
+//! - [`control`]: gestures -> which slot plays; owns the [`touch_protocol::Player`].
+//! - [`engine`]: the 1 kHz tick: write the frame computed last tick, then compute
+//!   the next one.
+//! - [`output`]: codes -> timer compare values; the compiled hard limits.
+//!
+//! The binary (`src/main.rs`, target only) wires these to TIM3/TIM4/DAC, TIM7,
+//! EXTI and the watchdog.
+#![cfg_attr(not(test), no_std)]
+#![warn(missing_docs)]
+
+pub mod boot;
+pub mod button;
+pub mod control;
+pub mod engine;
+pub mod output;
+
+#[cfg(test)]
+mod testutil;

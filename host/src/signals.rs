@@ -50,6 +50,14 @@ pub struct ChannelSignals {
 }
 
 impl ChannelSignals {
+    /// `frames` frames of silence on every channel.
+    pub fn silent(frames: usize) -> Self {
+        ChannelSignals {
+            psi: std::array::from_fn(|_| vec![0.0; frames]),
+            source: std::array::from_fn(|_| vec![Source::Silent; frames]),
+        }
+    }
+
     /// Number of frames (the same on every channel).
     pub fn frames(&self) -> usize {
         self.psi[0].len()

@@ -23,7 +23,7 @@ pub enum Gesture {
     Tap,
     /// Four flat-hand pats at neighbouring spots.
     Pat,
-    /// A broad grip over the whole width, slowly rising, held, released.
+    /// A grip: four fingertips on one side and the heel of the hand on the other, together.
     Squeeze,
     /// A contact moving back and forth across the arm at 3 Hz.
     Shake,
@@ -188,13 +188,27 @@ fn gesture(kind: Gesture, t0: f64, rng: &mut Rng) -> (Vec<Contact>, f64) {
             2.0
         }
         Gesture::Squeeze => {
-            let x = rng.range(7.0, 14.0);
+            // A grip: four fingertips in a line along one side of the forearm and the
+            // heel of the hand on the other, rising, held and released together.
+            let x = rng.range(5.0, 9.0);
+            let peak = rng.range(0.7, 1.0);
+            for k in 0..4 {
+                let (fx, fy) = (x + 2.2 * k as f64 + rng.range(-0.3, 0.3), rng.range(1.6, 2.4));
+                contacts.push(Contact {
+                    start: t0,
+                    length: 1.8,
+                    peak_psi: peak * rng.range(0.85, 1.0),
+                    sigma: (0.8, 0.8),
+                    path: Box::new(move |_| (fx, fy)),
+                });
+            }
+            let (px, py) = (x + 3.3, rng.range(5.6, 6.4));
             contacts.push(Contact {
                 start: t0,
                 length: 1.8,
-                peak_psi: rng.range(0.6, 0.9),
-                sigma: (3.5, 6.0),
-                path: Box::new(move |_| (x, 4.0)),
+                peak_psi: peak * 0.8,
+                sigma: (2.0, 1.0),
+                path: Box::new(move |_| (px, py)),
             });
             1.8
         }

@@ -2,16 +2,19 @@
 //! and the `touch-protocol` crate; errors carry the file they concern.
 
 mod bank;
+mod compile;
 mod inspect;
 mod plot;
 mod render;
 mod synth;
+mod track;
 
 use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use touch_protocol::{Bank, Stimulus};
+use touchc::config::Config;
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
@@ -23,6 +26,10 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Compile a recording into a stimulus file (tracking, placement, signals, keyframes).
+    Compile(compile::Args),
+    /// Track contacts in a recording (stages 0-3) and print the trajectories.
+    Track(track::TrackArgs),
     /// Show a stimulus or bank file: header, duration, size, CRC status.
     Inspect(inspect::Args),
     /// Play a stimulus through the player (the firmware's code) and write its output
@@ -39,6 +46,8 @@ enum Command {
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Compile(args) => compile::run(&args),
+        Command::Track(args) => track::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Plot(args) => plot::run(&args),
@@ -65,5 +74,17 @@ pub(crate) fn stimulus_in<'a>(
             .with_context(|| format!("{name}: slot {slot}"))
     } else {
         Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
+    }
+}
+
+/// Reads a TOML config, or the paper preset when no file is given.
+pub(crate) fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
+    match path {
+        None => Ok(Config::default()),
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("{}: cannot read config", p.display()))?;
+            toml::from_str(&text).with_context(|| format!("{}: invalid config", p.display()))
+        }
     }
 }

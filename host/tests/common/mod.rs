@@ -1,8 +1,82 @@
-//! The reference vectors of the published Python code (`tests/data/*.reference.json`,
-//! copied from `shared/reference/`), shared by the tests and the bench.
+//! Fixtures shared by the integration tests and the benches: synthetic recordings,
+//! and the published Python code's reference vectors.
 
-// Each test crate and the bench use a different part of this module.
+// Each test crate and bench uses a different part of this module.
 #![allow(dead_code)]
+
+use ndarray::Array3;
+
+/// Deterministic uniform noise in [-1, 1) (xorshift), so fixtures need no RNG crate.
+pub struct Noise(u64);
+
+impl Noise {
+    pub fn new(seed: u64) -> Self {
+        Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    pub fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+}
+
+/// True where the 8 x 21 sleeve has a sensor cell: 142 cells (26 NaN at two edges).
+pub fn sleeve_mask(r: usize, c: usize) -> bool {
+    !((r == 0 || r == 7) && c < 13)
+}
+
+/// `[frames, 8, 21]` psi: quiet tare frames, then `blobs` Gaussian contacts moving along
+/// the arm, 0.004 psi noise, NaN outside the 142-cell sleeve.
+pub fn moving_blobs(frames: usize, blobs: usize, seed: u64) -> Array3<f64> {
+    let mut noise = Noise::new(seed);
+    let mut a = Array3::<f64>::zeros((frames, 8, 21));
+    for t in 0..frames {
+        for r in 0..8 {
+            for c in 0..21 {
+                if !sleeve_mask(r, c) {
+                    a[[t, r, c]] = f64::NAN;
+                    continue;
+                }
+                let mut v = 0.004 * noise.next();
+                if t >= 20 && t + 20 < frames {
+                    for b in 0..blobs {
+                        // Blob b recurs every 90 + 17 b frames, pressing for 60 of them
+                        // while it slides along the arm: many contacts, some overlapping.
+                        let period = 90 + 17 * b;
+                        let age = (t + period - (20 + 13 * b) % period) % period;
+                        if age >= 60 {
+                            continue;
+                        }
+                        let x = 2.0 + age as f64 * 0.28 + (b as f64 * 1.3) % 5.0;
+                        let y = 2.0 + (b % 4) as f64;
+                        let d2 = (c as f64 - x).powi(2) + (r as f64 - y).powi(2);
+                        v += 0.6 * (-d2 / 1.5).exp();
+                    }
+                }
+                a[[t, r, c]] = v;
+            }
+        }
+    }
+    a
+}
+
+/// `shared/reference/`: `$TOUCHC_REFERENCE_DIR`, or `shared/` beside the checkout (CI,
+/// the main tree) or beside the worktree folder. Panics if absent: the reference tests
+/// must fail, not silently pass, when the vectors are missing.
+pub fn reference_dir() -> std::path::PathBuf {
+    if let Ok(dir) = std::env::var("TOUCHC_REFERENCE_DIR") {
+        return dir.into();
+    }
+    let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    for up in ["../../shared/reference", "../../../shared/reference"] {
+        let p = manifest.join(up);
+        if p.join("stroke_60.npy").exists() {
+            return p;
+        }
+    }
+    panic!("shared/reference not found; set TOUCHC_REFERENCE_DIR");
+}
 
 use serde::Deserialize;
 use touchc::trajectory::Trajectory;

@@ -1,0 +1,313 @@
+//! The protocol player on the real instruction set, under QEMU (`netduinoplus2`).
+//!
+//! Plays every slot of a bank linked into the BANK flash region, one tick per
+//! 1 kHz SysTick interrupt, hashes the codes and compares them with what the host's
+//! player computed at build time. Under `-icount` SysTick counts instructions, so
+//! the cost of each tick is measured on the target's instruction set. The verdict is
+//! the semihosting exit code.
+#![no_std]
+#![no_main]
+
+mod crc32;
+mod scenario;
+
+use core::cell::RefCell;
+
+use cortex_m::interrupt::Mutex;
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+use cortex_m_rt::{entry, exception};
+use cortex_m_semihosting::{debug, hprintln};
+use sleeve_firmware::boot::{check_bank, BootError};
+use sleeve_firmware::button::{Buttons, Mode};
+use sleeve_firmware::control::Controller;
+use sleeve_firmware::engine::{Engine, Watchdog};
+use sleeve_firmware::output::{device_config, pwm_compare, Frame, PWM_PERIOD};
+use touch_protocol::player::{DeviceConfig, Player, Status};
+use touch_protocol::{Bank, OutputSink, CHANNELS};
+
+include!(concat!(env!("OUT_DIR"), "/expected.rs"));
+
+/// The test bank, at the start of the BANK region like a flashed `sleeve.bank`.
+#[used]
+#[unsafe(link_section = ".bank")]
+static BANK: [u8; include_bytes!(concat!(env!("OUT_DIR"), "/bank.bin")).len()] =
+    *include_bytes!(concat!(env!("OUT_DIR"), "/bank.bin"));
+
+const BANK_ADDR: usize = 0x080C_0000;
+const BANK_LEN: usize = 256 * 1024;
+
+/// SysTick counts at the 168 MHz core clock: 168,000 counts per 1 kHz tick.
+const RELOAD: u32 = 168_000 - 1;
+
+/// SysTick counts per instruction under `-icount shift=4` (16 ns each): 16 * 0.168.
+const COUNTS_PER_INSN_X1000: u32 = 2688;
+
+/// TIM3 and TIM4 capture/compare registers (CCR1-4 at offset 0x34), which QEMU
+/// emulates: the engine's frames go to the real registers, as in the firmware.
+const CCR: [usize; 2] = [0x4000_0434, 0x4000_0834];
+
+/// Writes frames to the timers' compare registers and keeps the last for the hash.
+struct Ccr(Frame);
+impl OutputSink for Ccr {
+    fn write(&mut self, codes: &Frame) {
+        for (c, &code) in codes.iter().enumerate() {
+            let reg = (CCR[c / 4] + 4 * (c % 4)) as *mut u32;
+            // SAFETY: a TIM3/TIM4 CCR register, word-aligned, write-only use.
+            unsafe { reg.write_volatile(pwm_compare(code, PWM_PERIOD)) };
+        }
+        self.0 = *codes;
+    }
+}
+
+/// No watchdog under QEMU.
+struct NoDog;
+impl Watchdog for NoDog {
+    fn feed(&mut self) {}
+}
+
+/// What the SysTick handler steps.
+// One at a time, in a static: the size difference costs nothing.
+#[allow(clippy::large_enum_variant)]
+enum Job {
+    /// The protocol player alone, one slot.
+    Player(Player<'static>),
+    /// The firmware's whole tick: buttons, controller, player, output write.
+    Engine(Engine<'static, Ccr, NoDog, 1>),
+}
+
+struct State {
+    job: Job,
+    ticks: u32,
+    crc: u32,
+    faulted: bool,
+    done: bool,
+    max_counts: u32,
+    sum_counts: u64,
+}
+
+impl State {
+    fn new(job: Job) -> Self {
+        State {
+            job,
+            ticks: 0,
+            crc: !0,
+            faulted: false,
+            done: false,
+            max_counts: 0,
+            sum_counts: 0,
+        }
+    }
+
+    /// Worst and mean instructions per tick.
+    fn insns(&self) -> (u32, u32) {
+        let max = self.max_counts * 1000 / COUNTS_PER_INSN_X1000;
+        let mean = self.sum_counts * 1000
+            / u64::from(COUNTS_PER_INSN_X1000)
+            / u64::from(self.ticks.max(1));
+        (max, mean as u32)
+    }
+}
+
+static STATE: Mutex<RefCell<Option<State>>> = Mutex::new(RefCell::new(None));
+
+fn bank_region() -> &'static [u8] {
+    // SAFETY: internal flash, mapped for the life of the program, never written.
+    unsafe { core::slice::from_raw_parts(BANK_ADDR as *const u8, BANK_LEN) }
+}
+
+#[entry]
+fn main() -> ! {
+    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| fail("peripherals taken"));
+    // Read through the region, not the static: this checks the link placement too.
+    let bank = match Bank::decode(bank_region()) {
+        Ok(bank) => bank,
+        Err(_) => fail("bank in flash refused"),
+    };
+    if BANK.as_ptr() as usize != BANK_ADDR || bank.len() != EXPECTED.len() {
+        fail("bank not at 0x080C0000 or wrong slot count");
+    }
+    // The firmware's boot check, on the target: refuses an erased region and a
+    // corrupted copy of the bank.
+    let mut copy = [0u8; BANK.len()];
+    copy.copy_from_slice(&BANK);
+    copy[BANK.len() / 2] ^= 0x10;
+    let erased = [0xFFu8; 64];
+    let boot_ok = check_bank(bank_region()).is_ok()
+        && matches!(check_bank(&erased), Err(BootError::Empty))
+        && matches!(check_bank(&copy), Err(BootError::Corrupt(_)));
+    hprintln!(
+        "boot check: good bank accepted, erased and corrupted refused: {}",
+        if boot_ok { "ok" } else { "FAILED" }
+    );
+
+    let device = DeviceConfig::default();
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(RELOAD);
+    cp.SYST.clear_current();
+
+    // Calibration: 1000 NOPs (plus the two SysTick reads) must count ~1000
+    // instructions, else the -icount shift and COUNTS_PER_INSN_X1000 disagree.
+    cp.SYST.enable_counter();
+    let start = SYST::get_current();
+    // SAFETY: NOPs only.
+    unsafe { core::arch::asm!(".rept 1000", "nop", ".endr", options(nomem, nostack)) };
+    let end = SYST::get_current();
+    cp.SYST.disable_counter();
+    let nop_insns = elapsed(start, end) * 1000 / COUNTS_PER_INSN_X1000;
+    hprintln!("calibration: 1000 nops measure {} instructions", nop_insns);
+    let mut ok = boot_ok && (1000..1010).contains(&nop_insns);
+    let mut worst_insns = 0;
+    for (slot, &(ticks, crc, faulted)) in EXPECTED.iter().enumerate() {
+        let stim = bank.slot(slot).unwrap_or_else(|_| fail("slot refused"));
+        let state = State::new(Job::Player(Player::new(&stim, &device)));
+        let s = run(&mut cp.SYST, state);
+        let got_crc = !s.crc;
+        let (max_insns, mean_insns) = s.insns();
+        worst_insns = worst_insns.max(max_insns);
+        let pass = s.ticks == ticks && got_crc == crc && s.faulted == faulted;
+        ok &= pass;
+        hprintln!(
+            "slot {} '{}': {} ticks (host {}), crc {:#010x} (host {:#010x}), fault {} (host {}), insns/tick max {} mean {}: {}",
+            slot,
+            stim.name(),
+            s.ticks,
+            ticks,
+            got_crc,
+            crc,
+            s.faulted,
+            faulted,
+            max_insns,
+            mean_insns,
+            if pass { "ok" } else { "MISMATCH" }
+        );
+    }
+    hprintln!(
+        "player: instructions per 1 kHz tick (8 channels), worst: {}",
+        worst_insns
+    );
+
+    // The firmware's engine through the button scenario, codes to TIM3/TIM4.
+    let controller = Controller::new(bank, device_config());
+    let engine = Engine::new(
+        Ccr([0; CHANNELS]),
+        NoDog,
+        Buttons::<1>::new(Mode::PlayNext),
+        controller,
+    );
+    let state = State::new(Job::Engine(engine));
+    let s = run(&mut cp.SYST, state);
+    let got = !s.crc;
+    let (max_insns, mean_insns) = s.insns();
+    let pass = got == ENGINE_CRC && s.ticks == scenario::TICKS;
+    ok &= pass;
+    hprintln!(
+        "engine scenario: {} ticks, crc {:#010x} (host {:#010x}), insns/tick max {} mean {}: {}",
+        s.ticks,
+        got,
+        ENGINE_CRC,
+        max_insns,
+        mean_insns,
+        if pass { "ok" } else { "MISMATCH" }
+    );
+    hprintln!(
+        "firmware tick (buttons + controller + player + CCR writes), worst: {}",
+        max_insns
+    );
+    hprintln!(
+        "{} passed, {} failed",
+        if ok { 1 } else { 0 },
+        if ok { 0 } else { 1 }
+    );
+    debug::exit(if ok {
+        debug::EXIT_SUCCESS
+    } else {
+        debug::EXIT_FAILURE
+    });
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[exception]
+fn SysTick() {
+    cortex_m::interrupt::free(|cs| {
+        let mut cell = STATE.borrow(cs).borrow_mut();
+        let Some(s) = cell.as_mut() else { return };
+        if s.done {
+            return;
+        }
+        // SysTick counts down from RELOAD: the counts spent are start - end.
+        let t = s.ticks;
+        // Only the tick itself is measured, not the bookkeeping around it.
+        let (codes, status, start, end) = match &mut s.job {
+            Job::Player(player) => {
+                let start = SYST::get_current();
+                let tick = player.tick();
+                let end = SYST::get_current();
+                (tick.codes, Some(tick.status), start, end)
+            }
+            Job::Engine(engine) => {
+                let edges = [scenario::edge(t)];
+                let start = SYST::get_current();
+                engine.tick(edges, |_| {});
+                let end = SYST::get_current();
+                (engine.sink().0, None, start, end)
+            }
+        };
+        let spent = elapsed(start, end);
+        s.max_counts = s.max_counts.max(spent);
+        s.sum_counts += u64::from(spent);
+        s.ticks += 1;
+        s.crc = crc32::update_frame(s.crc, &codes);
+        s.faulted |= matches!(status, Some(Status::Fault(_)));
+        s.done = match status {
+            Some(status) => status == Status::Finished || s.ticks > 1_000_000,
+            None => s.ticks >= scenario::TICKS,
+        };
+    });
+}
+
+/// Runs one job at 1 kHz until it is done; returns its final state.
+fn run(syst: &mut SYST, state: State) -> State {
+    cortex_m::interrupt::free(|cs| STATE.borrow(cs).replace(Some(state)));
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+    loop {
+        cortex_m::asm::wfi();
+        let done = cortex_m::interrupt::free(|cs| {
+            STATE.borrow(cs).borrow().as_ref().is_some_and(|s| s.done)
+        });
+        if done {
+            syst.disable_interrupt();
+            syst.disable_counter();
+            let s = cortex_m::interrupt::free(|cs| STATE.borrow(cs).borrow_mut().take());
+            return s.unwrap_or_else(|| fail("state lost"));
+        }
+    }
+}
+
+/// SysTick counts spent between two reads of the down-counter (at most one wrap).
+fn elapsed(start: u32, end: u32) -> u32 {
+    (start + RELOAD + 1 - end) % (RELOAD + 1)
+}
+
+fn fail(why: &str) -> ! {
+    hprintln!("qemu-test failed: {}", why);
+    hprintln!("0 passed, 1 failed");
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    hprintln!("qemu-test panicked: {}", info);
+    hprintln!("0 passed, 1 failed");
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}

@@ -1,0 +1,113 @@
+//! The boot decision: play from the bank in flash, or refuse it and say why.
+
+use touch_protocol::{Bank, Error};
+
+/// Why the bank in flash is not used. Nothing plays; the LED blinks
+/// [`BootError::blinks`] times, pauses, and repeats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(all(target_os = "none", feature = "hw"), derive(defmt::Format))]
+pub enum BootError {
+    /// The region is erased (all 0xFF): no bank was flashed.
+    Empty,
+    /// Not a bank, or a bank of a format version this firmware does not read.
+    NotABank(Error),
+    /// The bank's CRC (or a stimulus's) does not match: corrupted or half-flashed.
+    Corrupt(Error),
+    /// The bank decodes but a stimulus in it is malformed.
+    Invalid(Error),
+}
+
+impl BootError {
+    /// LED blink count: 2 empty, 3 not a bank / wrong version, 4 CRC, 5 malformed.
+    pub fn blinks(&self) -> u8 {
+        match self {
+            BootError::Empty => 2,
+            BootError::NotABank(_) => 3,
+            BootError::Corrupt(_) => 4,
+            BootError::Invalid(_) => 5,
+        }
+    }
+}
+
+/// Checks the bank region (the whole flash region; the bank says its own length).
+///
+/// Never panics, whatever the bytes: a refused bank leaves every output at 0 A.
+pub fn check_bank(region: &[u8]) -> Result<Bank<'_>, BootError> {
+    let head = region.get(..16).unwrap_or(region);
+    if head.iter().all(|&b| b == 0xFF) {
+        return Err(BootError::Empty);
+    }
+    match Bank::decode(region) {
+        Ok(bank) if !bank.is_empty() => Ok(bank),
+        Ok(_) => Err(BootError::Empty),
+        Err(e @ (Error::BadMagic { .. } | Error::UnsupportedVersion { .. })) => {
+            Err(BootError::NotABank(e))
+        }
+        Err(e @ (Error::BadCrc { .. } | Error::Truncated { .. } | Error::BadLength(_))) => {
+            Err(BootError::Corrupt(e))
+        }
+        Err(e) => Err(BootError::Invalid(e)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{bank, constant_stimulus};
+    use proptest::prelude::*;
+
+    fn region_with(image: &[u8]) -> Vec<u8> {
+        let mut region = vec![0xFF; 256 * 1024];
+        region[..image.len()].copy_from_slice(image);
+        region
+    }
+
+    #[test]
+    fn good_bank_in_a_whole_region_boots() {
+        let image = bank(&[
+            constant_stimulus("a", 200, 100),
+            constant_stimulus("b", -200, 100),
+        ]);
+        let region = region_with(&image);
+        assert_eq!(check_bank(&region).unwrap().len(), 2);
+    }
+
+    #[test]
+    fn erased_region_is_empty() {
+        assert_eq!(check_bank(&[0xFF; 4096]).unwrap_err(), BootError::Empty);
+        assert_eq!(check_bank(&[]).unwrap_err(), BootError::Empty);
+    }
+
+    #[test]
+    fn refusals_have_distinct_blink_codes() {
+        let image = bank(&[constant_stimulus("a", 200, 100)]);
+        let mut corrupt = region_with(&image);
+        corrupt[image.len() - 6] ^= 1;
+        let e = check_bank(&corrupt).unwrap_err();
+        assert!(matches!(e, BootError::Corrupt(_)), "{e:?}");
+        let mut not_bank = region_with(&image);
+        not_bank[0] = b'X';
+        let e2 = check_bank(&not_bank).unwrap_err();
+        assert!(matches!(e2, BootError::NotABank(_)), "{e2:?}");
+        let zeros = vec![0u8; 4096];
+        assert!(check_bank(&zeros).is_err());
+        assert_ne!(e.blinks(), e2.blinks());
+        assert_ne!(e.blinks(), BootError::Empty.blinks());
+    }
+
+    proptest! {
+        #[test]
+        fn any_bytes_are_refused_without_panic(bytes in proptest::collection::vec(any::<u8>(), 0..2048)) {
+            let _ = check_bank(&bytes);
+        }
+
+        #[test]
+        fn any_single_bit_flip_is_refused(bit in 0usize..(8 * 200)) {
+            let image = bank(&[constant_stimulus("a", 200, 100)]);
+            let mut region = region_with(&image);
+            let bit = bit % (8 * image.len());
+            region[bit / 8] ^= 1 << (bit % 8);
+            prop_assert!(check_bank(&region).is_err());
+        }
+    }
+}

@@ -1,0 +1,82 @@
+//! The 1 kHz tick: TIM7's update interrupt steps the [`Engine`].
+
+use core::cell::RefCell;
+
+use critical_section::Mutex;
+use embassy_stm32::interrupt::{InterruptExt, Priority};
+use embassy_stm32::peripherals::{IWDG, TIM7};
+use embassy_stm32::wdg::IndependentWatchdog;
+use embassy_stm32::{interrupt, pac, Peri};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::channel::Channel;
+use sleeve_firmware::button::EdgeMailbox;
+use sleeve_firmware::control::Report;
+use sleeve_firmware::engine::{Engine, Watchdog};
+
+use super::board::BUTTONS;
+use super::outputs::Outputs;
+
+/// The watchdog times out if the tick stalls this long (50 ticks).
+const WATCHDOG_TIMEOUT_US: u32 = 50_000;
+
+/// The independent watchdog, fed by the tick.
+pub struct Iwdg(IndependentWatchdog<'static, IWDG>);
+
+impl Iwdg {
+    /// Starts the watchdog; from now on the tick must run.
+    pub fn start(iwdg: Peri<'static, IWDG>) -> Self {
+        let mut dog = IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US);
+        dog.unleash();
+        Iwdg(dog)
+    }
+}
+
+impl Watchdog for Iwdg {
+    fn feed(&mut self) {
+        self.0.pet();
+    }
+}
+
+/// The engine as the firmware runs it.
+pub type SleeveEngine = Engine<'static, Outputs, Iwdg, BUTTONS>;
+
+/// Owned by the tick interrupt once started.
+static ENGINE: Mutex<RefCell<Option<SleeveEngine>>> = Mutex::new(RefCell::new(None));
+
+/// Button edges, from the EXTI tasks to the tick.
+pub static EDGES: [EdgeMailbox; BUTTONS] = [const { EdgeMailbox::new() }; BUTTONS];
+
+/// What the tick reports, for the log task. Full means dropped, never blocked.
+pub static REPORTS: Channel<CriticalSectionRawMutex, Report, 16> = Channel::new();
+
+/// Hands the engine to the tick interrupt and starts TIM7 at 1 kHz.
+pub fn start(engine: SleeveEngine, _tim7: Peri<'static, TIM7>) {
+    critical_section::with(|cs| ENGINE.borrow(cs).replace(Some(engine)));
+    embassy_stm32::rcc::enable_and_reset::<TIM7>();
+    let t = pac::TIM7;
+    // 84 MHz / 84 = 1 MHz; 1000 counts = 1 ms.
+    t.psc().write_value(83);
+    t.arr().write(|w| w.set_arr(999));
+    t.egr().write(|w| w.set_ug(true));
+    t.sr().write(|w| w.set_uif(false));
+    t.dier().modify(|w| w.set_uie(true));
+    // The highest priority: nothing preempts the frame write at the start of the tick.
+    interrupt::TIM7.set_priority(Priority::P0);
+    // SAFETY: the handler below only touches ENGINE (behind a critical section), the
+    // mailboxes and the report channel, all of which are ready.
+    unsafe { interrupt::TIM7.enable() };
+    t.cr1().modify(|w| w.set_cen(true));
+}
+
+#[interrupt]
+fn TIM7() {
+    pac::TIM7.sr().write(|w| w.set_uif(false));
+    critical_section::with(|cs| {
+        if let Some(engine) = ENGINE.borrow(cs).borrow_mut().as_mut() {
+            let edges = core::array::from_fn(|i| EDGES[i].take());
+            engine.tick(edges, |report| {
+                let _ = REPORTS.try_send(report);
+            });
+        }
+    });
+}

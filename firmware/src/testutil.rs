@@ -1,0 +1,46 @@
+//! Stimuli and banks for the host tests, made with the protocol crate's encoder.
+
+use touch_protocol::{bank as tbank, stimulus, Limits, CHANNELS};
+
+/// Ramp used by the test stimuli: slow enough for a 1 A step under the slew limit.
+pub const RAMP_MS: u16 = 40;
+
+/// A stimulus file from keyframes (Q15 of 1 A) every `period_ms`.
+pub fn stimulus_from(
+    name: &str,
+    period_ms: u16,
+    keyframes: &[[i16; CHANNELS]],
+    limits: Limits,
+) -> Vec<u8> {
+    let header = stimulus::Header {
+        channels: CHANNELS as u8,
+        output_rate_hz: 1000,
+        keyframe_period_ms: period_ms,
+        keyframe_count: 0,
+        duration_ms: 0,
+        ramp_ms: RAMP_MS,
+        full_scale_ma: 1000,
+        quant_shift: 0,
+        layout_id: 1,
+        limits,
+        name,
+    };
+    stimulus::encode(header, keyframes).expect("test stimulus encodes")
+}
+
+/// All channels at `ma` milliamperes (channel c at `ma` * (c + 1) / 8) for `duration_ms`.
+pub fn constant_stimulus(name: &str, ma: i32, duration_ms: u16) -> Vec<u8> {
+    let mut frame = [0i16; CHANNELS];
+    for (c, v) in frame.iter_mut().enumerate() {
+        *v = (ma * 32767 / 1000 * (c as i32 + 1) / CHANNELS as i32) as i16;
+    }
+    let period = 40;
+    let count = usize::from(duration_ms / period).max(1) + 1;
+    stimulus_from(name, period, &vec![frame; count], Limits::SLEEVE)
+}
+
+/// A bank of the given stimulus files, slot order.
+pub fn bank(stimuli: &[Vec<u8>]) -> Vec<u8> {
+    let refs: Vec<&[u8]> = stimuli.iter().map(Vec::as_slice).collect();
+    tbank::encode(&refs).expect("test bank encodes")
+}

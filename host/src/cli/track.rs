@@ -1,0 +1,115 @@
+//! `touchc track REC.npy [--json]`: stages 0-3 on one recording.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use serde::Serialize;
+use touchc::recording::Recording;
+use touchc::track::{track, TrackOutput};
+
+/// Arguments of `touchc track`.
+#[derive(Debug, clap::Args)]
+pub struct TrackArgs {
+    /// Recording, `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell).
+    pub recording: PathBuf,
+    /// Print machine-readable JSON (the reference vectors' fields) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// TOML file overriding the paper's parameters.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+}
+
+/// The JSON document: global statistics and trajectories in report order.
+#[derive(Debug, Serialize)]
+struct Report<'a> {
+    mean: f64,
+    std: f64,
+    trajectories: Vec<TrajectoryReport<'a>>,
+}
+
+#[derive(Debug, Serialize)]
+struct TrajectoryReport<'a> {
+    frames: &'a [usize],
+    rows: &'a [usize],
+    cols: &'a [usize],
+    costs: &'a [f64],
+    total_cost: f64,
+}
+
+/// Runs the subcommand.
+pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
+    let cfg = super::load_config(args.config.as_deref())?;
+    let rec = Recording::load(&args.recording)?;
+    let out = track(&rec, &cfg)?;
+    let stdout = std::io::stdout();
+    let mut w = stdout.lock();
+    if args.json {
+        serde_json::to_writer(&mut w, &report(&out))?;
+        writeln!(w)?;
+    } else {
+        write_table(&mut w, &rec, &out)?;
+    }
+    Ok(())
+}
+
+fn report(out: &TrackOutput) -> Report<'_> {
+    Report {
+        mean: out.mean(),
+        std: out.std(),
+        trajectories: out
+            .trajectories
+            .iter()
+            .map(|t| TrajectoryReport {
+                frames: &t.frames,
+                rows: &t.rows,
+                cols: &t.cols,
+                costs: &t.costs,
+                total_cost: t.total_cost(),
+            })
+            .collect(),
+    }
+}
+
+fn write_table(w: &mut impl Write, rec: &Recording, out: &TrackOutput) -> std::io::Result<()> {
+    let (t, r, c) = rec.dim();
+    writeln!(w, "{}: {t} frames of {r} x {c} cells", rec.name())?;
+    writeln!(
+        w,
+        "blurred mean {:.6} psi, std {:.6} psi, {} detections, {} trajectories",
+        out.mean(),
+        out.std(),
+        out.detections.all.len(),
+        out.trajectories.len()
+    )?;
+    writeln!(
+        w,
+        "{:>3}  {:>11}  {:>4}  {:>10}  {:>10}  {:>10}",
+        "#", "frames", "len", "start r,c", "end r,c", "cost"
+    )?;
+    for (i, tr) in out.trajectories.iter().enumerate() {
+        let last = tr.len().saturating_sub(1);
+        let (f0, f1) = (
+            tr.frames.first().copied().unwrap_or(0),
+            tr.frames.get(last).copied().unwrap_or(0),
+        );
+        let start = format!(
+            "{},{}",
+            tr.rows.first().copied().unwrap_or(0),
+            tr.cols.first().copied().unwrap_or(0)
+        );
+        let end = format!(
+            "{},{}",
+            tr.rows.get(last).copied().unwrap_or(0),
+            tr.cols.get(last).copied().unwrap_or(0)
+        );
+        writeln!(
+            w,
+            "{i:>3}  {:>11}  {:>4}  {start:>10}  {end:>10}  {:>10.4}",
+            format!("{f0}-{f1}"),
+            tr.len(),
+            tr.total_cost()
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,346 @@
+//! The whole chain, recording to stimulus file: stages 0 to 7 in order, timed.
+//!
+//! Each stage lives in its own module; this one only hands each stage's output to
+//! the next, measures it, and gathers the figures of the [`Report`].
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::condition::{self, ConditionError, LimitViolation};
+use crate::config::Config;
+use crate::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
+use crate::layout::Layout;
+use crate::placement::{self, Placement, PlacementError};
+use crate::recording::{Recording, RecordingError};
+use crate::scene::{self, Crop};
+use crate::signals::ChannelSignals;
+use crate::track::{TrackError, TrackOutput};
+use touch_protocol::{Limits, CHANNELS};
+
+/// Everything `compile` needs besides the recording.
+#[derive(Debug, Clone)]
+pub struct CompileOptions {
+    /// Algorithm parameters (the paper's by default).
+    pub config: Config,
+    /// The actuator layout (the paper's sleeve by default).
+    pub layout: Layout,
+    /// The actuator profile's safety limits the signal must pass.
+    pub limits: Limits,
+    /// Scale the signal down to pass the limits instead of refusing it.
+    pub fit: bool,
+    /// Crop time and space to the active scene before the heavy stages.
+    pub crop: bool,
+    /// Fidelity bounds and choices of the keyframe encoding.
+    pub keyframes: KeyframeOptions,
+    /// The stimulus name written into the file (at most 32 bytes).
+    pub name: String,
+}
+
+impl Default for CompileOptions {
+    fn default() -> Self {
+        CompileOptions {
+            config: Config::default(),
+            layout: Layout::paper(),
+            limits: Limits::SLEEVE,
+            fit: false,
+            crop: true,
+            keyframes: KeyframeOptions::default(),
+            name: String::from("touch"),
+        }
+    }
+}
+
+/// Why a recording could not be compiled.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CompileError {
+    /// The recording is unusable (the message names the file).
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// Tracking failed.
+    #[error(transparent)]
+    Track(#[from] TrackError),
+    /// Placement failed.
+    #[error("placement: {0}")]
+    Placement(#[from] PlacementError),
+    /// Conditioning failed.
+    #[error("conditioning: {0}")]
+    Condition(#[from] ConditionError),
+    /// The signal breaks the actuator profile's limits (and `fit` was not asked for).
+    #[error("the signal breaks the safety limits: {0} (use --fit to scale it down)")]
+    Limits(#[from] LimitViolation),
+    /// No encoding met the fidelity bounds, or the protocol refused the header.
+    #[error("encoding: {0}")]
+    Keyframes(#[from] KeyframeError),
+}
+
+/// The figures of one compile (`touchc compile --report`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// The recording's name (its file).
+    pub input: String,
+    /// The stimulus name.
+    pub name: String,
+    /// Chosen transform `[x_mm, y_mm, scale, rotation, split_mm]`; `None` without touch.
+    pub transform: Option<[f64; 5]>,
+    /// Its score (lower is better); 0 without touch.
+    pub score: f64,
+    /// Selected trajectories, indices in `touchc track` order.
+    pub selected: Vec<usize>,
+    /// Trajectories found.
+    pub trajectories: usize,
+    /// Transforms in the grid.
+    pub transforms: usize,
+    /// Transforms whose subset was actually solved (the others meet no trajectory).
+    pub transforms_evaluated: usize,
+    /// Wall seconds per stage, and `total`.
+    pub seconds: BTreeMap<&'static str, f64>,
+    /// Size of the stimulus file.
+    pub bytes: usize,
+    /// Length of the stimulus signal, seconds.
+    pub duration_s: f64,
+    /// `bytes / duration_s`.
+    pub bytes_per_second: f64,
+    /// RMS error of the player's output against the compiler's f64 1 kHz signal,
+    /// fraction of full scale.
+    pub rms_error_fs: f64,
+    /// Largest such error.
+    pub max_error_fs: f64,
+    /// Keyframe period chosen, ms.
+    pub keyframe_period_ms: u16,
+    /// Quantisation shift chosen.
+    pub quant_shift: u8,
+    /// Scale applied to pass the limits (1 = unchanged).
+    pub fit_scale: f64,
+    /// True when the recording holds no touch (a silent stimulus).
+    pub no_touch: bool,
+    /// The crop applied: frames `[start, end)`, cells rows/cols `[start, end)`.
+    pub crop: Option<Crop>,
+    /// Things the user should know.
+    pub warnings: Vec<String>,
+}
+
+/// A compiled stimulus with its report and the intermediate results (for plots).
+#[derive(Debug, Clone)]
+pub struct Compiled {
+    /// The stimulus file.
+    pub stimulus: Vec<u8>,
+    /// Its figures.
+    pub report: Report,
+    /// The compiler's own 1 kHz signal, amperes (what the player approximates).
+    pub signal: Vec<[f64; CHANNELS]>,
+    /// Tracking output (absent for a recording without touch).
+    pub tracked: Option<TrackOutput>,
+    /// Placement (absent without trajectories).
+    pub placement: Option<Placement>,
+    /// Per-actuator pressures at the frame rate (absent without touch).
+    pub signals: Option<ChannelSignals>,
+}
+
+/// Stimulus names are at most this many bytes.
+const MAX_NAME: usize = touch_protocol::stimulus::MAX_NAME_LEN;
+
+/// `name` cut to the format's limit at a character boundary.
+pub fn stimulus_name(name: &str) -> &str {
+    let mut end = name.len().min(MAX_NAME);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    &name[..end]
+}
+
+/// The 16-bit layout tag written into stimuli: the low half of the CRC-32 of the
+/// layout's id, so a firmware can tell which layout a file was compiled for.
+pub fn layout_tag(layout: &Layout) -> u16 {
+    touch_protocol::container::crc32(layout.id().as_bytes()) as u16
+}
+
+struct Clock {
+    seconds: BTreeMap<&'static str, f64>,
+    start: Instant,
+    lap: Instant,
+}
+
+impl Clock {
+    fn new() -> Self {
+        let now = Instant::now();
+        Clock {
+            seconds: BTreeMap::new(),
+            start: now,
+            lap: now,
+        }
+    }
+
+    fn stage(&mut self, name: &'static str) {
+        let now = Instant::now();
+        *self.seconds.entry(name).or_insert(0.0) += (now - self.lap).as_secs_f64();
+        self.lap = now;
+    }
+
+    fn finish(mut self) -> BTreeMap<&'static str, f64> {
+        self.seconds
+            .insert("total", self.start.elapsed().as_secs_f64());
+        self.seconds
+    }
+}
+
+/// Compiles `rec` into a stimulus.
+pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, CompileError> {
+    let cfg = &opts.config;
+    let mut clock = Clock::new();
+    let mut warnings = Vec::new();
+
+    // Stage 0: tare and trim, and the paper's "no touch" filter.
+    let tared = rec.tare(&cfg.input)?;
+    let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
+    clock.stage("tare");
+    if touched <= cfg.input.min_touch_readings {
+        warnings.push(format!(
+            "no touch: {touched} readings above {} psi (needs more than {}); the stimulus is silent",
+            cfg.input.touch_threshold_psi, cfg.input.min_touch_readings
+        ));
+        let signal = vec![[0.0; CHANNELS]];
+        return finish(
+            rec, opts, clock, warnings, signal, 1.0, None, None, None, None, true,
+        );
+    }
+
+    // Stages 1-3, on the active scene only.
+    let crop = if opts.crop {
+        scene::active_crop(tared.view(), &cfg.input, &cfg.preprocess)
+    } else {
+        Crop::whole(tared.dim())
+    };
+    let tracked = scene::track_cropped(tared.view(), &crop, cfg, &mut |s| clock.stage(s))?;
+
+    // Stage 4.
+    let (rows_px, cols_px) = (
+        tared.dim().1 * cfg.preprocess.upsample,
+        tared.dim().2 * cfg.preprocess.upsample,
+    );
+    let placement = if tracked.trajectories.is_empty() {
+        warnings.push("no trajectory was tracked: every actuator stays at rest".into());
+        None
+    } else {
+        Some(placement::place(
+            &tracked.trajectories,
+            rows_px,
+            cols_px,
+            tracked.pitch_mm(),
+            &opts.layout,
+            &cfg.placement,
+        )?)
+    };
+    clock.stage("placement");
+
+    // Stage 5.
+    let frames = tared.dim().0;
+    let signals = match &placement {
+        Some(p) => scene::actuator_signals(&tracked, p, &crop, frames),
+        None => ChannelSignals::silent(frames),
+    };
+    if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
+        warnings.push("no trajectory passes through an actuator's workspace: silent".into());
+    }
+    clock.stage("signals");
+
+    // Stage 6.
+    let conditioned = condition::condition(&signals.psi, &cfg.signal, cfg.input.frame_rate_hz)?;
+    let mut signal = conditioned.output;
+    let limits = condition::Limits::from(opts.limits);
+    let fit_scale = if opts.fit {
+        condition::fit(&mut signal, &limits)?
+    } else {
+        condition::check_limits(&signal, &limits)?;
+        1.0
+    };
+    if fit_scale < 1.0 {
+        warnings.push(format!(
+            "scaled by {fit_scale:.4} ({:.1} dB) to pass the limits",
+            20.0 * fit_scale.log10()
+        ));
+    }
+    clock.stage("condition");
+
+    finish(
+        rec,
+        opts,
+        clock,
+        warnings,
+        signal,
+        fit_scale,
+        Some(tracked),
+        placement,
+        Some(signals),
+        Some(crop),
+        false,
+    )
+}
+
+/// Stage 7 and the report.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    rec: &Recording,
+    opts: &CompileOptions,
+    mut clock: Clock,
+    warnings: Vec<String>,
+    signal: Vec<[f64; CHANNELS]>,
+    fit_scale: f64,
+    tracked: Option<TrackOutput>,
+    placement: Option<Placement>,
+    signals: Option<ChannelSignals>,
+    crop: Option<Crop>,
+    no_touch: bool,
+) -> Result<Compiled, CompileError> {
+    let name = stimulus_name(&opts.name);
+    let fields = HeaderFields {
+        name,
+        layout_id: layout_tag(&opts.layout),
+        limits: opts.limits,
+    };
+    let encoded = keyframes::encode(&signal, fields, &opts.keyframes)?;
+    clock.stage("keyframes");
+    let duration_s = (signal.len().saturating_sub(1)) as f64 / 1000.0;
+    let bytes = encoded.bytes.len();
+    let report = Report {
+        input: rec.name().to_string(),
+        name: name.to_string(),
+        transform: placement.as_ref().map(|p| {
+            let t = &p.transform;
+            [t.x_mm, t.y_mm, t.scale, t.rotation, t.split_mm]
+        }),
+        score: placement.as_ref().map_or(0.0, |p| p.score),
+        selected: placement
+            .as_ref()
+            .map_or_else(Vec::new, |p| p.selected.clone()),
+        trajectories: tracked.as_ref().map_or(0, |t| t.trajectories.len()),
+        transforms: placement.as_ref().map_or(0, |p| p.scores.len()),
+        transforms_evaluated: placement.as_ref().map_or(0, |p| p.transforms_evaluated),
+        seconds: clock.finish(),
+        bytes,
+        duration_s,
+        bytes_per_second: if duration_s > 0.0 {
+            bytes as f64 / duration_s
+        } else {
+            0.0
+        },
+        rms_error_fs: encoded.rms_error_fs,
+        max_error_fs: encoded.max_error_fs,
+        keyframe_period_ms: encoded.period_ms,
+        quant_shift: encoded.quant_shift,
+        fit_scale,
+        no_touch,
+        crop,
+        warnings,
+    };
+    Ok(Compiled {
+        stimulus: encoded.bytes,
+        report,
+        signal,
+        tracked,
+        placement,
+        signals,
+    })
+}

@@ -1,0 +1,194 @@
+//! "Model only what a scene requires": the no-touch filter, and the crop of the
+//! active scene in time and space before the heavy stages.
+//!
+//! A recording is mostly quiet: sensor noise before the hand arrives and after it
+//! leaves, and cells far from the contact. The crop keeps the frames with any reading
+//! above the touch threshold plus [`TIME_MARGIN_FRAMES`] on each side, and the cells'
+//! bounding box plus [`SPACE_MARGIN_CELLS`]. Detection, tracking and the per-actuator
+//! signals run on that window only; everything outside it is silent.
+//!
+//! The statistics are those of the whole recording: the blur runs on every frame (the
+//! cheap stage, a few ms for 705 frames) so that the mean and standard deviation, and
+//! with them every detection cost, are bit-identical to the uncropped run. What the crop
+//! drops is quiet: detections whose cost is positive, which a min-cost flow never starts
+//! or ends a trajectory on, and could use only to bridge a gap between two contacts
+//! cheaper than a new entry and exit (16); the margins are wider than such a bridge.
+//! `tests/crop.rs` shows the compiled stimulus is byte-identical with and without it.
+
+use std::ops::Range;
+
+use ndarray::{s, ArrayView3};
+use serde::Serialize;
+
+use crate::config::{Config, InputConfig, PreprocessConfig};
+use crate::detect::{detect, Detections};
+use crate::placement::Placement;
+use crate::preprocess::{preprocess, Blurred};
+use crate::signals::{self, ChannelSignals, Source};
+use crate::track::{link, TrackError, TrackOutput};
+use touch_protocol::CHANNELS;
+
+/// Quiet frames kept on each side of the active window (0.5 s at 20 Hz).
+pub const TIME_MARGIN_FRAMES: usize = 10;
+/// Quiet cells kept on each side of the active bounding box: the blur reaches
+/// 4 sigma = 12 pixels (under two cells), a link 7 pixels (one cell).
+pub const SPACE_MARGIN_CELLS: usize = 3;
+
+/// The part of a tared recording the heavy stages look at, in frames and sensor cells.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Crop {
+    /// Frames `[start, end)` after the tare and trim.
+    pub frames: Range<usize>,
+    /// Cell rows `[start, end)`.
+    pub rows: Range<usize>,
+    /// Cell columns `[start, end)`.
+    pub cols: Range<usize>,
+}
+
+impl Crop {
+    /// No crop: the whole recording of shape `(frames, rows, cols)`.
+    pub fn whole((t, r, c): (usize, usize, usize)) -> Self {
+        Crop {
+            frames: 0..t,
+            rows: 0..r,
+            cols: 0..c,
+        }
+    }
+}
+
+/// Readings above `threshold_psi` in the tared recording (the paper's touch filter).
+pub fn touch_readings(tared: ArrayView3<f64>, threshold_psi: f64) -> usize {
+    tared.iter().filter(|&&v| v > threshold_psi).count()
+}
+
+/// The active scene with its margins; the whole recording when nothing is active.
+pub fn active_crop(tared: ArrayView3<f64>, input: &InputConfig, _pre: &PreprocessConfig) -> Crop {
+    let (t, r, c) = tared.dim();
+    let thr = input.touch_threshold_psi;
+    let (mut f0, mut f1, mut r0, mut r1, mut c0, mut c1) = (t, 0, r, 0, c, 0);
+    for ((f, row, col), &v) in tared.indexed_iter() {
+        if v > thr {
+            f0 = f0.min(f);
+            f1 = f1.max(f + 1);
+            r0 = r0.min(row);
+            r1 = r1.max(row + 1);
+            c0 = c0.min(col);
+            c1 = c1.max(col + 1);
+        }
+    }
+    if f0 >= f1 {
+        return Crop::whole(tared.dim());
+    }
+    let widen = |lo: usize, hi: usize, m: usize, n: usize| lo.saturating_sub(m)..(hi + m).min(n);
+    Crop {
+        frames: widen(f0, f1, TIME_MARGIN_FRAMES, t),
+        rows: widen(r0, r1, SPACE_MARGIN_CELLS, r),
+        cols: widen(c0, c1, SPACE_MARGIN_CELLS, c),
+    }
+}
+
+/// Stages 1-3 on the crop: blur everything (for the statistics), detect and track
+/// inside the crop. Trajectories come back in whole-recording frames and pixels;
+/// `blurred.frames` holds only the crop's frames (frame `crop.frames.start` first).
+///
+/// `lap` is called after each stage with its name, for timing.
+pub fn track_cropped(
+    tared: ArrayView3<f64>,
+    crop: &Crop,
+    cfg: &Config,
+    lap: &mut dyn FnMut(&'static str),
+) -> Result<TrackOutput, TrackError> {
+    let whole = preprocess(tared, &cfg.preprocess, cfg.input.cell_mm)?;
+    let window = Blurred {
+        frames: whole
+            .frames
+            .slice(s![crop.frames.clone(), .., ..])
+            .to_owned(),
+        ..whole
+    };
+    lap("preprocess");
+    let k = cfg.preprocess.upsample;
+    let (rows, cols) = (
+        crop.rows.start * k..crop.rows.end * k,
+        crop.cols.start * k..crop.cols.end * k,
+    );
+    let found = detect(&window, &cfg.detect);
+    let detections = shift_and_clip(&found, crop.frames.start, tared.dim().0, &rows, &cols);
+    lap("detect");
+    let trajectories = link(&detections, &cfg.track)?;
+    lap("track");
+    Ok(TrackOutput {
+        blurred: window,
+        detections,
+        trajectories,
+    })
+}
+
+/// Detections of the window, moved to whole-recording frames and limited to the
+/// crop's pixels; frames outside the window are empty.
+fn shift_and_clip(
+    found: &Detections,
+    offset: usize,
+    frames: usize,
+    rows: &Range<usize>,
+    cols: &Range<usize>,
+) -> Detections {
+    let mut all = Vec::with_capacity(found.all.len());
+    let mut frame_start = vec![0; offset + 1];
+    for t in 0..found.frames() {
+        all.extend(
+            found
+                .in_frame(t)
+                .iter()
+                .filter(|d| rows.contains(&d.row) && cols.contains(&d.col))
+                .map(|d| {
+                    let mut d = *d;
+                    d.frame += offset;
+                    d
+                }),
+        );
+        frame_start.push(all.len());
+    }
+    frame_start.resize(frames + 1, all.len());
+    Detections { all, frame_start }
+}
+
+/// Stage 5 on the crop's frames, padded with silence to `frames` frames.
+pub fn actuator_signals(
+    tracked: &TrackOutput,
+    placement: &Placement,
+    crop: &Crop,
+    frames: usize,
+) -> ChannelSignals {
+    let offset = crop.frames.start;
+    let local: Vec<_> = tracked
+        .trajectories
+        .iter()
+        .map(|t| {
+            let mut t = t.clone();
+            t.frames.iter_mut().for_each(|f| *f -= offset);
+            t
+        })
+        .collect();
+    let inner = signals::actuator_signals(
+        &local,
+        &placement.selected,
+        &placement.circles,
+        tracked.blurred.frames.view(),
+        tracked.pitch_mm(),
+    );
+    let pad = |v: &Vec<f64>| {
+        let mut out = vec![0.0; frames];
+        out[offset..offset + v.len()].copy_from_slice(v);
+        out
+    };
+    let pad_source = |v: &Vec<Source>| {
+        let mut out = vec![Source::Silent; frames];
+        out[offset..offset + v.len()].copy_from_slice(v);
+        out
+    };
+    ChannelSignals {
+        psi: std::array::from_fn::<_, CHANNELS, _>(|c| pad(&inner.psi[c])),
+        source: std::array::from_fn::<_, CHANNELS, _>(|c| pad_source(&inner.source[c])),
+    }
+}

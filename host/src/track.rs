@@ -1,0 +1,159 @@
+//! Stage 3: trajectories by min-cost flow over the detections (Zhang, Li, Nevatia 2008),
+//! and [`track`], the pipeline entry for stages 0 to 3.
+//!
+//! Graph layout, matching the published code's node and edge order (it decides ties):
+//! source = node 0; detection `k` (frame-major, row-major) has an entry node `2k + 1` and
+//! an exit node `2k + 2` joined by its detection cost; sink = `2n + 1`. Per detection the
+//! edges are added as: detection edge, source -> entry (`entry_cost`), exit -> sink
+//! (`exit_cost`), then one link from each detection of the previous frame (in that
+//! frame's order) closer than the gate, cost `-ln(1 - d^2 / gate)`.
+//!
+//! Trajectories are reported in the order the published solver reports them: by the
+//! augmentation that first routed flow into the trajectory's last detection's exit edge
+//! (so the strongest trajectory usually comes first).
+
+use ndarray::Array3;
+
+use crate::config::{Config, TrackConfig};
+use crate::detect::{detect, Detections};
+use crate::flow::{min_cost_flow, FlowError, FlowGraph};
+use crate::preprocess::{preprocess, Blurred, PreprocessError};
+use crate::recording::{Recording, RecordingError};
+use crate::trajectory::Trajectory;
+
+/// Any failure of stages 0 to 3.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TrackError {
+    /// The recording is unusable (names the file).
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// The preprocessing parameters are unusable.
+    #[error("preprocess config: {0}")]
+    Preprocess(#[from] PreprocessError),
+    /// The tracking parameters produced an unsolvable graph (e.g. a NaN entry cost).
+    #[error("tracking config: {0}")]
+    Flow(#[from] FlowError),
+}
+
+/// Everything later stages need from tracking.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackOutput {
+    /// Blurred frames (f64, `[T, R k, C k]`), global mean/std and pixel pitch; the signal
+    /// stage reads actuator-circle pressures from these frames.
+    pub blurred: Blurred,
+    /// Every detection with its cost.
+    pub detections: Detections,
+    /// The trajectories, in the solver's report order (see the module docs).
+    pub trajectories: Vec<Trajectory>,
+}
+
+impl TrackOutput {
+    /// Global mean of the blurred frames (psi).
+    pub fn mean(&self) -> f64 {
+        self.blurred.mean
+    }
+
+    /// Global population standard deviation of the blurred frames (psi).
+    pub fn std(&self) -> f64 {
+        self.blurred.std
+    }
+
+    /// Pixel pitch of the blurred frames, mm.
+    pub fn pitch_mm(&self) -> f64 {
+        self.blurred.pitch_mm
+    }
+
+    /// The blurred frames `[T, R k, C k]`, psi.
+    pub fn frames(&self) -> &Array3<f64> {
+        &self.blurred.frames
+    }
+}
+
+/// Stages 0-3: tare, upsample and blur, detect, track.
+pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, TrackError> {
+    let tared = rec.tare(&cfg.input)?;
+    let blurred = preprocess(tared.view(), &cfg.preprocess, cfg.input.cell_mm)?;
+    let detections = detect(&blurred, &cfg.detect);
+    let trajectories = link(&detections, &cfg.track)?;
+    Ok(TrackOutput {
+        blurred,
+        detections,
+        trajectories,
+    })
+}
+
+/// Builds the flow graph of `detections`, solves it and extracts the trajectories.
+pub fn link(detections: &Detections, cfg: &TrackConfig) -> Result<Vec<Trajectory>, FlowError> {
+    let n = detections.all.len();
+    let (source, sink) = (0, 2 * n + 1);
+    let mut g = FlowGraph::new(2 * n + 2);
+    // Which detection an edge is the detection edge of (None for other edges).
+    let mut edge_detection = Vec::new();
+    let gate_radius = if cfg.link_gate_px2 > 0.0 {
+        cfg.link_gate_px2.sqrt()
+    } else {
+        0.0
+    };
+    for t in 0..detections.frames() {
+        let first = detections.frame_start[t];
+        let prev_first = if t > 0 {
+            detections.frame_start[t - 1]
+        } else {
+            first
+        };
+        let prev = if t > 0 {
+            detections.in_frame(t - 1)
+        } else {
+            &[]
+        };
+        for (i, d) in detections.in_frame(t).iter().enumerate() {
+            let k = first + i;
+            let (entry, exit) = (2 * k + 1, 2 * k + 2);
+            g.add_edge(entry, exit, d.cost)?;
+            edge_detection.push(Some(k));
+            g.add_edge(source, entry, cfg.entry_cost)?;
+            g.add_edge(exit, sink, cfg.exit_cost)?;
+            edge_detection.extend([None, None]);
+            // Previous detections are sorted by row: skip rows too far above to link.
+            let lo = prev.partition_point(|p| (p.row as f64) < d.row as f64 - gate_radius);
+            for (j, p) in prev.iter().enumerate().skip(lo) {
+                let dr = p.row as f64 - d.row as f64;
+                if dr > gate_radius {
+                    break;
+                }
+                let dc = p.col as f64 - d.col as f64;
+                let d2 = dr * dr + dc * dc;
+                if d2 < cfg.link_gate_px2 {
+                    let cost = -(-d2 / cfg.link_gate_px2).ln_1p();
+                    g.add_edge(2 * (prev_first + j) + 2, entry, cost)?;
+                    edge_detection.push(None);
+                }
+            }
+        }
+    }
+    let solution = min_cost_flow(&g, source, sink, cfg.max_trajectories)?;
+    let trajectories = solution
+        .paths
+        .iter()
+        .map(|path| {
+            let mut tr = Trajectory {
+                frames: Vec::new(),
+                rows: Vec::new(),
+                cols: Vec::new(),
+                costs: Vec::new(),
+                values: Vec::new(),
+            };
+            for k in path.iter().filter_map(|&e| edge_detection[e]) {
+                let d = &detections.all[k];
+                tr.frames.push(d.frame);
+                tr.rows.push(d.row);
+                tr.cols.push(d.col);
+                tr.costs.push(d.cost);
+                tr.values.push(d.value);
+            }
+            tr
+        })
+        .collect();
+    Ok(trajectories)
+}

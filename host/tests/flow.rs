@@ -1,0 +1,69 @@
+//! The successive-shortest-path solver against brute force on small random DAGs.
+
+use proptest::prelude::*;
+use touchc::flow::{min_cost_flow, FlowGraph};
+
+/// Cheapest feasible unit-capacity flow of value <= max_units, by trying every edge set.
+fn brute_force(n: usize, edges: &[(usize, usize, f64)], max_units: usize) -> f64 {
+    let mut best = 0.0f64; // the empty flow
+    for mask in 0u32..(1 << edges.len()) {
+        let mut balance = vec![0i64; n];
+        let mut cost = 0.0;
+        for (i, &(a, b, c)) in edges.iter().enumerate() {
+            if mask & (1 << i) != 0 {
+                balance[a] -= 1;
+                balance[b] += 1;
+                cost += c;
+            }
+        }
+        let inner_ok = balance[1..n - 1].iter().all(|&x| x == 0);
+        let value = -balance[0];
+        if inner_ok && value >= 0 && value as usize <= max_units && cost < best {
+            best = cost;
+        }
+    }
+    best
+}
+
+fn graph_strategy() -> impl Strategy<Value = (usize, Vec<(usize, usize, f64)>, usize)> {
+    (3usize..7).prop_flat_map(|n| {
+        let edge = (0..n - 1).prop_flat_map(move |a| {
+            // Half-integer costs make exact ties between alternatives common.
+            (Just(a), a + 1..n, (-8i32..8).prop_map(|c| c as f64 * 0.5))
+        });
+        (Just(n), prop::collection::vec(edge, 1..12), 1usize..4)
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+    #[test]
+    fn optimal_and_consistent((n, edges, max_units) in graph_strategy()) {
+        let mut g = FlowGraph::new(n);
+        for &(a, b, c) in &edges {
+            g.add_edge(a, b, c).unwrap();
+        }
+        let sol = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
+        let best = brute_force(n, &edges, max_units);
+        prop_assert!((sol.total_cost - best).abs() < 1e-9, "solver {} vs brute {}", sol.total_cost, best);
+        prop_assert!(sol.units <= max_units);
+
+        // The reported flow is feasible, costs what it says, and decomposes into paths.
+        let used_cost: f64 = edges.iter().zip(&sol.used).filter(|(_, &u)| u).map(|(e, _)| e.2).sum();
+        prop_assert!((used_cost - sol.total_cost).abs() < 1e-9);
+        prop_assert_eq!(sol.paths.len(), sol.units);
+        let mut covered = vec![false; edges.len()];
+        for path in &sol.paths {
+            prop_assert_eq!(edges[path[0]].0, 0);
+            prop_assert_eq!(edges[*path.last().unwrap()].1, n - 1);
+            for w in path.windows(2) {
+                prop_assert_eq!(edges[w[0]].1, edges[w[1]].0);
+            }
+            for &e in path {
+                prop_assert!(sol.used[e] && !covered[e]);
+                covered[e] = true;
+            }
+        }
+        prop_assert_eq!(covered, sol.used.clone());
+    }
+}
