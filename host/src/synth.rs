@@ -193,7 +193,10 @@ fn gesture(kind: Gesture, t0: f64, rng: &mut Rng) -> (Vec<Contact>, f64) {
             let x = rng.range(5.0, 9.0);
             let peak = rng.range(0.7, 1.0);
             for k in 0..4 {
-                let (fx, fy) = (x + 2.2 * k as f64 + rng.range(-0.3, 0.3), rng.range(1.6, 2.4));
+                let (fx, fy) = (
+                    x + 2.2 * k as f64 + rng.range(-0.3, 0.3),
+                    rng.range(1.6, 2.4),
+                );
                 contacts.push(Contact {
                     start: t0,
                     length: 1.8,

@@ -224,3 +224,147 @@ fn render_wav_is_the_players_output_at_the_chosen_rate() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("a.wav"));
 }
+
+/// Decodes every frame of a GIF into RGBA; returns (width, height, frames, delays).
+fn decode_gif(path: &Path) -> (u16, u16, Vec<Vec<u8>>, Vec<u16>) {
+    let mut opts = gif::DecodeOptions::new();
+    opts.set_color_output(gif::ColorOutput::RGBA);
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut decoder = opts.read_info(file).unwrap();
+    let (w, h) = (decoder.width(), decoder.height());
+    let (mut frames, mut delays) = (Vec::new(), Vec::new());
+    while let Some(frame) = decoder.read_next_frame().unwrap() {
+        assert_eq!(
+            (frame.width, frame.height, frame.left, frame.top),
+            (w, h, 0, 0)
+        );
+        frames.push(frame.buffer.to_vec());
+        delays.push(frame.delay);
+    }
+    (w, h, frames, delays)
+}
+
+#[test]
+fn preview_animates_every_frame_with_the_trajectories() {
+    use touchc::compile::{compile, CompileOptions};
+    use touchc::recording::Recording;
+    use touchc::viz::preview;
+
+    let dir = tempfile::tempdir().unwrap();
+    let rec_path = dir.path().join("stroke.npy");
+    ok(&touchc(&[
+        "synth",
+        "stroke",
+        "--seed",
+        "4",
+        "-o",
+        rec_path.to_str().unwrap(),
+    ]));
+    let gif_path = dir.path().join("stroke.gif");
+    ok(&touchc(&[
+        "preview",
+        rec_path.to_str().unwrap(),
+        "-o",
+        gif_path.to_str().unwrap(),
+    ]));
+    let (w, h, frames, delays) = decode_gif(&gif_path);
+
+    // The same compile the command runs, to know where things must be.
+    let rec = Recording::load(&rec_path).unwrap();
+    let opts = CompileOptions {
+        fit: true,
+        crop: false,
+        ..CompileOptions::default()
+    };
+    let compiled = compile(&rec, &opts).unwrap();
+    let layout = preview::layout(&compiled).unwrap();
+    let tare = opts.config.input.tare_frames;
+    assert_eq!(
+        frames.len(),
+        rec.dim().0 - 2 * tare,
+        "one GIF frame per frame"
+    );
+    assert_eq!((u32::from(w), u32::from(h)), (layout.width, layout.height));
+    assert!(delays.iter().all(|&d| d == 5), "20 Hz = 5 cs per frame");
+
+    // The first selected trajectory: its dot is drawn in the first trajectory colour at
+    // each of its frames, and the pixels there change as it moves on.
+    let placement = compiled.placement.as_ref().unwrap();
+    let traj = &compiled.tracked.as_ref().unwrap().trajectories[placement.selected[0]];
+    assert!(traj.len() > 10, "a stroke is tracked over many frames");
+    let colour = preview::TRAJECTORY_COLOURS[0];
+    let near = |frame: &[u8], (cx, cy): (i32, i32), r: i32| -> Vec<[u8; 3]> {
+        let mut px = Vec::new();
+        for y in cy - r..=cy + r {
+            for x in cx - r..=cx + r {
+                let i = 4 * (y as usize * usize::from(w) + x as usize);
+                px.push([frame[i], frame[i + 1], frame[i + 2]]);
+            }
+        }
+        px
+    };
+    let (first, last) = (0, traj.len() - 1);
+    for k in [first, traj.len() / 2, last] {
+        let at = layout.pixel_centre(traj.rows[k], traj.cols[k]);
+        let px = near(&frames[traj.frames[k]], at, 2);
+        assert!(
+            px.contains(&[colour.0, colour.1, colour.2]),
+            "no trajectory dot at {at:?} in frame {}",
+            traj.frames[k]
+        );
+    }
+    // Where the stroke starts, the picture differs between its first and last frame;
+    // before the stroke, there is no dot there.
+    let start = layout.pixel_centre(traj.rows[first], traj.cols[first]);
+    assert_ne!(
+        near(&frames[traj.frames[first]], start, 6),
+        near(&frames[traj.frames[last]], start, 6)
+    );
+    if traj.frames[first] > 0 {
+        let before = near(&frames[traj.frames[first] - 1], start, 2);
+        assert!(!before.contains(&[colour.0, colour.1, colour.2]));
+    }
+
+    // --every 3 keeps every third frame, each shown three times as long.
+    ok(&touchc(&[
+        "preview",
+        rec_path.to_str().unwrap(),
+        "-o",
+        gif_path.to_str().unwrap(),
+        "--every",
+        "3",
+    ]));
+    let (_, _, thinned, delays) = decode_gif(&gif_path);
+    assert_eq!(thinned.len(), frames.len().div_ceil(3));
+    assert_eq!(thinned[1], frames[3]);
+    assert!(delays.iter().all(|&d| d == 15));
+}
+
+#[test]
+fn preview_png_shows_one_frame_and_refuses_frames_past_the_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec_path = dir.path().join("tap.npy");
+    ok(&touchc(&["synth", "tap", "-o", rec_path.to_str().unwrap()]));
+    let png_path = dir.path().join("tap.png");
+    let args = |frame: &str| {
+        touchc(&[
+            "preview",
+            rec_path.to_str().unwrap(),
+            "-o",
+            png_path.to_str().unwrap(),
+            "--frame",
+            frame,
+        ])
+    };
+    ok(&args("30"));
+    let (w, h, rgb) = decode_png(&png_path);
+    assert!(w >= 496 && h > 200, "{w} x {h}");
+    // The heat map (its 0 psi end) and the actuator panel's box outlines are drawn.
+    let has = |c: [u8; 3]| rgb.chunks(3).any(|p| p == c);
+    assert!(has([0, 0, 4]));
+    assert!(has([120, 120, 120]));
+    let out = args("100000");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("tap.npy") && err.contains("100000"), "{err}");
+}

@@ -5,6 +5,7 @@ mod bank;
 mod compile;
 mod inspect;
 mod plot;
+mod preview;
 mod render;
 mod synth;
 mod track;
@@ -37,6 +38,9 @@ enum Command {
     Render(render::Args),
     /// Plot a stimulus's eight currents as the sleeve outputs them (SVG or PNG).
     Plot(plot::Args),
+    /// Animate a recording's blurred frames with trajectories, workspaces and actuator
+    /// intensities (GIF), or show one frame (PNG).
+    Preview(preview::Args),
     /// Pack stimuli into a bank image, one per button slot, for the sleeve's flash.
     Bank(bank::Args),
     /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
@@ -51,6 +55,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Plot(args) => plot::run(&args),
+        Command::Preview(args) => preview::run(&args),
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
     }

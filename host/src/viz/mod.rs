@@ -1,5 +1,6 @@
 //! Seeing and feeling a stimulus without the sleeve: plots of the player's output
-//! ([`plot`]) and a multichannel WAV of the drive signal ([`wav`]).
+//! ([`plot`]), a multichannel WAV of the drive signal ([`wav`]), and an animated
+//! preview of how a recording becomes actuator intensities ([`preview`]).
 //!
 //! Plots and WAVs start from what the sleeve would output, not from the compiler's
 //! floating-point signals: [`play`] runs the protocol crate's fixed-point [`Player`],
@@ -7,6 +8,7 @@
 //! be felt.
 
 pub mod plot;
+pub mod preview;
 pub mod wav;
 
 use std::sync::OnceLock;
