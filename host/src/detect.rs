@@ -52,8 +52,11 @@ impl Detections {
 /// the frame counts as 0, plateaus count), strictly above the frame minimum and above
 /// `min_value`, in row-major order.
 ///
-/// Separable: a horizontal 3-max per row, then the vertical 3-max of those, so each
-/// pixel costs four comparisons instead of eight.
+/// Two-step, for speed: a branch-free pass marks the pixels that are maxima of their row
+/// triple and above `min_value` (rare in a blurred frame), and only those are compared
+/// with the rows above and below. The frame minimum is needed only for a candidate
+/// whose in-frame neighbours all equal it (a plateau), so it is computed lazily.
+/// NaN-free input is assumed (the tare turned NaN into 0).
 pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
     let (h, w) = frame.dim();
     let buf: Vec<f64>;
@@ -64,39 +67,71 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
             &buf
         }
     };
-    let fmin = f.iter().fold(f64::INFINITY, |m, &v| m.min(v));
-    // Horizontal max over (c - 1, c, c + 1), 0 outside.
-    let mut hmax = vec![0.0f64; h * w];
-    for (src, dst) in f.chunks_exact(w).zip(hmax.chunks_exact_mut(w)) {
-        for c in 0..w {
-            let left = if c > 0 { src[c - 1] } else { 0.0 };
-            let right = if c + 1 < w { src[c + 1] } else { 0.0 };
-            dst[c] = left.max(src[c]).max(right);
-        }
-    }
-    let zeros = vec![0.0f64; w];
+    let mut fmin: Option<f64> = None;
+    let mut cand = vec![false; w];
     let mut out = Vec::new();
     for r in 0..h {
         let row = &f[r * w..(r + 1) * w];
-        let up = if r > 0 {
-            &hmax[(r - 1) * w..r * w]
+        // Row triples, 0 outside; `&` on bools keeps the loop free of branches.
+        if w == 1 {
+            cand[0] = (row[0] >= 0.0) & (row[0] > min_value);
         } else {
-            &zeros[..]
-        };
-        let mid = &hmax[r * w..(r + 1) * w];
-        let down = if r + 1 < h {
-            &hmax[(r + 1) * w..(r + 2) * w]
-        } else {
-            &zeros[..]
-        };
-        for c in 0..w {
-            let v = row[c];
-            if v > min_value && v > fmin && v >= up[c].max(mid[c]).max(down[c]) {
-                out.push((r, c, v));
+            cand[0] = (row[0] >= 0.0) & (row[0] >= row[1]) & (row[0] > min_value);
+            let last = w - 1;
+            cand[last] =
+                (row[last] >= row[last - 1]) & (row[last] >= 0.0) & (row[last] > min_value);
+            for (cd, t) in cand[1..last].iter_mut().zip(row.windows(3)) {
+                *cd = (t[1] >= t[0]) & (t[1] >= t[2]) & (t[1] > min_value);
             }
+        }
+        for c in (0..w).filter(|&c| cand[c]) {
+            let v = row[c];
+            let mut all_equal = true;
+            let mut is_max = true;
+            for rr in [r.checked_sub(1), Some(r), Some(r + 1).filter(|&x| x < h)] {
+                let Some(rr) = rr else {
+                    // A missing row is 0 outside the frame.
+                    is_max &= v >= 0.0;
+                    continue;
+                };
+                let nrow = &f[rr * w..(rr + 1) * w];
+                for &n in &nrow[c.saturating_sub(1)..(c + 2).min(w)] {
+                    is_max &= v >= n;
+                    all_equal &= n == v;
+                }
+            }
+            if !is_max {
+                continue;
+            }
+            // Some in-frame neighbour is lower, so v is above the frame minimum; only a
+            // flat neighbourhood needs the (lazily computed) minimum.
+            if all_equal {
+                let m = *fmin.get_or_insert_with(|| frame_min(f));
+                if v <= m {
+                    continue;
+                }
+            }
+            out.push((r, c, v));
         }
     }
     out
+}
+
+/// Minimum of a NaN-free slice, in eight independent lanes (vectorises; `f64::min`
+/// must special-case NaN and does not).
+fn frame_min(f: &[f64]) -> f64 {
+    let mut lanes = [f64::INFINITY; 8];
+    let mut chunks = f.chunks_exact(8);
+    for c in &mut chunks {
+        for (m, &v) in lanes.iter_mut().zip(c) {
+            *m = if v < *m { v } else { *m };
+        }
+    }
+    chunks
+        .remainder()
+        .iter()
+        .chain(&lanes)
+        .fold(f64::INFINITY, |m, &v| if v < m { v } else { m })
 }
 
 /// `ln Phi(x)`, the log of the standard normal CDF, finite for every finite `x`.

@@ -13,7 +13,9 @@
 //! - Dijkstra pops the smallest `(distance, node index)` and relaxes on strict
 //!   improvement only, scanning a node's unused out-edges in insertion order, then its
 //!   used in-edges (residual back edges) in insertion order;
-//! - reduced costs that rounding pushes below zero are clamped to zero.
+//! - reduced costs that rounding pushes below zero are clamped to zero;
+//! - each Dijkstra stops when the sink is settled (unsettled nodes' potentials grow by
+//!   the sink distance, which keeps reduced costs non-negative).
 
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
@@ -242,7 +244,8 @@ pub fn min_cost_flow(
         }
     }
     for v in 0..n {
-        if v != source && v != sink && !(pot[v] + suffix[v] < PRUNE_MARGIN) {
+        let through = pot[v] + suffix[v];
+        if v != source && v != sink && through.partial_cmp(&PRUNE_MARGIN) != Some(Ordering::Less) {
             pot[v] = f64::INFINITY;
         }
     }
@@ -299,9 +302,15 @@ pub fn min_cost_flow(
         dist[source] = 0.0;
         heap.clear();
         heap.push(Reverse((Dist(0.0), source)));
+        let mut reached_sink = f64::INFINITY;
         while let Some(Reverse((Dist(d), u))) = heap.pop() {
             if d > dist[u] {
                 continue;
+            }
+            if u == sink {
+                // The sink's path is final; nothing popped later can change it.
+                reached_sink = d;
+                break;
             }
             let mut relax = |v: usize, cost: f64, step: Step, heap: &mut BinaryHeap<_>| {
                 if !pot[v].is_finite() {
@@ -330,10 +339,12 @@ pub fn min_cost_flow(
                 }
             }
         }
-        // Nodes the search cannot reach now never become reachable again (new residual
-        // edges only join reached nodes), so an infinite potential retires them.
+        // Early exit: nodes not settled before the sink get the sink's distance, which
+        // keeps every reduced cost non-negative (for a settled u and unsettled v,
+        // dist(sink) <= dist(v) <= dist(u) + c'). Unreachable stays unreachable: pruned
+        // nodes keep their infinite potential.
         for (p, &d) in pot.iter_mut().zip(&dist) {
-            *p += d;
+            *p += d.min(reached_sink);
         }
     }
 

@@ -17,7 +17,7 @@ use crate::config::InputConfig;
 #[non_exhaustive]
 pub enum RecordingError {
     /// The file could not be read at all.
-    #[error("{name}: cannot read the file: {source}")]
+    #[error("{name}: cannot read the file")]
     Io {
         /// The file (or in-memory name) the recording came from.
         name: String,
