@@ -3,7 +3,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use touch_protocol::{bank, stimulus, Limits};
+use touch_protocol::bank;
+
+#[path = "common/stimuli.rs"]
+mod stimuli;
 
 fn touchc(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_touchc"))
@@ -23,31 +26,9 @@ fn ok(out: &Output) {
 /// A 1 s stimulus: channel `active` swells to +0.95 A, channel `silent` stays at 0 A,
 /// the others hold the -0.9 A pre-dent.
 fn stimulus_bytes(name: &str, active: usize, silent: usize) -> Vec<u8> {
-    let header = stimulus::Header {
-        channels: 8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: 40,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: 10,
-        full_scale_ma: 1000,
-        quant_shift: 5,
-        layout_id: 1,
-        limits: Limits::SLEEVE,
-        name,
-    };
-    let kf: Vec<[i16; 8]> = (0..26)
-        .map(|k| {
-            let x = k as f64 / 25.0;
-            let ramp = (x * 5.0).min(1.0).min((1.0 - x) * 5.0);
-            let q = |a: f64| (a * 32768.0).round() as i16;
-            let mut f = [q(-0.9 * ramp); 8];
-            f[active] = q(0.95 * ramp * (std::f64::consts::PI * x).sin().powi(2));
-            f[silent] = 0;
-            f
-        })
-        .collect();
-    stimulus::encode(header, &kf).unwrap()
+    let swell: stimuli::Shape = |x| 0.95 * (std::f64::consts::PI * x).sin().powi(2);
+    let keyframes = stimuli::one_second(-0.9, &[(active, swell), (silent, |_| 0.0)]);
+    stimuli::stimulus(name, &keyframes)
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
@@ -153,6 +134,15 @@ fn plot_reads_a_bank_slot_and_writes_svg() {
     let svg = std::fs::read_to_string(&svg_path).unwrap();
     assert!(svg.starts_with("<svg"));
     assert!(svg.contains("second: 1.011 s"), "title names slot 1");
+    assert!(svg.contains("peak limit \u{b1}1.00 A"));
+    for ch in 0..8 {
+        let elbow = if ch % 4 == 0 { " (elbow)" } else { "" };
+        let caption = format!("ch{ch}: row {}, column {}{elbow}\n", ch / 4, ch % 4);
+        assert!(svg.contains(&caption), "{caption}");
+    }
+    // Two limit lines and one trace per panel, in their colours.
+    assert_eq!(svg.matches("stroke=\"#D62728\"").count(), 16);
+    assert_eq!(svg.matches("stroke=\"#1F77B4\"").count(), 8);
 
     // A missing slot and an unknown extension are errors naming the file.
     let out = touchc(&["plot", file.to_str().unwrap(), "--slot", "5", "-o", "x.svg"]);
@@ -161,6 +151,19 @@ fn plot_reads_a_bank_slot_and_writes_svg() {
     let out = touchc(&["plot", file.to_str().unwrap(), "-o", "x.jpg"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("x.jpg"));
+    // Too small to lay out eight panels: refused, and nothing written.
+    let tiny = dir.path().join("tiny.png");
+    let out = touchc(&[
+        "plot",
+        file.to_str().unwrap(),
+        "-o",
+        tiny.to_str().unwrap(),
+        "--width",
+        "10",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("10 x 800 px"));
+    assert!(!tiny.exists());
 }
 
 #[test]

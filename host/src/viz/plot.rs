@@ -227,68 +227,7 @@ fn envelope(playback: &Playback, ch: usize, max_points: usize) -> Vec<(f64, f64)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::viz::play;
-    use touch_protocol::{stimulus, DeviceConfig, Limits};
-
-    /// Channel 2 swells to +0.95 A, channel 5 stays at 0 A, the others hold -0.9 A.
-    fn swell() -> Vec<u8> {
-        let header = stimulus::Header {
-            channels: 8,
-            output_rate_hz: 1000,
-            keyframe_period_ms: 40,
-            keyframe_count: 0,
-            duration_ms: 0,
-            ramp_ms: 10,
-            full_scale_ma: 1000,
-            quant_shift: 5,
-            layout_id: 1,
-            limits: Limits::SLEEVE,
-            name: "swell",
-        };
-        let kf: Vec<[i16; 8]> = (0..26)
-            .map(|k| {
-                let x = k as f64 / 25.0;
-                let ramp = (x * 5.0).min(1.0).min((1.0 - x) * 5.0);
-                let q = |a: f64| (a * 32768.0).round() as i16;
-                let mut f = [q(-0.9 * ramp); 8];
-                f[2] = q(0.95 * ramp * (std::f64::consts::PI * x).sin().powi(2));
-                f[5] = 0;
-                f
-            })
-            .collect();
-        stimulus::encode(header, &kf).unwrap()
-    }
-
-    #[test]
-    fn svg_names_every_channel_and_the_limit() {
-        let bytes = swell();
-        let s = Stimulus::decode(&bytes).unwrap();
-        let pb = play(&s, &DeviceConfig::default());
-        let svg = String::from_utf8(plot(&s, &pb, Format::Svg, Size::default()).unwrap()).unwrap();
-        assert!(svg.starts_with("<svg"), "{}", &svg[..40]);
-        for ch in 0..8 {
-            assert!(svg.contains(&format!("ch{ch}: row {}", ch / 4)), "ch{ch}");
-        }
-        assert!(svg.contains("peak limit \u{b1}1.00 A"));
-        // Two limit lines and one trace per panel.
-        assert_eq!(svg.matches("stroke=\"#D62728\"").count(), 16);
-        assert_eq!(svg.matches("stroke=\"#1F77B4\"").count(), 8);
-    }
-
-    #[test]
-    fn tiny_images_are_refused() {
-        let bytes = swell();
-        let s = Stimulus::decode(&bytes).unwrap();
-        let pb = play(&s, &DeviceConfig::default());
-        let size = Size {
-            width: 10,
-            height: 480,
-        };
-        assert!(matches!(
-            plot(&s, &pb, Format::Png, size),
-            Err(VizError::Size { width: 10, .. })
-        ));
-    }
+    use touch_protocol::DeviceConfig;
 
     #[test]
     fn envelope_keeps_extremes_of_long_signals() {
