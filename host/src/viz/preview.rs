@@ -13,14 +13,13 @@
 //!
 //! The input is a [`Compiled`] run without the crop, so the frames are the recording's
 //! frames after the tare and trim, one GIF frame each (or every `every`-th).
-//! GIF frames are palette images: a fixed 256-colour palette (the heat scale, greys and
-//! the overlay colours) with a 32 x 32 x 32 nearest-colour table keeps every frame on one
-//! global palette, deterministic and fast, where per-frame quantisation would flicker.
+//! GIF frames are palette images on one fixed global palette ([`super::palette`]).
 
 use std::borrow::Cow;
 
 use plotters::prelude::*;
 
+use super::palette::{heat, Palette};
 use super::plot::{draw_error, encode_png};
 use super::{register_font, VizError, FAMILY};
 use crate::compile::Compiled;
@@ -35,7 +34,17 @@ const TITLE_PX: u32 = 26;
 /// Gap around the heat map and the actuator panel, px.
 const PAD_PX: u32 = 8;
 /// Height of one actuator's box in the panel below the map, px.
-const BOX_PX: u32 = 40;
+const BOX_PX: u32 = 64;
+/// Width of the intensity bar in an actuator's box, px.
+const BAR_PX: i32 = 10;
+/// An actuator's signal ahead of the current frame.
+const SPARK_AHEAD: RGBColor = RGBColor(200, 200, 200);
+/// An actuator's signal up to the current frame.
+const SPARK_PAST: RGBColor = RGBColor(31, 119, 180);
+/// The current frame on the signal traces.
+const CURSOR: RGBColor = RGBColor(214, 39, 40);
+/// Outlines of the actuator boxes.
+const BOX: RGBColor = RGBColor(120, 120, 120);
 /// Room above a workspace circle for its channel label, px.
 const LABEL_PX: u32 = 16;
 /// Largest margin around the heat map, px.
@@ -62,17 +71,6 @@ const IDLE: RGBColor = RGBColor(255, 255, 255);
 
 /// The margin around the map (one of the palette's greys).
 const OFF_SENSOR: u8 = 47;
-
-/// Heat-scale anchors (an inferno-like ramp: dark = 0 psi, pale yellow = maximum).
-const HEAT: [(f64, [u8; 3]); 5] = [
-    (0.0, [0, 0, 4]),
-    (0.25, [87, 16, 110]),
-    (0.5, [188, 55, 84]),
-    (0.75, [249, 142, 9]),
-    (1.0, [252, 255, 164]),
-];
-/// Palette entries spent on the heat scale; the rest are greys and overlay colours.
-const HEAT_LEVELS: usize = 192;
 
 /// Why a preview cannot be made.
 #[derive(Debug, thiserror::Error)]
@@ -166,6 +164,8 @@ struct Scene<'a> {
     layout: FrameLayout,
     vmax: f64,
     psi_max: f64,
+    /// Each actuator's whole signal as trace points (see [`traces`]).
+    traces: [Vec<(i32, i32)>; CHANNELS],
 }
 
 impl<'a> Scene<'a> {
@@ -186,13 +186,16 @@ impl<'a> Scene<'a> {
             |it: &mut dyn Iterator<Item = f64>| it.filter(|v| v.is_finite()).fold(0.0f64, f64::max);
         let vmax = finite_max(&mut frames.iter().copied());
         let psi_max = finite_max(&mut signals.psi.iter().flatten().copied());
+        let layout = FrameLayout::new(rows, cols, tracked.pitch_mm(), circles);
+        let psi_max = if psi_max > 0.0 { psi_max } else { 1.0 };
         Ok(Scene {
             compiled,
             frames,
             pitch_mm: tracked.pitch_mm(),
-            layout: FrameLayout::new(rows, cols, tracked.pitch_mm(), circles),
+            layout,
             vmax: if vmax > 0.0 { vmax } else { 1.0 },
-            psi_max: if psi_max > 0.0 { psi_max } else { 1.0 },
+            psi_max,
+            traces: traces(&layout, &signals.psi, psi_max),
         })
     }
 
@@ -216,7 +219,21 @@ pub fn gif(compiled: &Compiled, every: usize, frame_rate_hz: f64) -> Result<Vec<
         u16::try_from(width).map_err(|_| too_big(width, height))?,
         u16::try_from(height).map_err(|_| too_big(width, height))?,
     );
-    let palette = Palette::new();
+    let palette = Palette::new(&[
+        SPARK_AHEAD,
+        SPARK_PAST,
+        CURSOR,
+        BOX,
+        OTHER,
+        ACTIVE,
+        IDLE,
+        TRAJECTORY_COLOURS[0],
+        TRAJECTORY_COLOURS[1],
+        TRAJECTORY_COLOURS[2],
+        TRAJECTORY_COLOURS[3],
+        TRAJECTORY_COLOURS[4],
+        TRAJECTORY_COLOURS[5],
+    ]);
     let every = every.max(1);
     // GIF delays are in hundredths of a second.
     let delay = (every as f64 * 100.0 / frame_rate_hz.max(1.0))
@@ -270,25 +287,6 @@ fn too_big(width: u32, height: u32) -> VizError {
         min: 1,
         max: u32::from(u16::MAX),
     }
-}
-
-/// The heat-scale colour of `x` in `[0, 1]`.
-fn heat(x: f64) -> [u8; 3] {
-    let x = if x.is_finite() {
-        x.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let i = HEAT
-        .iter()
-        .rposition(|&(at, _)| at <= x)
-        .unwrap_or(0)
-        .min(HEAT.len() - 2);
-    let ((x0, c0), (x1, c1)) = (HEAT[i], HEAT[i + 1]);
-    let f = (x - x0) / (x1 - x0);
-    std::array::from_fn(|k| {
-        (f64::from(c0[k]) + f * (f64::from(c1[k]) - f64::from(c0[k]))).round() as u8
-    })
 }
 
 fn draw_frame(scene: &Scene<'_>, t: usize, rate_hz: f64, rgb: &mut [u8]) -> Result<(), VizError> {
@@ -388,26 +386,72 @@ fn overlay<'b>(scene: &Scene<'_>, t: usize, rate_hz: f64, root: &Area<'b>) -> Dr
             }
         }
     }
-    // The actuators in the sleeve's layout, with what each renders now.
+    actuator_panel(scene, t, root)
+}
+
+/// Where actuator `ch`'s box sits: its top-left corner and width, px.
+fn actuator_box(l: &FrameLayout, ch: usize) -> (i32, i32, i32) {
     let top = (l.height - 2 * BOX_PX - PAD_PX) as i32;
     let box_w = ((l.width - 2 * PAD_PX) / 4) as i32;
+    let (row, col) = ((ch / 4) as i32, (ch % 4) as i32);
+    (
+        PAD_PX as i32 + col * box_w,
+        top + row * BOX_PX as i32,
+        box_w,
+    )
+}
+
+/// The pixel rectangle `(x0, y0, x1, y1)` of actuator `ch`'s signal trace.
+fn trace_rect(l: &FrameLayout, ch: usize) -> (i32, i32, i32, i32) {
+    let (x0, y0, w) = actuator_box(l, ch);
+    (
+        x0 + 6,
+        y0 + 20,
+        x0 + w - BAR_PX - 10,
+        y0 + BOX_PX as i32 - 8,
+    )
+}
+
+/// Each channel's whole pressure signal as trace points, one per pixel column (the
+/// column's largest value), so a frame draws a few hundred segments, not thousands.
+fn traces(
+    l: &FrameLayout,
+    psi: &[Vec<f64>; CHANNELS],
+    psi_max: f64,
+) -> [Vec<(i32, i32)>; CHANNELS] {
+    std::array::from_fn(|ch| {
+        let (x0, y0, x1, y1) = trace_rect(l, ch);
+        let mut points: Vec<(i32, i32)> = Vec::new();
+        for (t, &v) in psi[ch].iter().enumerate() {
+            let x = column(x0, x1, t, psi[ch].len());
+            let y = y1 - ((y1 - y0) as f64 * (v / psi_max).clamp(0.0, 1.0)).round() as i32;
+            match points.last_mut() {
+                Some(last) if last.0 == x => last.1 = last.1.min(y),
+                _ => points.push((x, y)),
+            }
+        }
+        points
+    })
+}
+
+/// The pixel column of frame `t` of `n` between `x0` and `x1`.
+fn column(x0: i32, x1: i32, t: usize, n: usize) -> i32 {
+    x0 + ((x1 - x0) as f64 * t as f64 / n.saturating_sub(1).max(1) as f64).round() as i32
+}
+
+/// The eight actuators in the sleeve's layout: what each renders now (value, source,
+/// a heat-coloured bar) and its whole signal with a cursor at this frame.
+fn actuator_panel<'b>(scene: &Scene<'_>, t: usize, root: &Area<'b>) -> DrawResult<'b> {
+    let l = &scene.layout;
+    let Some(signals) = scene.compiled.signals.as_ref() else {
+        return Ok(());
+    };
     for ch in 0..CHANNELS {
-        let (row, col) = ((ch / 4) as i32, (ch % 4) as i32);
-        let (x0, y0) = (PAD_PX as i32 + col * box_w, top + row * BOX_PX as i32);
-        let (psi, source) = match signals {
-            Some(s) => (s.psi[ch][t], s.source[ch][t]),
-            None => (0.0, Source::Silent),
-        };
-        let frac = (psi / scene.psi_max).clamp(0.0, 1.0);
-        let [r, g, b] = heat(frac);
-        let bar_w = ((box_w - 4) as f64 * frac).round() as i32;
-        root.draw(&Rectangle::new(
-            [(x0 + 2, y0 + 20), (x0 + 2 + bar_w, y0 + BOX_PX as i32 - 4)],
-            RGBColor(r, g, b).filled(),
-        ))?;
+        let (x0, y0, box_w) = actuator_box(l, ch);
+        let (psi, source) = (signals.psi[ch][t], signals.source[ch][t]);
         root.draw(&Rectangle::new(
             [(x0 + 2, y0 + 2), (x0 + box_w - 2, y0 + BOX_PX as i32 - 4)],
-            RGBColor(120, 120, 120).stroke_width(1),
+            BOX.stroke_width(1),
         ))?;
         let why = match source {
             Source::Silent => "",
@@ -419,105 +463,40 @@ fn overlay<'b>(scene: &Scene<'_>, t: usize, rate_hz: f64, root: &Area<'b>) -> Dr
             (x0 + 6, y0 + 4),
             (FAMILY, 12).into_font().color(&BLACK),
         ))?;
+        // The signal so far over the whole signal in grey, and a cursor at this frame.
+        let (tx0, ty0, tx1, ty1) = trace_rect(l, ch);
+        let now = column(tx0, tx1, t, scene.count());
+        let trace = &scene.traces[ch];
+        root.draw(&PathElement::new(
+            trace.clone(),
+            SPARK_AHEAD.stroke_width(1),
+        ))?;
+        let past: Vec<(i32, i32)> = trace.iter().copied().take_while(|p| p.0 <= now).collect();
+        root.draw(&PathElement::new(past, SPARK_PAST.stroke_width(1)))?;
+        root.draw(&PathElement::new(
+            vec![(now, ty0), (now, ty1)],
+            CURSOR.stroke_width(1),
+        ))?;
+        // Intensity now, as a bar rising from the bottom in the heat colour.
+        let frac = (psi / scene.psi_max).clamp(0.0, 1.0);
+        let [r, g, b] = heat(frac);
+        let bar_top = ty1 - ((ty1 - ty0) as f64 * frac).round() as i32;
+        let bar_x = x0 + box_w - BAR_PX - 6;
+        root.draw(&Rectangle::new(
+            [(bar_x, bar_top), (bar_x + BAR_PX, ty1)],
+            RGBColor(r, g, b).filled(),
+        ))?;
+        root.draw(&Rectangle::new(
+            [(bar_x, ty0), (bar_x + BAR_PX, ty1)],
+            BOX.stroke_width(1),
+        ))?;
     }
     Ok(())
-}
-
-/// The fixed GIF palette and its nearest-colour table.
-struct Palette {
-    /// 256 RGB triples, flat.
-    rgb: Vec<u8>,
-    /// Palette index per 5-bit-per-channel colour.
-    table: Vec<u8>,
-}
-
-impl Palette {
-    fn new() -> Palette {
-        let mut colours: Vec<[u8; 3]> = (0..HEAT_LEVELS)
-            .map(|i| heat(i as f64 / (HEAT_LEVELS - 1) as f64))
-            .collect();
-        colours.extend((0..=16).map(|i| [(i * 255 / 16) as u8; 3]));
-        colours.extend(
-            TRAJECTORY_COLOURS
-                .iter()
-                .chain([&OTHER, &ACTIVE, &IDLE])
-                .map(|c| [c.0, c.1, c.2]),
-        );
-        // Fill the rest with a coarse colour cube for blends (text edges on the map).
-        'cube: for r in [0u8, 128, 255] {
-            for g in [0u8, 128, 255] {
-                for b in [0u8, 128, 255] {
-                    if colours.len() == 256 {
-                        break 'cube;
-                    }
-                    colours.push([r, g, b]);
-                }
-            }
-        }
-        colours.resize(256, [0, 0, 0]);
-        let table = (0..32 * 32 * 32)
-            .map(|i| {
-                let q = |shift: u32| ((i >> shift) & 31) * 8 + 4;
-                let (r, g, b) = (q(10), q(5), q(0));
-                let dist = |c: &[u8; 3]| {
-                    let d = |a: u8, b: i32| (i32::from(a) - b).pow(2);
-                    d(c[0], r) + d(c[1], g) + d(c[2], b)
-                };
-                (0..colours.len())
-                    .min_by_key(|&k| dist(&colours[k]))
-                    .unwrap_or(0) as u8
-            })
-            .collect();
-        Palette {
-            rgb: colours.concat(),
-            table,
-        }
-    }
-
-    fn indices(&self, rgb: &[u8]) -> Vec<u8> {
-        rgb.chunks_exact(3)
-            .map(|p| {
-                let i = (usize::from(p[0] >> 3) << 10)
-                    | (usize::from(p[1] >> 3) << 5)
-                    | usize::from(p[2] >> 3);
-                self.table[i]
-            })
-            .collect()
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn heat_scale_runs_dark_to_pale_and_clamps() {
-        assert_eq!(heat(0.0), [0, 0, 4]);
-        assert_eq!(heat(1.0), [252, 255, 164]);
-        assert_eq!(heat(2.0), heat(1.0));
-        assert_eq!(heat(f64::NAN), heat(0.0));
-        let sum = |c: [u8; 3]| c.iter().map(|&v| u32::from(v)).sum::<u32>();
-        assert!((1..=20).all(|i| sum(heat(i as f64 / 20.0)) >= sum(heat((i - 1) as f64 / 20.0))));
-    }
-
-    #[test]
-    fn palette_keeps_exact_overlay_colours() {
-        let p = Palette::new();
-        assert_eq!(p.rgb.len(), 768);
-        for c in TRAJECTORY_COLOURS
-            .iter()
-            .chain([&OTHER, &ACTIVE, &IDLE, &RGBColor(0, 0, 0)])
-        {
-            let i = usize::from(p.indices(&[c.0, c.1, c.2])[0]);
-            let got = &p.rgb[3 * i..3 * i + 3];
-            let err: i32 = got
-                .iter()
-                .zip([c.0, c.1, c.2])
-                .map(|(&a, b)| (i32::from(a) - i32::from(b)).abs())
-                .sum();
-            assert!(err <= 12, "{c:?} -> {got:?}");
-        }
-    }
 
     #[test]
     fn layout_scales_the_paper_map_and_makes_room_for_circles() {
