@@ -54,13 +54,14 @@ const TARGET_WIDTH_PX: usize = 600;
 
 /// Colours of the selected trajectories, in selection order (repeating); public so
 /// tests and scripts can find them in the frames.
+/// None of them is a circle colour (cyan for an actuator that renders, white otherwise).
 pub const TRAJECTORY_COLOURS: [RGBColor; 6] = [
     RGBColor(0, 255, 0),
-    RGBColor(0, 255, 255),
     RGBColor(255, 0, 255),
-    RGBColor(255, 255, 255),
-    RGBColor(90, 160, 255),
+    RGBColor(0, 120, 255),
+    RGBColor(255, 255, 0),
     RGBColor(255, 128, 0),
+    RGBColor(160, 255, 160),
 ];
 /// Unselected trajectories.
 const OTHER: RGBColor = RGBColor(150, 150, 150);
