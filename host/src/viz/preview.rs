@@ -13,7 +13,8 @@
 //!
 //! The input is a [`Compiled`] run without the crop, so the frames are the recording's
 //! frames after the tare and trim, one GIF frame each (or every `every`-th).
-//! GIF frames are palette images on one fixed global palette ([`super::palette`]).
+//! GIF frames are palette images on one fixed 256-colour palette shared by every frame,
+//! so colours do not flicker from frame to frame.
 
 use std::borrow::Cow;
 
