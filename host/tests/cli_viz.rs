@@ -371,3 +371,25 @@ fn preview_png_shows_one_frame_and_refuses_frames_past_the_end() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("tap.npy") && err.contains("100000"), "{err}");
 }
+
+#[test]
+fn preview_of_a_recording_without_touch_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec_path = dir.path().join("still.npy");
+    let still = ndarray::Array3::<f64>::zeros((60, 8, 21));
+    std::fs::write(&rec_path, touchc::synth::to_npy(&still).unwrap()).unwrap();
+    let gif_path = dir.path().join("still.gif");
+    let out = touchc(&[
+        "preview",
+        rec_path.to_str().unwrap(),
+        "-o",
+        gif_path.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("still.npy") && err.contains("no touch"),
+        "{err}"
+    );
+    assert!(!gif_path.exists());
+}
