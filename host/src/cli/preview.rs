@@ -67,6 +67,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let name = args.recording.display();
     let recording = Recording::load(&args.recording)?;
     let compiled = compile(&recording, &opts).with_context(|| format!("{name}: cannot compile"))?;
+    for w in &compiled.report.warnings {
+        eprintln!("touchc: warning: {name}: {w}");
+    }
     let image = if gif {
         preview::gif(&compiled, args.every, rate)
     } else {
