@@ -38,3 +38,4 @@ pub mod compile;
 
 pub mod output;
 pub mod synth;
+pub mod viz;

@@ -4,6 +4,8 @@
 mod bank;
 mod compile;
 mod inspect;
+mod plot;
+mod preview;
 mod render;
 mod synth;
 mod track;
@@ -12,6 +14,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use touch_protocol::{Bank, Stimulus};
 use touchc::config::Config;
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
@@ -30,8 +33,14 @@ enum Command {
     Track(track::TrackArgs),
     /// Show a stimulus or bank file: header, duration, size, CRC status.
     Inspect(inspect::Args),
-    /// Play a stimulus through the player (the firmware's code) and write its output.
+    /// Play a stimulus through the player (the firmware's code) and write its output
+    /// as CSV or as an 8-channel WAV.
     Render(render::Args),
+    /// Plot a stimulus's eight currents as the sleeve outputs them (SVG or PNG).
+    Plot(plot::Args),
+    /// Animate a recording's blurred frames with trajectories, workspaces and actuator
+    /// intensities (GIF), or show one frame (PNG).
+    Preview(preview::Args),
     /// Pack stimuli into a bank image, one per button slot, for the sleeve's flash.
     Bank(bank::Args),
     /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
@@ -45,6 +54,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Track(args) => track::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::Plot(args) => plot::run(&args),
+        Command::Preview(args) => preview::run(&args),
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
     }
@@ -53,6 +64,22 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// Reads a whole input file, naming it in the error.
 pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
+}
+
+/// The stimulus in `bytes`: the file itself, or slot `slot` when it is a bank.
+pub(crate) fn stimulus_in<'a>(
+    bytes: &'a [u8],
+    path: &Path,
+    slot: usize,
+) -> anyhow::Result<Stimulus<'a>> {
+    let name = path.display();
+    if bytes.starts_with(&touch_protocol::bank::MAGIC) {
+        let bank = Bank::decode(bytes).with_context(|| format!("{name}: not a valid bank"))?;
+        bank.slot(slot)
+            .with_context(|| format!("{name}: slot {slot}"))
+    } else {
+        Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
+    }
 }
 
 /// Reads a TOML config, or the paper preset when no file is given.
