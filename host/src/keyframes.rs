@@ -133,13 +133,14 @@ pub fn encode(
             continue;
         }
         // Coarsest passing resolution for this period. The error grows with the shift,
-        // so bisect: `lo` is known to pass (once tried), `hi` known to fail.
+        // so bisect: `lo` passes (-1: none known yet), `hi` fails.
         let mut passing: Option<Encoded> = None;
-        let (mut lo, mut hi) = (0u8, opts.max_quant_shift.min(15) + 1);
-        let mut probe = lo;
-        loop {
+        let (mut lo, mut hi) = (-1i16, i16::from(opts.max_quant_shift.min(15)) + 1);
+        while hi - lo > 1 {
+            let probe = lo + (hi - lo) / 2;
             tried += 1;
-            let candidate = match try_encoding(signal, fields, opts, period, probe) {
+            let shift = u8::try_from(probe).unwrap_or(0);
+            let candidate = match try_encoding(signal, fields, opts, period, shift) {
                 Ok(c) => c,
                 // The finer encodings may stay within the limits: this one just fails.
                 Err(KeyframeError::LimitHit(kind)) => {
@@ -154,23 +155,14 @@ pub fn encode(
             {
                 lo = probe;
                 passing = Some(candidate);
-            } else if probe == 0 {
-                break;
             } else {
                 hi = probe;
             }
-            if hi - lo <= 1 {
-                break;
-            }
-            probe = lo + (hi - lo) / 2;
         }
-        if let Some(c) = passing {
-            if best.as_ref().is_none_or(|b| c.bytes.len() < b.bytes.len()) {
-                best = Some(c);
-            } else {
-                // Shorter periods only add keyframes once one period passes well.
-                break;
-            }
+        // The longest passing period wins: a shorter one only adds keyframes.
+        if passing.is_some() {
+            best = passing;
+            break;
         }
     }
     match best {
