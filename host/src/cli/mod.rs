@@ -4,15 +4,17 @@
 mod bank;
 mod compile;
 mod inspect;
+mod params;
 mod render;
 mod synth;
 mod track;
+mod trade;
 
 use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use touchc::config::Config;
+use touchc::config::{Config, Preset};
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
@@ -36,6 +38,9 @@ enum Command {
     Bank(bank::Args),
     /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
     Synth(synth::Args),
+    /// Compile recordings under every preset and compare time, placement, signal and
+    /// tracks with `exact`.
+    Trade(trade::Args),
 }
 
 /// Runs the chosen subcommand.
@@ -47,6 +52,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(&args),
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
+        Command::Trade(args) => trade::run(&args),
     }
 }
 
@@ -55,14 +61,9 @@ pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
 }
 
-/// Reads a TOML config, or the paper preset when no file is given.
+/// Reads a TOML config laid over the paper preset, or the paper preset when no file is
+/// given.
+#[allow(dead_code)] // Kept for subcommands without `--preset`.
 pub(crate) fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
-    match path {
-        None => Ok(Config::default()),
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("{}: cannot read config", p.display()))?;
-            toml::from_str(&text).with_context(|| format!("{}: invalid config", p.display()))
-        }
-    }
+    params::layered(Preset::Paper, path, &[])
 }
