@@ -95,8 +95,7 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
                     continue;
                 };
                 let nrow = &f[rr * w..(rr + 1) * w];
-                for cc in c.saturating_sub(1)..(c + 2).min(w) {
-                    let n = nrow[cc];
+                for &n in &nrow[c.saturating_sub(1)..(c + 2).min(w)] {
                     is_max &= v >= n;
                     all_equal &= n == v;
                 }

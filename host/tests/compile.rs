@@ -1,0 +1,267 @@
+//! The whole chain, recording to stimulus: what a user of `touchc compile` relies on.
+
+mod common;
+
+use std::process::Command;
+
+use touchc::compile::{compile, CompileOptions, Compiled};
+use touchc::layout::Layout;
+use touchc::recording::Recording;
+use touchc::synth::{self, Gesture, SynthSpec};
+
+fn synth_recording(gestures: &[Gesture], seed: u64) -> Recording {
+    let spec = SynthSpec {
+        gestures: gestures.to_vec(),
+        seed,
+        ..SynthSpec::default()
+    };
+    Recording::from_array(format!("{gestures:?}"), synth::generate(&spec).view()).unwrap()
+}
+
+fn compile_default(rec: &Recording) -> Compiled {
+    compile(rec, &CompileOptions::default()).unwrap()
+}
+
+/// Channels that press out (past 0 A: the ramps between 0 A and the -0.9 A pre-dent
+/// never do) at some point, with the time of their strongest output, in ms.
+fn pressing(c: &Compiled) -> Vec<(usize, usize)> {
+    (0..8)
+        .filter_map(|ch| {
+            let (t, max) = c
+                .signal
+                .iter()
+                .enumerate()
+                .map(|(t, f)| (t, f[ch]))
+                .max_by(|a, b| a.1.total_cmp(&b.1))?;
+            (max > 0.0).then_some((ch, t))
+        })
+        .collect()
+}
+
+#[test]
+fn a_stroke_along_the_arm_plays_one_row_in_order() {
+    for seed in [7, 8, 9] {
+        let c = compile_default(&synth_recording(&[Gesture::Stroke], seed));
+        let active = pressing(&c);
+        assert!(active.len() >= 2, "seed {seed}: {active:?}");
+        let row = active[0].0 / 4;
+        assert!(
+            active.iter().all(|(ch, _)| ch / 4 == row),
+            "seed {seed}: one row: {active:?}"
+        );
+        // The stroke runs from the elbow (column 0) towards the wrist: peaks in column order.
+        assert!(
+            active.windows(2).all(|w| w[0].1 < w[1].1),
+            "seed {seed}: in order: {active:?}"
+        );
+        assert!(c.report.rms_error_fs <= 0.005 && c.report.max_error_fs <= 0.02);
+    }
+}
+
+#[test]
+fn a_squeeze_presses_many_actuators_at_once() {
+    let c = compile_default(&synth_recording(&[Gesture::Squeeze], 3));
+    let most_at_once = c
+        .signal
+        .iter()
+        .map(|f| f.iter().filter(|&&a| a > -0.3).count())
+        .max();
+    assert!(
+        most_at_once >= Some(3),
+        "{most_at_once:?}, selected {:?}",
+        c.report.selected
+    );
+}
+
+#[test]
+fn a_touch_outside_every_workspace_is_silent() {
+    // Workspaces shrunk to points: no transform of the grid puts a trajectory inside one.
+    let text = Layout::paper()
+        .to_toml_string()
+        .unwrap()
+        .replace("radius_mm = 18.5", "radius_mm = 0.01");
+    let layout = Layout::from_toml_str(&text, "pinpoint layout").unwrap();
+    let rec = synth_recording(&[Gesture::Stroke], 7);
+    let c = compile(
+        &rec,
+        &CompileOptions {
+            layout,
+            ..CompileOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(c.report.trajectories > 0);
+    assert!(c.report.selected.is_empty(), "{:?}", c.report.selected);
+    // Rest only: ramp from 0 A to the pre-dent and back, nothing above it.
+    assert!(c
+        .signal
+        .iter()
+        .flatten()
+        .all(|&a| (-0.9 - 1e-12..=0.0).contains(&a)));
+    assert!(
+        c.report.warnings.iter().any(|w| w.contains("workspace")),
+        "{:?}",
+        c.report.warnings
+    );
+}
+
+#[test]
+fn no_touch_is_a_silent_stimulus_with_a_warning() {
+    let spec = SynthSpec {
+        gestures: vec![],
+        seed: 1,
+        ..SynthSpec::default()
+    };
+    let rec = Recording::from_array("quiet", synth::generate(&spec).view()).unwrap();
+    let c = compile_default(&rec);
+    assert!(c.report.no_touch);
+    assert!(
+        c.report.warnings[0].starts_with("no touch"),
+        "{:?}",
+        c.report.warnings
+    );
+    let s = touch_protocol::Stimulus::decode(&c.stimulus).unwrap();
+    assert!(s.keyframes().all(|k| k == [0; 8]));
+    assert!(c.report.transform.is_none());
+}
+
+#[test]
+fn cropping_does_not_change_the_result() {
+    let dir = common::reference_dir();
+    let mut recs = vec![
+        synth_recording(&[Gesture::Stroke], 7),
+        synth_recording(&[Gesture::Tap, Gesture::Pat], 11),
+        synth_recording(&[Gesture::Squeeze, Gesture::Shake], 3),
+    ];
+    for name in ["stroke_60.npy", "tap_pat_200.npy"] {
+        recs.push(Recording::load(dir.join(name)).unwrap());
+    }
+    for rec in &recs {
+        let cropped = compile(rec, &CompileOptions::default()).unwrap();
+        let whole = compile(
+            rec,
+            &CompileOptions {
+                crop: false,
+                ..CompileOptions::default()
+            },
+        )
+        .unwrap();
+        let (a, b) = (
+            cropped.tracked.as_ref().unwrap(),
+            whole.tracked.as_ref().unwrap(),
+        );
+        assert_eq!(a.trajectories, b.trajectories, "{}", rec.name());
+        assert_eq!((a.mean(), a.std()), (b.mean(), b.std()), "{}", rec.name());
+        assert_eq!(
+            cropped.report.transform,
+            whole.report.transform,
+            "{}",
+            rec.name()
+        );
+        assert_eq!(
+            cropped.report.selected,
+            whole.report.selected,
+            "{}",
+            rec.name()
+        );
+        assert_eq!(cropped.signal, whole.signal, "{}", rec.name());
+        assert_eq!(cropped.stimulus, whole.stimulus, "{}", rec.name());
+        // ...while the heavy stages saw less of the synthetic scenes (their quiet
+        // lead-in and tail are longer than the margins).
+        let crop = cropped.report.crop.as_ref().unwrap();
+        let frames = rec.tare(&Default::default()).unwrap().dim().0;
+        assert!(crop.frames.len() <= frames, "{}", rec.name());
+        if rec.name().starts_with('[') {
+            assert!(crop.frames.len() < frames, "{}: {crop:?}", rec.name());
+        }
+    }
+}
+
+#[test]
+fn the_reference_recordings_compile_to_the_reference_placement() {
+    let dir = common::reference_dir();
+    for (name, index) in [("stroke_60", 2255), ("tap_pat_200", 3073)] {
+        let reference = common::Reference::load(name);
+        let c = compile_default(&Recording::load(dir.join(format!("{name}.npy"))).unwrap());
+        assert_eq!(c.placement.as_ref().unwrap().index, index);
+        assert_eq!(c.report.transform, Some(reference.best_transform), "{name}");
+        assert_eq!(c.report.selected, reference.selected_trajectories, "{name}");
+        assert!((c.report.score / reference.best_score - 1.0).abs() < 1e-9);
+    }
+}
+
+fn touchc(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_touchc"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn cli_writes_the_stimulus_and_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let npy = dir.path().join("love.npy");
+    let rec = synth::generate(&SynthSpec {
+        seed: 4,
+        ..SynthSpec::default()
+    });
+    std::fs::write(&npy, synth::to_npy(&rec).unwrap()).unwrap();
+    let report = dir.path().join("report.json");
+    let out = touchc(&[
+        "compile",
+        npy.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("love.touch") && stderr.contains("B/s"),
+        "{stderr}"
+    );
+    let bytes = std::fs::read(dir.path().join("love.touch")).unwrap();
+    let s = touch_protocol::Stimulus::decode(&bytes).unwrap();
+    assert_eq!(s.name(), "love");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    for key in [
+        "transform",
+        "score",
+        "selected",
+        "transforms_evaluated",
+        "seconds",
+        "bytes",
+        "duration_s",
+        "rms_error_fs",
+        "max_error_fs",
+    ] {
+        assert!(!r[key].is_null(), "report lacks {key}: {r}");
+    }
+    assert_eq!(r["transform"].as_array().unwrap().len(), 5);
+    assert_eq!(r["bytes"], bytes.len());
+    assert!(r["seconds"]["total"].as_f64().unwrap() > 0.0);
+    assert!(r["seconds"]["placement"].as_f64().is_some());
+}
+
+#[test]
+fn cli_refuses_bad_input_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("broken.npy");
+    std::fs::write(&bad, b"\x93NUMPY garbage").unwrap();
+    let out = touchc(&["compile", bad.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("broken.npy"));
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "no partial output"
+    );
+
+    let missing = dir.path().join("missing.npy");
+    let out = touchc(&["compile", missing.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing.npy"));
+}
