@@ -92,7 +92,10 @@ fn coarse_to_fine_finds_the_published_winner() {
         let fast = Config::preset(Preset::Fast).placement;
         assert_eq!(
             fast.coarse_to_fine,
-            Some(CoarseToFine { stride: 2, keep: 8 })
+            Some(CoarseToFine {
+                stride: 2,
+                keep: 32
+            })
         );
         let p = place(
             &r.trajectories(),

@@ -39,7 +39,7 @@ pub struct ParamArgs {
     /// `N` for `N,N`.
     #[arg(long, value_parser = parse_grid)]
     pub grid: Option<(usize, usize)>,
-    /// Coarse-to-fine placement search `STRIDE,KEEP` (fast: 2,8), or `off`.
+    /// Coarse-to-fine placement search `STRIDE,KEEP` (fast: 2,32), or `off`.
     #[arg(long, value_parser = parse_coarse_to_fine)]
     pub coarse_to_fine: Option<Search>,
     /// Workspace centre bonus b of D = w (1 + b - b d^2 / r^2) (paper 0.04).
