@@ -11,7 +11,6 @@
 //! local maxima compare neighbouring values that often differ only in the last digits.
 
 use ndarray::{Array2, Array3, ArrayView1, ArrayView2, ArrayView3, ArrayViewMut2, Axis};
-use rayon::prelude::*;
 
 use crate::config::PreprocessConfig;
 
@@ -213,23 +212,18 @@ pub fn preprocess(
     let op = BlurOperator::new(r, c, cfg)?;
     let (h, w) = op.out_dim();
     let mut frames = Array3::<f64>::zeros((t, h, w));
-    // Per-frame statistics while the frame is still in cache, combined afterwards in
-    // frame order (Chan et al.): no extra passes over the whole movie. Frames are
-    // independent, so they are blurred in parallel with the same result on any number
-    // of threads.
-    let stats: Vec<(f64, f64)> = frames
-        .axis_iter_mut(Axis(0))
-        .into_par_iter()
-        .zip(tared.axis_iter(Axis(0)).into_par_iter())
-        .map_init(Vec::new, |scratch, (mut dst, src)| {
-            op.apply_into(src, dst.view_mut(), scratch);
-            match dst.as_slice() {
-                Some(s) => mean_std(s),
-                None => mean_std(&dst.iter().copied().collect::<Vec<_>>()),
-            }
-        })
-        .collect();
-    debug_assert_eq!(stats.len(), t);
+    let mut scratch = Vec::new();
+    // Per-frame statistics while the frame is still in cache, combined afterwards
+    // (Chan et al.): no extra passes over the whole movie. (Blurring frames in parallel
+    // was measured and does not pay: the stage is memory-bound, see `docs/trade.md`.)
+    let mut stats = Vec::with_capacity(t);
+    for (src, mut dst) in tared.axis_iter(Axis(0)).zip(frames.axis_iter_mut(Axis(0))) {
+        op.apply_into(src, dst.view_mut(), &mut scratch);
+        stats.push(match dst.as_slice() {
+            Some(s) => mean_std(s),
+            None => mean_std(&dst.iter().copied().collect::<Vec<_>>()),
+        });
+    }
     let (mean, std) = combine(&stats, h * w);
     Ok(Blurred {
         frames,
