@@ -3,6 +3,11 @@
 //! Detections are enumerated frame by frame, each frame in row-major order (numpy's
 //! `np.where` order in the published code). That order numbers the flow graph's nodes and
 //! so decides every tie downstream.
+//!
+//! One deliberate difference from the published code: it also forbids maxima at pixels
+//! with fewer than 5 in-frame neighbours (`findBadCells`, which after the blur only ever
+//! hits the four frame corners). The contract (ALGORITHM.md section 2) has no such rule,
+//! so corners may be detections here (the reference trajectories are unaffected).
 
 use ndarray::ArrayView2;
 
@@ -59,6 +64,9 @@ impl Detections {
 /// NaN-free input is assumed (the tare turned NaN into 0).
 pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
     let (h, w) = frame.dim();
+    if h == 0 || w == 0 {
+        return Vec::new();
+    }
     let buf: Vec<f64>;
     let f: &[f64] = match frame.as_slice() {
         Some(s) => s,
@@ -68,50 +76,56 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
         }
     };
     let mut fmin: Option<f64> = None;
-    let mut cand = vec![false; w];
+    let mut cand = vec![0u8; w];
     let mut out = Vec::new();
     for r in 0..h {
         let row = &f[r * w..(r + 1) * w];
         // Row triples, 0 outside; `&` on bools keeps the loop free of branches.
         if w == 1 {
-            cand[0] = (row[0] >= 0.0) & (row[0] > min_value);
+            cand[0] = ((row[0] >= 0.0) & (row[0] > min_value)) as u8;
         } else {
-            cand[0] = (row[0] >= 0.0) & (row[0] >= row[1]) & (row[0] > min_value);
+            cand[0] = ((row[0] >= 0.0) & (row[0] >= row[1]) & (row[0] > min_value)) as u8;
             let last = w - 1;
             cand[last] =
-                (row[last] >= row[last - 1]) & (row[last] >= 0.0) & (row[last] > min_value);
+                ((row[last] >= row[last - 1]) & (row[last] >= 0.0) & (row[last] > min_value)) as u8;
             for (cd, t) in cand[1..last].iter_mut().zip(row.windows(3)) {
-                *cd = (t[1] >= t[0]) & (t[1] >= t[2]) & (t[1] > min_value);
+                *cd = ((t[1] >= t[0]) & (t[1] >= t[2]) & (t[1] > min_value)) as u8;
             }
         }
-        for c in (0..w).filter(|&c| cand[c]) {
-            let v = row[c];
-            let mut all_equal = true;
-            let mut is_max = true;
-            for rr in [r.checked_sub(1), Some(r), Some(r + 1).filter(|&x| x < h)] {
-                let Some(rr) = rr else {
-                    // A missing row is 0 outside the frame.
-                    is_max &= v >= 0.0;
-                    continue;
-                };
-                let nrow = &f[rr * w..(rr + 1) * w];
-                for &n in &nrow[c.saturating_sub(1)..(c + 2).min(w)] {
-                    is_max &= v >= n;
-                    all_equal &= n == v;
-                }
-            }
-            if !is_max {
+        // Candidates are rare: skip eight flags at a time.
+        for (k, chunk) in cand.chunks(8).enumerate() {
+            if chunk.iter().fold(0u8, |a, &b| a | b) == 0 {
                 continue;
             }
-            // Some in-frame neighbour is lower, so v is above the frame minimum; only a
-            // flat neighbourhood needs the (lazily computed) minimum.
-            if all_equal {
-                let m = *fmin.get_or_insert_with(|| frame_min(f));
-                if v <= m {
+            for c in (k * 8..k * 8 + chunk.len()).filter(|&c| cand[c] != 0) {
+                let v = row[c];
+                let mut all_equal = true;
+                let mut is_max = true;
+                for rr in [r.checked_sub(1), Some(r), Some(r + 1).filter(|&x| x < h)] {
+                    let Some(rr) = rr else {
+                        // A missing row is 0 outside the frame.
+                        is_max &= v >= 0.0;
+                        continue;
+                    };
+                    let nrow = &f[rr * w..(rr + 1) * w];
+                    for &n in &nrow[c.saturating_sub(1)..(c + 2).min(w)] {
+                        is_max &= v >= n;
+                        all_equal &= n == v;
+                    }
+                }
+                if !is_max {
                     continue;
                 }
+                // Some in-frame neighbour is lower, so v is above the frame minimum;
+                // only a flat neighbourhood needs the (lazily computed) minimum.
+                if all_equal {
+                    let m = *fmin.get_or_insert_with(|| frame_min(f));
+                    if v <= m {
+                        continue;
+                    }
+                }
+                out.push((r, c, v));
             }
-            out.push((r, c, v));
         }
     }
     out
@@ -174,24 +188,39 @@ pub fn detection_cost(z: f64, cfg: &DetectConfig) -> f64 {
 /// A zero (or non-finite) standard deviation means a featureless recording: it has no
 /// detections rather than NaN costs.
 pub fn detect(blurred: &Blurred, cfg: &DetectConfig) -> Detections {
-    let t = blurred.frames.dim().0;
+    let maxima = blurred
+        .frames
+        .outer_iter()
+        .map(|f| local_maxima(f, cfg.min_value_psi))
+        .collect();
+    score(maxima, blurred.mean, blurred.std, cfg)
+}
+
+/// Scores per-frame local maxima (`maxima[t]` as returned by [`local_maxima`] for frame
+/// `t`, e.g. found during the blur) against the global mean and std; same result as
+/// [`detect`] on the same frames.
+pub fn score(
+    maxima: Vec<Vec<(usize, usize, f64)>>,
+    mean: f64,
+    std: f64,
+    cfg: &DetectConfig,
+) -> Detections {
+    let usable = std > 0.0 && std.is_finite() && mean.is_finite();
     let mut all = Vec::new();
-    let mut frame_start = Vec::with_capacity(t + 1);
+    let mut frame_start = Vec::with_capacity(maxima.len() + 1);
     frame_start.push(0);
-    let usable = blurred.std > 0.0 && blurred.std.is_finite() && blurred.mean.is_finite();
-    for (frame, f) in blurred.frames.outer_iter().enumerate() {
+    for (frame, found) in maxima.into_iter().enumerate() {
         if usable {
-            for (row, col, value) in local_maxima(f, cfg.min_value_psi) {
-                let z = (value - blurred.mean) / blurred.std;
-                let cost = detection_cost(z, cfg);
-                all.push(Detection {
+            all.extend(found.into_iter().map(|(row, col, value)| {
+                let cost = detection_cost((value - mean) / std, cfg);
+                Detection {
                     frame,
                     row,
                     col,
                     value,
                     cost,
-                });
-            }
+                }
+            }));
         }
         frame_start.push(all.len());
     }

@@ -8,7 +8,7 @@
 //! compared with the compiler's own f64 signal. The smallest file that meets the
 //! fidelity bounds wins.
 
-use touch_protocol::player::code_to_amps;
+use touch_protocol::player::{code_to_amps, LimitKind};
 use touch_protocol::{stimulus, DeviceConfig, Limits, Player, Status, Stimulus, CHANNELS};
 
 /// Bounds and fixed fields of the encoding.
@@ -59,6 +59,20 @@ pub struct Encoded {
     pub candidates_tried: usize,
 }
 
+impl Encoded {
+    /// A placeholder for a candidate that was not produced.
+    fn empty() -> Self {
+        Encoded {
+            bytes: Vec::new(),
+            period_ms: 0,
+            quant_shift: 0,
+            rms_error_fs: f64::INFINITY,
+            max_error_fs: f64::INFINITY,
+            candidates_tried: 0,
+        }
+    }
+}
+
 /// Why no encoding was produced.
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[non_exhaustive]
@@ -107,6 +121,7 @@ pub fn encode(
     let mut best: Option<Encoded> = None;
     let mut closest = (f64::INFINITY, f64::INFINITY);
     let mut tried = 0;
+    let mut limit_hit = None;
     let mut periods = opts.periods_ms.clone();
     periods.sort_unstable_by(|a, b| b.cmp(a));
     for &period in &periods {
@@ -117,19 +132,37 @@ pub fn encode(
             closest = min_pair(closest, (rms / fs_a, max / fs_a));
             continue;
         }
-        // Coarsest passing resolution for this period: the error grows with the shift,
-        // so walk from fine to coarse and keep the last that passes.
-        let mut passing = None;
-        for shift in 0..=opts.max_quant_shift.min(15) {
+        // Coarsest passing resolution for this period. The error grows with the shift,
+        // so bisect: `lo` is known to pass (once tried), `hi` known to fail.
+        let mut passing: Option<Encoded> = None;
+        let (mut lo, mut hi) = (0u8, opts.max_quant_shift.min(15) + 1);
+        let mut probe = lo;
+        loop {
             tried += 1;
-            let candidate = try_encoding(signal, fields, opts, period, shift)?;
-            let ok = candidate.rms_error_fs <= opts.max_rms_error_fs
-                && candidate.max_error_fs <= opts.max_abs_error_fs;
+            let candidate = match try_encoding(signal, fields, opts, period, probe) {
+                Ok(c) => c,
+                // The finer encodings may stay within the limits: this one just fails.
+                Err(KeyframeError::LimitHit(kind)) => {
+                    limit_hit = Some(kind);
+                    Encoded::empty()
+                }
+                Err(e) => return Err(e),
+            };
             closest = min_pair(closest, (candidate.rms_error_fs, candidate.max_error_fs));
-            if !ok {
+            if candidate.rms_error_fs <= opts.max_rms_error_fs
+                && candidate.max_error_fs <= opts.max_abs_error_fs
+            {
+                lo = probe;
+                passing = Some(candidate);
+            } else if probe == 0 {
+                break;
+            } else {
+                hi = probe;
+            }
+            if hi - lo <= 1 {
                 break;
             }
-            passing = Some(candidate);
+            probe = lo + (hi - lo) / 2;
         }
         if let Some(c) = passing {
             if best.as_ref().is_none_or(|b| c.bytes.len() < b.bytes.len()) {
@@ -145,10 +178,13 @@ pub fn encode(
             b.candidates_tried = tried;
             Ok(b)
         }
-        None => Err(KeyframeError::Unfaithful {
-            rms: closest.0,
-            max: closest.1,
-        }),
+        None => match limit_hit {
+            Some(kind) if !closest.0.is_finite() => Err(KeyframeError::LimitHit(kind)),
+            _ => Err(KeyframeError::Unfaithful {
+                rms: closest.0,
+                max: closest.1,
+            }),
+        },
     }
 }
 
@@ -210,7 +246,15 @@ fn try_encoding(
         name: fields.name,
     };
     let bytes = stimulus::encode(header, &keyframes)?;
-    let (rms, max) = playback_error(&bytes, signal, opts.full_scale_ma, fields.limits)?;
+    let stim = Stimulus::decode(&bytes)?;
+    let bounds = (opts.max_rms_error_fs, opts.max_abs_error_fs);
+    let (rms, max) = measure(
+        &stim,
+        signal,
+        opts.full_scale_ma,
+        fields.limits,
+        Some(bounds),
+    )?;
     Ok(Encoded {
         bytes,
         period_ms: period,
@@ -231,32 +275,51 @@ pub fn playback_error(
     limits: Limits,
 ) -> Result<(f64, f64), KeyframeError> {
     let stim = Stimulus::decode(bytes)?;
+    measure(&stim, signal, full_scale_ma, limits, None)
+}
+
+/// [`playback_error`] on a decoded stimulus. With `bounds = (rms, max)`, gives up as
+/// soon as the error is sure to exceed them, and reports `(INFINITY, INFINITY)`.
+fn measure(
+    stim: &Stimulus<'_>,
+    signal: &[[f64; CHANNELS]],
+    full_scale_ma: u16,
+    limits: Limits,
+    bounds: Option<(f64, f64)>,
+) -> Result<(f64, f64), KeyframeError> {
     let device = DeviceConfig {
         full_scale_ma,
         limits,
     };
     let fs_a = f64::from(full_scale_ma) / 1000.0;
-    let mut player = Player::new(&stim, &device);
+    let ticks = signal.len().max(stim.header().playback_ms() as usize + 1);
+    // The RMS bound, as a budget for the running sum of squares over all ticks.
+    let (sum2_budget, max_bound) = match bounds {
+        Some((rms, max)) => (rms * rms * (ticks * CHANNELS) as f64, max),
+        None => (f64::INFINITY, f64::INFINITY),
+    };
+    let mut player = Player::new(stim, &device);
     let (mut sum2, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
-    let mut t = 0;
     loop {
         let tick = player.tick();
         if let Status::Fault(f) = tick.status {
             return Err(KeyframeError::LimitHit(match f.kind {
-                touch_protocol::player::LimitKind::Peak => "peak",
-                touch_protocol::player::LimitKind::Slew => "slew",
-                touch_protocol::player::LimitKind::Thermal => "thermal",
+                LimitKind::Peak => "peak",
+                LimitKind::Slew => "slew",
+                LimitKind::Thermal => "thermal",
             }));
         }
-        let want = signal.get(t).copied().unwrap_or([0.0; CHANNELS]);
+        let want = signal.get(n).copied().unwrap_or([0.0; CHANNELS]);
         for (c, &code) in tick.codes.iter().enumerate() {
             let e = (code_to_amps(code, full_scale_ma) - want[c]) / fs_a;
             sum2 += e * e;
             max = max.max(e.abs());
         }
         n += 1;
-        t += 1;
-        if tick.status == Status::Finished && t >= signal.len() {
+        if sum2 > sum2_budget || max > max_bound {
+            return Ok((f64::INFINITY, f64::INFINITY));
+        }
+        if tick.status == Status::Finished && n >= signal.len() {
             break;
         }
     }

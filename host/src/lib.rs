@@ -40,3 +40,4 @@ pub mod trade;
 
 pub mod output;
 pub mod synth;
+pub mod viz;

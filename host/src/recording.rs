@@ -192,7 +192,7 @@ impl Recording {
     pub fn tare(&self, cfg: &InputConfig) -> Result<Array3<f64>, RecordingError> {
         let b = cfg.tare_frames;
         let (t, r, c) = self.dim();
-        let min = 2 * b + 1;
+        let min = b.saturating_mul(2).saturating_add(1);
         if t < min {
             return Err(RecordingError::TooShort {
                 name: self.name.clone(),

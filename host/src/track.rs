@@ -15,9 +15,9 @@
 use ndarray::Array3;
 
 use crate::config::{Config, TrackConfig};
-use crate::detect::{detect, Detections};
+use crate::detect::{local_maxima, score, Detections};
 use crate::flow::{min_cost_flow, FlowError, FlowGraph};
-use crate::preprocess::{preprocess, Blurred, PreprocessError};
+use crate::preprocess::{preprocess_with, Blurred, PreprocessError};
 use crate::recording::{Recording, RecordingError};
 use crate::trajectory::Trajectory;
 
@@ -73,8 +73,13 @@ impl TrackOutput {
 /// Stages 0-3: tare, upsample and blur, detect, track.
 pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, TrackError> {
     let tared = rec.tare(&cfg.input)?;
-    let blurred = preprocess(tared.view(), &cfg.preprocess, cfg.input.cell_mm)?;
-    let detections = detect(&blurred, &cfg.detect);
+    // Local maxima are found while each blurred frame is still in cache; scoring needs
+    // the global statistics, so it waits for the whole movie. Same as `detect::detect`.
+    let mut maxima = Vec::with_capacity(tared.dim().0);
+    let blurred = preprocess_with(tared.view(), &cfg.preprocess, cfg.input.cell_mm, |_, f| {
+        maxima.push(local_maxima(f, cfg.detect.min_value_psi))
+    })?;
+    let detections = score(maxima, blurred.mean, blurred.std, &cfg.detect);
     let trajectories = link(&detections, &cfg.track)?;
     Ok(TrackOutput {
         blurred,

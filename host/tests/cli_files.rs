@@ -3,7 +3,10 @@
 use std::path::Path;
 use std::process::Command;
 
-use touch_protocol::{stimulus, Bank, Limits};
+use touch_protocol::Bank;
+
+#[path = "common/stimuli.rs"]
+mod stimuli;
 
 fn touchc(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_touchc"))
@@ -13,40 +16,9 @@ fn touchc(args: &[&str]) -> std::process::Output {
 }
 
 fn stimulus_file(dir: &Path, name: &str) -> std::path::PathBuf {
-    let header = stimulus::Header {
-        channels: 8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: 40,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: 10,
-        full_scale_ma: 1000,
-        quant_shift: 5,
-        layout_id: 1,
-        limits: Limits::SLEEVE,
-        name,
-    };
     // A 4 Hz-ish swell on channel 2 over a -0.9 A pre-dent elsewhere, 1 s long.
-    let kf: Vec<[i16; 8]> = (0..26)
-        .map(|k| {
-            let x = k as f64 / 25.0;
-            let ramp = (x * 5.0).min(1.0).min((1.0 - x) * 5.0);
-            let rest = -0.9 * ramp;
-            let swell = rest + 1.9 * ramp * (std::f64::consts::PI * x).sin().powi(2);
-            let q = |a: f64| (a * 32768.0).round().clamp(-32768.0, 32767.0) as i16;
-            [
-                q(rest),
-                q(rest),
-                q(swell),
-                q(rest),
-                q(rest),
-                q(rest),
-                q(rest),
-                q(rest),
-            ]
-        })
-        .collect();
-    let bytes = stimulus::encode(header, &kf).unwrap();
+    let swell: stimuli::Shape = |x| -0.9 + 1.9 * (std::f64::consts::PI * x).sin().powi(2);
+    let bytes = stimuli::stimulus(name, &stimuli::one_second(-0.9, &[(2, swell)]));
     let path = dir.join(format!("{name}.touch"));
     std::fs::write(&path, bytes).unwrap();
     path

@@ -3,6 +3,7 @@
 mod common;
 
 use touchc::config::Config;
+use touchc::detect::detect;
 use touchc::recording::Recording;
 use touchc::track::track;
 
@@ -16,6 +17,11 @@ fn check(name: &str) {
     let text = std::fs::read_to_string(dir.join(format!("{name}.reference.json"))).unwrap();
     let reference: serde_json::Value = serde_json::from_str(&text).unwrap();
     let out = track(&rec, &Config::default()).unwrap();
+    // The pipeline finds maxima during the blur; the standalone stage must agree.
+    assert_eq!(
+        detect(&out.blurred, &Config::default().detect),
+        out.detections
+    );
 
     let mean = reference["whole_mean"].as_f64().unwrap();
     let std = reference["whole_std"].as_f64().unwrap();

@@ -5,6 +5,8 @@ mod bank;
 mod compile;
 mod inspect;
 mod params;
+mod plot;
+mod preview;
 mod render;
 mod synth;
 mod track;
@@ -14,6 +16,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use touch_protocol::{Bank, Stimulus};
 use touchc::config::{Config, Preset};
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
@@ -32,8 +35,14 @@ enum Command {
     Track(track::TrackArgs),
     /// Show a stimulus or bank file: header, duration, size, CRC status.
     Inspect(inspect::Args),
-    /// Play a stimulus through the player (the firmware's code) and write its output.
+    /// Play a stimulus through the player (the firmware's code) and write its output
+    /// as CSV or as an 8-channel WAV.
     Render(render::Args),
+    /// Plot a stimulus's eight currents as the sleeve outputs them (SVG or PNG).
+    Plot(plot::Args),
+    /// Animate a recording's blurred frames with trajectories, workspaces and actuator
+    /// intensities (GIF), or show one frame (PNG).
+    Preview(preview::Args),
     /// Pack stimuli into a bank image, one per button slot, for the sleeve's flash.
     Bank(bank::Args),
     /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
@@ -50,6 +59,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Track(args) => track::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::Plot(args) => plot::run(&args),
+        Command::Preview(args) => preview::run(&args),
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
         Command::Trade(args) => trade::run(&args),
@@ -61,9 +72,24 @@ pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
 }
 
+/// The stimulus in `bytes`: the file itself, or slot `slot` when it is a bank.
+pub(crate) fn stimulus_in<'a>(
+    bytes: &'a [u8],
+    path: &Path,
+    slot: usize,
+) -> anyhow::Result<Stimulus<'a>> {
+    let name = path.display();
+    if bytes.starts_with(&touch_protocol::bank::MAGIC) {
+        let bank = Bank::decode(bytes).with_context(|| format!("{name}: not a valid bank"))?;
+        bank.slot(slot)
+            .with_context(|| format!("{name}: slot {slot}"))
+    } else {
+        Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
+    }
+}
+
 /// Reads a TOML config laid over the paper preset, or the paper preset when no file is
-/// given.
-#[allow(dead_code)] // Kept for subcommands without `--preset`.
+/// given (for subcommands without `--preset`).
 pub(crate) fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
     params::layered(Preset::Paper, path, &[])
 }

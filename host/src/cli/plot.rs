@@ -1,0 +1,49 @@
+//! `touchc plot FILE -o out.svg|png`: the eight channels' currents as the sleeve
+//! outputs them, one panel per actuator in the sleeve's layout.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use touch_protocol::DeviceConfig;
+use touchc::output::write_atomic;
+use touchc::viz::play;
+use touchc::viz::plot::{self, Format, Size};
+
+/// Arguments of `touchc plot`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A `.touch` stimulus, or a `.bank` with `--slot`.
+    file: PathBuf,
+    /// The image to write; `.svg` or `.png` picks the format.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Which slot of a bank to plot.
+    #[arg(long, default_value_t = 0)]
+    slot: usize,
+    /// Image width, px.
+    #[arg(long, default_value_t = Size::default().width)]
+    width: u32,
+    /// Image height, px.
+    #[arg(long, default_value_t = Size::default().height)]
+    height: u32,
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let format = Format::from_extension(&args.output).with_context(|| {
+        format!(
+            "{}: name the output .svg or .png to choose the format",
+            args.output.display()
+        )
+    })?;
+    let bytes = super::read_input(&args.file)?;
+    let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    let playback = play(&stimulus, &DeviceConfig::default());
+    let size = Size {
+        width: args.width,
+        height: args.height,
+    };
+    let image = plot::plot(&stimulus, &playback, format, size)
+        .with_context(|| format!("{}: cannot plot", args.file.display()))?;
+    write_atomic(&args.output, &image)?;
+    Ok(())
+}

@@ -1,0 +1,81 @@
+//! `touchc preview REC.npy -o out.gif|png`: the recording as the compiler sees it,
+//! frame by frame: blurred pressure, trajectories, workspaces, actuator intensities.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use touchc::compile::{compile, CompileOptions};
+use touchc::layout::Layout;
+use touchc::output::write_atomic;
+use touchc::recording::Recording;
+use touchc::viz::preview;
+
+/// Arguments of `touchc preview`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Recording, `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell).
+    recording: PathBuf,
+    /// `.gif` writes the animation; `.png` writes one frame (`--frame`).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Animate every N-th frame only (smaller files for long recordings).
+    #[arg(long, default_value_t = 1)]
+    every: usize,
+    /// The frame a `.png` shows (after the tare and trim).
+    #[arg(long, default_value_t = 0)]
+    frame: usize,
+    /// TOML file overriding the paper's algorithm parameters.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Actuator layout TOML (default: the paper's 2 x 4 sleeve).
+    #[arg(long)]
+    layout: Option<PathBuf>,
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let ext = args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let gif = match ext.as_deref() {
+        Some("gif") => true,
+        Some("png") => false,
+        _ => bail!(
+            "{}: name the output .gif (animation) or .png (one frame)",
+            args.output.display()
+        ),
+    };
+    if args.every == 0 {
+        bail!("--every must be at least 1");
+    }
+    let config = super::load_config(args.config.as_deref())?;
+    let layout = match &args.layout {
+        Some(path) => Layout::load(path)?,
+        None => Layout::paper(),
+    };
+    let rate = config.input.frame_rate_hz;
+    // Whole frames (no crop) so every frame has its blurred map; scaled to the limits
+    // rather than refused, since a preview shows the scene, not the stimulus.
+    let opts = CompileOptions {
+        config,
+        layout,
+        fit: true,
+        crop: false,
+        ..CompileOptions::default()
+    };
+    let name = args.recording.display();
+    let recording = Recording::load(&args.recording)?;
+    let compiled = compile(&recording, &opts).with_context(|| format!("{name}: cannot compile"))?;
+    for w in &compiled.report.warnings {
+        eprintln!("touchc: warning: {name}: {w}");
+    }
+    let image = if gif {
+        preview::gif(&compiled, args.every, rate)
+    } else {
+        preview::png_frame(&compiled, args.frame, rate)
+    }
+    .with_context(|| format!("{name}: cannot preview"))?;
+    write_atomic(&args.output, &image)?;
+    Ok(())
+}
