@@ -186,6 +186,82 @@ pub fn track_agreement(a: Option<&TrackOutput>, b: Option<&TrackOutput>) -> f64 
     matched as f64 / na.max(nb) as f64
 }
 
+/// An SVG of time against error: total compile time (log scale) against the signal's
+/// RMS difference to `exact`, one colour per preset, one point per recording and preset.
+pub fn plot_svg(rows: &[TradeRow]) -> Result<String, crate::viz::VizError> {
+    use crate::viz::{register_font, VizError, FAMILY};
+    use plotters::prelude::*;
+
+    register_font()?;
+    let draw = |e: &dyn std::fmt::Display| VizError::Draw(e.to_string());
+    let ms = |r: &TradeRow| 1e3 * r.seconds.get("total").copied().unwrap_or(0.0);
+    let (lo, hi) = rows
+        .iter()
+        .map(ms)
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    let (lo, hi) = if lo < hi {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        (0.1, 1000.0)
+    };
+    let top = rows
+        .iter()
+        .map(|r| r.rms_vs_exact_pct)
+        .filter(|v| v.is_finite())
+        .fold(1.0f64, f64::max)
+        * 1.1;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (800, 520)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| draw(&e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "touchc trade: compile time against signal difference to exact",
+                (FAMILY, 18),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(56)
+            .build_cartesian_2d((lo..hi).log_scale(), 0.0..top)
+            .map_err(|e| draw(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("total compile time, ms (log)")
+            .y_desc("RMS difference to exact, % of full scale")
+            .label_style((FAMILY, 12))
+            .draw()
+            .map_err(|e| draw(&e))?;
+        let colours = [
+            RGBColor(31, 119, 180),
+            RGBColor(44, 160, 44),
+            RGBColor(214, 39, 40),
+        ];
+        for (preset, colour) in Preset::ALL.iter().zip(colours) {
+            let points: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| r.preset == *preset)
+                .map(|r| (ms(r), r.rms_vs_exact_pct))
+                .filter(|(x, y)| x.is_finite() && *x > 0.0 && y.is_finite())
+                .collect();
+            chart
+                .draw_series(points.iter().map(|&p| Circle::new(p, 5, colour.filled())))
+                .map_err(|e| draw(&e))?
+                .label(preset.name())
+                .legend(move |(x, y)| Circle::new((x + 8, y), 5, colour.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font((FAMILY, 13))
+            .draw()
+            .map_err(|e| draw(&e))?;
+        root.present().map_err(|e| draw(&e))?;
+    }
+    Ok(svg)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -131,6 +131,7 @@ fn trade_prints_every_preset_against_exact() {
     let dir = tempfile::tempdir().unwrap();
     let rec = synth(dir.path(), "tap", "tap");
     let csv = dir.path().join("t.csv");
+    let svg = dir.path().join("t.svg");
     let out = touchc(&[
         "trade",
         s(&rec),
@@ -140,6 +141,8 @@ fn trade_prints_every_preset_against_exact() {
         "1",
         "--csv",
         s(&csv),
+        "--svg",
+        s(&svg),
     ]);
     assert!(
         out.status.success(),
@@ -154,4 +157,6 @@ fn trade_prints_every_preset_against_exact() {
     // Exact against itself: no gap, no difference, full agreement.
     assert_eq!(&exact[12..16], &["0.000", "0.000", "0.000", "100.0"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("fast"));
+    let svg = std::fs::read_to_string(&svg).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("exact"));
 }

@@ -1,4 +1,4 @@
-//! `touchc trade REC.npy... [--csv FILE]`: every preset on every recording, compared
+//! `touchc trade REC.npy... [--csv FILE] [--svg FILE]`: every preset on every recording, compared
 //! with `exact` (see [`touchc::trade`]).
 
 use std::fmt::Write as _;
@@ -8,7 +8,7 @@ use anyhow::Context;
 use touchc::compile::CompileOptions;
 use touchc::output::write_atomic;
 use touchc::recording::Recording;
-use touchc::trade::{trade, TradeRow};
+use touchc::trade::{plot_svg, trade, TradeRow};
 
 /// Arguments of `touchc trade`.
 #[derive(Debug, clap::Args)]
@@ -25,6 +25,9 @@ pub struct Args {
     /// Also write the table as CSV.
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Also draw time against error as SVG.
+    #[arg(long)]
+    svg: Option<PathBuf>,
     /// Print the table as Markdown (for `docs/trade.md`).
     #[arg(long)]
     markdown: bool,
@@ -69,6 +72,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     print!("{table}");
     if let Some(path) = &args.csv {
         write_atomic(path, csv(&rows).as_bytes())?;
+    }
+    if let Some(path) = &args.svg {
+        let svg = plot_svg(&rows).with_context(|| format!("{}: cannot draw", path.display()))?;
+        write_atomic(path, svg.as_bytes())?;
     }
     anyhow::ensure!(failed == 0, "{failed} recordings failed to compile");
     Ok(())
