@@ -7,11 +7,11 @@
 //!    the coil renders pressure by pressing out from its rest, and "less than no touch"
 //!    has no rendering; it would also make the filter ring above silence.
 //! 2. **Spike removal** ([`remove_spikes`]), jointly over all channels.
-//! 3. **Silence padding.** `pad` frames of silence (0 psi) go before and after the
-//!    recording, `pad` being how long the low-pass takes to settle (its impulse response
-//!    falls below 1e-6 of its peak). The filter then rings out inside the recording's
-//!    own timeline instead of being cut off, and the zero-phase pass has room before the
-//!    first touch. Zero padding (not scipy's odd extension) is the truth here: before and
+//! 3. **Silence padding.** Frames of silence (0 psi) go after the recording, as many
+//!    as the low-pass takes to settle (its impulse response falls below 1e-6 of its
+//!    peak), so the filter rings out inside the stimulus instead of being cut off; as
+//!    many go before it for the zero-phase pass, and one for the causal filter (from
+//!    zero state, more silence in front would only come out as more silence). Zero padding (not scipy's odd extension) is the truth here: before and
 //!    after the recording nothing touches the arm.
 //! 4. **Low-pass** ([`design_lowpass`], [`lowpass`]): 5th-order 4 Hz Butterworth at the
 //!    frame rate, as second-order sections, causal from zero state (the paper) or
@@ -123,11 +123,14 @@ pub enum ConditionError {
 pub struct Conditioned {
     /// Rate of `frames_a`, Hz (the recording's frame rate).
     pub frame_rate_hz: f64,
-    /// Silent frames added before and after the recording for the filter to settle;
-    /// `frames_a[pad + t]` is recording frame `t`.
+    /// Silent frames added before the recording: room for the backward pass of the
+    /// zero-phase filter, one frame for the causal one; `frames_a[pad + t]` is
+    /// recording frame `t`.
     pub pad_frames: usize,
+    /// Silent frames added after the recording for the filter to ring out.
+    pub tail_frames: usize,
     /// Currents at the frame rate, amperes, after normalisation, before the ramps:
-    /// `pad_frames + T + pad_frames` entries.
+    /// `pad_frames + T + tail_frames` entries.
     pub frames_a: Vec<[f64; CHANNELS]>,
     /// Filtered pressure that maps to `peak_a`, psi (0 for a scene without pressure).
     pub full_scale_psi: f64,
@@ -414,12 +417,15 @@ pub fn condition(
     let input_max = work.iter().flatten().fold(0.0_f64, |m, &v| m.max(v));
     let unit = if input_max > 0.0 { input_max } else { 1.0 };
 
-    // 3-4. Pad with silence, filter.
-    let pad = settle_frames(&sos);
+    // 3-4. Pad with silence, filter. The causal filter starts from zero state, so
+    // silence before the recording would come out as exact silence: one frame of it
+    // is enough, and the stimulus does not make the wearer wait for nothing.
+    let tail = settle_frames(&sos);
+    let pad = if cfg.zero_phase { tail } else { 1 };
     let filtered: Vec<Vec<f64>> = work
         .iter()
         .map(|x| {
-            let mut padded = vec![0.0; pad + frames + pad];
+            let mut padded = vec![0.0; pad + frames + tail];
             for (p, &v) in padded[pad..pad + frames].iter_mut().zip(x) {
                 *p = v / unit;
             }
@@ -429,7 +435,7 @@ pub fn condition(
 
     // 5. Joint normalisation.
     let top = filtered.iter().flatten().fold(0.0_f64, |m, &v| m.max(v));
-    let len = pad + frames + pad;
+    let len = pad + frames + tail;
     let frames_a: Vec<[f64; CHANNELS]> = (0..len)
         .map(|t| {
             std::array::from_fn(|ch| {
@@ -471,6 +477,7 @@ pub fn condition(
     Ok(Conditioned {
         frame_rate_hz,
         pad_frames: pad,
+        tail_frames: tail,
         frames_a,
         full_scale_psi: top * unit,
         ramp_samples: ramp,

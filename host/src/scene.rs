@@ -17,13 +17,13 @@
 
 use std::ops::Range;
 
-use ndarray::{s, ArrayView3};
+use ndarray::{ArrayView3, Axis, Slice};
 use serde::Serialize;
 
 use crate::config::{Config, InputConfig, PreprocessConfig};
 use crate::detect::{detect, Detections};
 use crate::placement::Placement;
-use crate::preprocess::{preprocess, Blurred};
+use crate::preprocess::preprocess;
 use crate::signals::{self, ChannelSignals, Source};
 use crate::track::{link, TrackError, TrackOutput};
 use touch_protocol::CHANNELS;
@@ -98,14 +98,11 @@ pub fn track_cropped(
     cfg: &Config,
     lap: &mut dyn FnMut(&'static str),
 ) -> Result<TrackOutput, TrackError> {
-    let whole = preprocess(tared, &cfg.preprocess, cfg.input.cell_mm)?;
-    let window = Blurred {
-        frames: whole
-            .frames
-            .slice(s![crop.frames.clone(), .., ..])
-            .to_owned(),
-        ..whole
-    };
+    let mut window = preprocess(tared, &cfg.preprocess, cfg.input.cell_mm)?;
+    // Narrow the view to the window without copying the movie.
+    window
+        .frames
+        .slice_axis_inplace(Axis(0), Slice::from(crop.frames.clone()));
     lap("preprocess");
     let k = cfg.preprocess.upsample;
     let (rows, cols) = (

@@ -6,17 +6,24 @@
 //! player streams it with a single cursor):
 //!
 //! ```text
-//! mask: u8                       bit c set = channel c left its linear prediction
+//! mask: u8 != 0                  bit c set = channel c left its linear prediction
 //! residual: postcard i32 (zigzag varint), once per set bit, channel order
+//! ```
+//!
+//! or, for a run of keyframes in which every channel follows its prediction,
+//!
+//! ```text
+//! 0x00, run: postcard u32 (varint) number of keyframes in the run (>= 1)
 //! ```
 //!
 //! Each channel's stored value `s[k]` is predicted by extending the line through
 //! the two before it, `2 s[k-1] - s[k-2]` (both 0 before the first keyframe), and
 //! the record holds only the residual. A band-limited signal bends slowly, so the
 //! residuals are small (one varint byte) where plain deltas would need two, and a
-//! channel that holds still or ramps costs nothing but its mask bit. The current a
-//! stored value stands for is `(s << quant_shift) / 32768 * full_scale_ma` mA (Q15
-//! of the full scale). A set bit with a zero residual is refused, so every signal
+//! stretch where every channel holds still or ramps costs two bytes however long.
+//! The current a stored value stands for is `(s << quant_shift) / 32768 *
+//! full_scale_ma` mA (Q15 of the full scale). A set bit with a zero residual, or two
+//! runs in a row, is refused, so every signal
 //! has exactly one encoding. `SPEC.md` describes every byte.
 
 use serde::{Deserialize, Serialize};
@@ -187,6 +194,8 @@ impl<'a> Stimulus<'a> {
             rest: self.body,
             stored: [0; CHANNELS],
             before: [0; CHANNELS],
+            idle_left: 0,
+            after_run: false,
             shift: self.header.quant_shift,
             remaining: self.header.keyframe_count,
         }
@@ -201,6 +210,10 @@ pub struct Keyframes<'a> {
     stored: [i32; CHANNELS],
     /// Stored values of the keyframe before it, `s[k-2]`.
     before: [i32; CHANNELS],
+    /// Keyframes left in the current idle run.
+    idle_left: u32,
+    /// The last record read was an idle run (two in a row are not canonical).
+    after_run: bool,
     shift: u8,
     remaining: u32,
 }
@@ -210,8 +223,28 @@ impl Keyframes<'_> {
     ///
     /// On a [`Stimulus`] this cannot fail: decoding validated every keyframe.
     pub fn try_next(&mut self) -> Result<[i16; CHANNELS], Error> {
-        let (&mask, rest) = self.rest.split_first().ok_or(Error::BadKeyframes)?;
-        self.rest = rest;
+        let mask = if self.idle_left > 0 {
+            self.idle_left -= 1;
+            0
+        } else {
+            let (&mask, rest) = self.rest.split_first().ok_or(Error::BadKeyframes)?;
+            self.rest = rest;
+            if mask == 0 {
+                // A run of keyframes that all follow their prediction.
+                if self.after_run {
+                    return Err(Error::KeyframeOutOfRange);
+                }
+                let (run, rest) =
+                    postcard::take_from_bytes::<u32>(self.rest).map_err(|_| Error::BadKeyframes)?;
+                self.rest = rest;
+                if run == 0 || run > self.remaining {
+                    return Err(Error::BadKeyframes);
+                }
+                self.idle_left = run - 1;
+            }
+            self.after_run = mask == 0;
+            mask
+        };
         let lo = i32::from(i16::MIN) >> self.shift;
         let hi = i32::from(i16::MAX) >> self.shift;
         for c in 0..CHANNELS {
@@ -274,6 +307,19 @@ pub fn quantise(q15: i16, shift: u8) -> i32 {
     ((i32::from(q15) + half) >> shift).clamp(lo, hi)
 }
 
+/// Appends a pending idle run (mask 0 and its length) and resets it.
+#[cfg(any(test, feature = "std"))]
+fn push_run(payload: &mut Vec<u8>, run: &mut u32) -> Result<(), Error> {
+    if *run > 0 {
+        let mut buf = [0u8; 5];
+        payload.push(0);
+        let used = postcard::to_slice(run, &mut buf).map_err(|_| Error::TooLarge)?;
+        payload.extend_from_slice(used);
+        *run = 0;
+    }
+    Ok(())
+}
+
 /// Encodes a stimulus. `keyframes` are Q15 values of `header.full_scale_ma`; they are
 /// quantised to `header.quant_shift`, and `header.keyframe_count` and
 /// `header.duration_ms` are set from them.
@@ -286,7 +332,7 @@ pub fn quantise(q15: i16, shift: u8) -> i32 {
 ///     limits: Limits::SLEEVE, name: "tap",
 /// };
 /// let bytes = stimulus::encode(header, &[[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]])?;
-/// assert_eq!(bytes.len(), 43); // 10 prefix + 24 header + 5 keyframes + 4 CRC
+/// assert_eq!(bytes.len(), 44); // 10 prefix + 24 header + 6 keyframes + 4 CRC
 /// let decoded = stimulus::Stimulus::decode(&bytes)?;
 /// assert_eq!(decoded.duration_ms(), 50);
 /// assert_eq!(decoded.keyframes().last(), Some([1600, 0, 0, 0, 0, 0, 0, -160]));
@@ -306,9 +352,11 @@ pub fn encode(mut header: Header<'_>, keyframes: &[[i16; CHANNELS]]) -> Result<V
     let mut last = [0i32; CHANNELS];
     let mut before = [0i32; CHANNELS];
     let mut buf = [0u8; 5];
+    let mut record = Vec::with_capacity(1 + 5 * CHANNELS);
+    let mut run = 0u32;
     for frame in keyframes {
-        let mask_at = payload.len();
-        payload.push(0);
+        record.clear();
+        record.push(0);
         let mut mask = 0u8;
         for (c, &q15) in frame.iter().enumerate() {
             let stored = quantise(q15, header.quant_shift);
@@ -316,12 +364,19 @@ pub fn encode(mut header: Header<'_>, keyframes: &[[i16; CHANNELS]]) -> Result<V
             if residual != 0 {
                 mask |= 1 << c;
                 let used = postcard::to_slice(&residual, &mut buf).map_err(|_| Error::TooLarge)?;
-                payload.extend_from_slice(used);
+                record.extend_from_slice(used);
             }
             before[c] = last[c];
             last[c] = stored;
         }
-        payload[mask_at] = mask;
+        if mask == 0 {
+            run += 1;
+            continue;
+        }
+        push_run(&mut payload, &mut run)?;
+        record[0] = mask;
+        payload.extend_from_slice(&record);
     }
+    push_run(&mut payload, &mut run)?;
     container::seal(MAGIC, VERSION, &payload)
 }

@@ -31,7 +31,7 @@ fn stimulus_bytes_are_pinned() {
     let expected: Vec<u8> = [
         &b"TCHS"[..],                 // magic
         &[0x01, 0x00],                // version 1, u16 LE
-        &[44, 0, 0, 0],               // total length, u32 LE
+        &[46, 0, 0, 0],               // total length, u32 LE
         // postcard header
         &[0x08],                      // channels = 8
         &[0xE8, 0x07],                // output_rate_hz = 1000 (varint)
@@ -45,16 +45,16 @@ fn stimulus_bytes_are_pinned() {
         &[0xE8, 0x07, 50, 0xD8, 0x04, 0x80, 0x87, 0xA7, 0x0E], // limits 1000, 50, 600, 30e6
         &[3, b't', b'a', b'p'],       // name
         // keyframes
-        &[0x00],                      // keyframe 0: nothing changed from zero
+        &[0x00, 0x01],                // keyframe 0: a run of 1 following its prediction (0)
         &[0x81, 0xC8, 0x01, 0x13],    // keyframe 1: ch0 residual 100 (zigzag 200), ch7 -10 (zigzag 19)
-        &[0x00],                      // keyframe 2: both continue their line: no residual
+        &[0x00, 0x01],                // keyframe 2: both continue their line, a run of 1
     ]
     .concat();
     assert_eq!(&bytes[..bytes.len() - 4], &expected[..]);
     let crc = touch_protocol::container::crc32(&expected);
     assert_eq!(&bytes[bytes.len() - 4..], &crc.to_le_bytes());
     assert_eq!(
-        crc, 0xFB95_B465,
+        crc, 0xB3FC_2721,
         "CRC of the pinned bytes (Python zlib.crc32 agrees)"
     );
     let s = Stimulus::decode(&bytes).unwrap();
@@ -65,20 +65,20 @@ fn stimulus_bytes_are_pinned() {
 #[test]
 fn bank_bytes_are_pinned() {
     let one = stimulus::encode(header("a"), &[[0; 8]]).unwrap();
-    assert_eq!(one.len(), 10 + 22 + 1 + 4);
+    assert_eq!(one.len(), 10 + 22 + 2 + 4);
     let image = bank::encode(&[&one]).unwrap();
     #[rustfmt::skip]
     let prefix: Vec<u8> = [
         &b"TCHB"[..],                 // magic
         &[0x01, 0x00],                // version 1
-        &[61, 0, 0, 0],               // total length = 10 + 2 + 8 + 37 + 4
+        &[62, 0, 0, 0],               // total length = 10 + 2 + 8 + 38 + 4
         &[1, 0],                      // one slot
-        &[20, 0, 0, 0, 37, 0, 0, 0],  // slot 0 at offset 20, 37 bytes
+        &[20, 0, 0, 0, 38, 0, 0, 0],  // slot 0 at offset 20, 38 bytes
     ]
     .concat();
-    assert_eq!(image.len(), 61);
+    assert_eq!(image.len(), 62);
     assert_eq!(&image[..20], &prefix[..20]);
-    assert_eq!(&image[20..57], &one[..]);
+    assert_eq!(&image[20..58], &one[..]);
     let b = Bank::decode(&image).unwrap();
     assert_eq!(b.len(), 1);
     assert_eq!(b.slot(0).unwrap().name(), "a");

@@ -207,3 +207,49 @@ fn limit_hits_fault_and_ramp_to_zero() {
     assert!((1330..1340).contains(&at), "thermal trip at {at} ms");
     assert_eq!(p.fault().map(|f| f.kind), Some(LimitKind::Thermal));
 }
+
+proptest! {
+    /// Signals that mostly hold still or ramp: long idle runs, round-tripped exactly,
+    /// and each run costs two bytes however long it is.
+    #[test]
+    fn sparse_changes_round_trip(changes in prop::collection::vec((0usize..400, 0usize..8, any::<i16>()), 0..6)) {
+        let mut kf = vec![[0i16; CHANNELS]; 400];
+        for &(at, ch, v) in &changes {
+            for frame in kf.iter_mut().skip(at) {
+                frame[ch] = v;
+            }
+        }
+        let bytes = stimulus::encode(header(20, 10, 0, Limits::SLEEVE), &kf).unwrap();
+        let s = Stimulus::decode(&bytes).unwrap();
+        prop_assert_eq!(s.keyframes().collect::<Vec<_>>(), kf);
+        // Each change costs at most two records (the step and the stop of its line).
+        prop_assert!(bytes.len() <= 10 + 30 + 4 + 2 + changes.len() * 2 * (1 + 3 + 2 + 3) + 3);
+    }
+}
+
+#[test]
+fn idle_runs_must_be_canonical() {
+    let kf = vec![[0i16; CHANNELS]; 5];
+    let bytes = stimulus::encode(header(20, 10, 0, Limits::SLEEVE), &kf).unwrap();
+    let n = bytes.len();
+    // The body is one run of 5: `00 05`.
+    assert_eq!(&bytes[n - 6..n - 4], &[0x00, 0x05]);
+    let reseal = |body: &[u8]| {
+        let mut b = bytes[..n - 6].to_vec();
+        b.extend_from_slice(body);
+        let len = (b.len() + 4) as u32;
+        b[6..10].copy_from_slice(&len.to_le_bytes());
+        let crc = touch_protocol::container::crc32(&b);
+        b.extend_from_slice(&crc.to_le_bytes());
+        b
+    };
+    assert!(Stimulus::decode(&reseal(&[0x00, 0x05])).is_ok());
+    // Two runs in a row: a second encoding of the same signal, refused.
+    assert_eq!(
+        Stimulus::decode(&reseal(&[0x00, 0x02, 0x00, 0x03])).unwrap_err(),
+        touch_protocol::Error::KeyframeOutOfRange
+    );
+    // A run longer than the keyframes left, or empty.
+    assert!(Stimulus::decode(&reseal(&[0x00, 0x06])).is_err());
+    assert!(Stimulus::decode(&reseal(&[0x00, 0x00, 0x00, 0x05])).is_err());
+}

@@ -341,7 +341,7 @@ fn all_silent_is_exactly_the_pre_dent_between_ramps() {
     // An empty recording is the same silent stimulus, not an error.
     let c = condition(&silent(0), &cfg(), 20.0).unwrap();
     assert_ramped(&c);
-    assert_eq!(c.frames_a.len(), 2 * c.pad_frames);
+    assert_eq!(c.frames_a.len(), c.pad_frames + c.tail_frames);
 }
 
 /// A constant press on one channel: the causal filter overshoots at the onset, so the
