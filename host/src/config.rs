@@ -53,7 +53,7 @@ pub enum Preset {
     /// along y and the split (77 x 39: 60,060 transforms, every published grid point
     /// included, so its score is never worse than `paper`'s). f64 throughout.
     ///
-    /// Gives up: time in the placement stage (about 10 times the paper's) and the
+    /// Gives up: time in the placement stage (about 12 times the paper's) and the
     /// published results: the chosen transform, and so which actuator renders which
     /// contact, can differ from the paper's. It has converged: a grid 34 times larger
     /// (305 x 115) improves the score of a 698-frame combination by 0.3 % more.
