@@ -2,7 +2,8 @@
 //!
 //! [`Config::default`] is the `paper` preset: the values of the paper and of the
 //! authors' published code (see `shared/design/ALGORITHM.md`). Stages read their own
-//! section and never hard-code a parameter.
+//! section and never hard-code a parameter. [`Config::preset`] gives the other points of
+//! the speed/accuracy trade ([`Preset`]); `touchc trade` measures them.
 
 use serde::{Deserialize, Serialize};
 
@@ -22,6 +23,103 @@ pub struct Config {
     pub placement: PlacementConfig,
     /// Stages 5 and 6: per-actuator signals and conditioning.
     pub signal: SignalConfig,
+}
+
+/// A named point of the speed/accuracy trade (`touchc compile --preset`).
+///
+/// `touchc trade` measures each one against `exact` (see `docs/trade.md`). Every preset
+/// keeps the signal model (stages 5-6) of the paper: they differ only in how finely the
+/// touch is sampled in space and how thoroughly the placement is searched, so that the
+/// differences they make are the ones the table reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// The published parameters and transform grid: what the paper's participants felt,
+    /// and the reference vectors' results bit for bit. The default.
+    #[default]
+    Paper,
+    /// Upsampling x4 instead of x7 (blur sigma and link gate scaled so that they keep
+    /// their size in mm) and a coarse-to-fine placement search (every second grid point,
+    /// then the full grid around the 32 best, then a local search).
+    ///
+    /// Gives up: detections sit on a 6.35 mm instead of a 3.63 mm pixel grid, so
+    /// trajectories, their costs and the rendered pressures move by up to half a pixel;
+    /// the search can miss a transform that is best only in a narrow gap between coarse
+    /// points (with 8 instead of 32 kept it did, on `examples/tap_pat.npy`). Computation
+    /// stays f64: the keyframe search, which no preset changes, takes half the time, and
+    /// f32 would change every detection cost of the reference vectors.
+    Fast,
+    /// The paper's sampling with a transform grid 4 times finer along x and 2 times
+    /// along y and the split (77 x 39: 60,060 transforms, every published grid point
+    /// included, so its score is never worse than `paper`'s). f64 throughout.
+    ///
+    /// Gives up: time in the placement stage (about 12 times the paper's) and the
+    /// published results: the chosen transform, and so which actuator renders which
+    /// contact, can differ from the paper's. It has converged: a grid 34 times larger
+    /// (305 x 115) improves the score of a 698-frame combination by 0.3 % more.
+    Exact,
+}
+
+impl Preset {
+    /// Every preset, fastest first (the order of `touchc trade`'s table).
+    pub const ALL: [Preset; 3] = [Preset::Fast, Preset::Paper, Preset::Exact];
+
+    /// The preset's name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Paper => "paper",
+            Preset::Fast => "fast",
+            Preset::Exact => "exact",
+        }
+    }
+}
+
+impl Config {
+    /// The parameters of `preset` (see [`Preset`] for what each gives up).
+    ///
+    /// # Example
+    /// ```
+    /// use touchc::config::{Config, Preset};
+    /// assert_eq!(Config::preset(Preset::Paper), Config::default());
+    /// let fast = Config::preset(Preset::Fast);
+    /// assert_eq!(fast.preprocess.upsample, 4);
+    /// // The blur keeps its width in mm: 3 px of 25.4/7 mm = 12/7 px of 25.4/4 mm.
+    /// assert!((fast.preprocess.blur_sigma * 25.4 / 4.0 - 3.0 * 25.4 / 7.0).abs() < 1e-12);
+    /// ```
+    pub fn preset(preset: Preset) -> Config {
+        let paper = Config::default();
+        match preset {
+            Preset::Paper => paper,
+            Preset::Fast => paper.resampled(4).with_placement(PlacementConfig {
+                coarse_to_fine: Some(CoarseToFine {
+                    stride: 2,
+                    keep: 32,
+                }),
+                ..PlacementConfig::default()
+            }),
+            Preset::Exact => paper.with_placement(PlacementConfig {
+                grid_x: 77,
+                grid_y: 39,
+                ..PlacementConfig::default()
+            }),
+        }
+    }
+
+    /// This config with upsampling `k`, and the pixel-sized parameters (blur sigma, link
+    /// gate) rescaled so that they keep their physical size.
+    pub fn resampled(mut self, k: usize) -> Config {
+        let old = self.preprocess.upsample as f64;
+        let ratio = k as f64 / old;
+        self.preprocess.upsample = k;
+        self.preprocess.blur_sigma *= ratio;
+        self.track.link_gate_px2 *= ratio * ratio;
+        self
+    }
+
+    fn with_placement(mut self, placement: PlacementConfig) -> Config {
+        self.placement = placement;
+        self
+    }
 }
 
 /// Stage 0 parameters.
@@ -132,6 +230,9 @@ pub struct PlacementConfig {
     /// Weight at a circle's centre is `1 + centre_bonus`, falling to 1 at the rim
     /// (`D = w_a * (1 + b - b * d^2 / r^2)`, b = 0.04 in the paper).
     pub centre_bonus: f64,
+    /// Search a coarse sub-grid first and the full grid only near its best transforms;
+    /// `None` (the paper) scores every transform of the grid.
+    pub coarse_to_fine: Option<CoarseToFine>,
 }
 
 impl Default for PlacementConfig {
@@ -140,8 +241,26 @@ impl Default for PlacementConfig {
             grid_x: 20,
             grid_y: 20,
             centre_bonus: 0.04,
+            coarse_to_fine: None,
         }
     }
+}
+
+/// The coarse-to-fine placement search (the `fast` preset).
+///
+/// Every transform it scores is a transform of the full grid with the full grid's score,
+/// so its result is never better than the exhaustive search, and equal to it whenever
+/// the best transform lies near one of the `keep` best coarse ones (see
+/// [`crate::placement::place`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoarseToFine {
+    /// The coarse grid takes every `stride`-th point along x, y and the split (and the
+    /// last point of each); 1 degenerates to the full grid.
+    pub stride: usize,
+    /// Coarse transforms whose neighbourhoods (`stride - 1` grid steps each way) are then
+    /// scored on the full grid, before a local search around the best.
+    pub keep: usize,
 }
 
 /// Stages 5 and 6 parameters.

@@ -13,7 +13,8 @@
 //! | 6 conditioning | [`condition`] | 8 currents at 1 kHz |
 //! | 7 keyframes | [`keyframes`] | the stimulus file |
 //!
-//! [`compile`] runs them in order on the active scene ([`scene`]).
+//! [`compile`] runs them in order on the active scene ([`scene`]); [`trade`] measures
+//! the presets of [`config::Preset`] against each other.
 
 pub mod config;
 pub mod geometry;
@@ -35,6 +36,7 @@ pub mod keyframes;
 
 pub mod scene;
 pub mod compile;
+pub mod trade;
 
 pub mod output;
 pub mod synth;

@@ -11,7 +11,12 @@
 //!
 //! Speed ("search only placements that can matter"): points are sorted along the arm, so
 //! a circle only looks at the points in its x range, and a transform whose circles meet no
-//! point scores 0 without any further work.
+//! point scores 0 without any further work. Transforms are scored in parallel chunks
+//! (rayon) when there are more than a thousand: each score depends on its transform only,
+//! so the result does not depend on the number of threads.
+//!
+//! `PlacementConfig::coarse_to_fine` (the `fast` preset) scores a sub-grid first and the
+//! full grid only near its best transforms; every score it computes is the full grid's.
 
 use thiserror::Error;
 
@@ -211,7 +216,7 @@ pub fn transform_grid(
     let x_lo = -first.radius_mm - first.x_mm;
     let x_hi = width - last.x_mm;
     let ys: Vec<f64> = linspace(0.0, height, cfg.grid_y).collect();
-    let mut grid = Vec::with_capacity(cfg.grid_x * cfg.grid_y * (cfg.grid_y + 1) / 2);
+    let mut grid = Vec::with_capacity(grid_size(cfg).unwrap_or(0));
     for x in linspace(x_lo, x_hi, cfg.grid_x) {
         for (i, &y) in ys.iter().enumerate() {
             for split in linspace(0.0, height - y, cfg.grid_y - i) {
@@ -228,6 +233,39 @@ pub fn transform_grid(
     grid
 }
 
+/// Transforms in the grid of `cfg` (`grid_x * grid_y * (grid_y + 1) / 2`); `None` if that
+/// overflows.
+pub fn grid_size(cfg: &PlacementConfig) -> Option<usize> {
+    let per_x = cfg.grid_y.checked_mul(cfg.grid_y.checked_add(1)?)? / 2;
+    cfg.grid_x.checked_mul(per_x)
+}
+
+/// The largest grid [`place`] accepts: 20 million transforms hold 800 MB of transforms
+/// and scores, and take minutes; no placement needs them (the grid converges well before,
+/// see `docs/trade.md`).
+pub const MAX_TRANSFORMS: usize = 20_000_000;
+
+/// Position in grid order of the transform with lattice indices `(ix, iy, is)`:
+/// `x` index, `y` index and split index (`is < grid_y - iy`).
+fn grid_position(grid_y: usize, [ix, iy, is]: [usize; 3]) -> usize {
+    let per_x = grid_y * (grid_y + 1) / 2;
+    // Splits of the y rows before `iy`: grid_y + (grid_y - 1) + ... (iy terms).
+    ix * per_x + iy * grid_y - iy * iy.saturating_sub(1) / 2 + is
+}
+
+/// The lattice indices of every grid transform, in grid order (see [`grid_position`]).
+fn grid_indices(cfg: &PlacementConfig) -> Vec<[usize; 3]> {
+    let mut out = Vec::with_capacity(grid_size(cfg).unwrap_or(0));
+    for ix in 0..cfg.grid_x {
+        for iy in 0..cfg.grid_y {
+            for is in 0..cfg.grid_y - iy {
+                out.push([ix, iy, is]);
+            }
+        }
+    }
+    out
+}
+
 fn check_inputs(
     trajs: &[Trajectory],
     rows: usize,
@@ -241,6 +279,22 @@ fn check_inputs(
                 field,
                 value: value.to_string(),
                 reason: "the grid needs at least one point",
+            });
+        }
+    }
+    if grid_size(cfg).is_none_or(|n| n > MAX_TRANSFORMS) {
+        return Err(PlacementError::InvalidConfig {
+            field: "grid_x * grid_y * (grid_y + 1) / 2",
+            value: format!("{} x {}", cfg.grid_x, cfg.grid_y),
+            reason: "at most 20,000,000 transforms",
+        });
+    }
+    if let Some(c) = &cfg.coarse_to_fine {
+        if c.stride == 0 || c.keep == 0 {
+            return Err(PlacementError::InvalidConfig {
+                field: "coarse_to_fine",
+                value: format!("stride {}, keep {}", c.stride, c.keep),
+                reason: "stride and keep must be at least 1",
             });
         }
     }
@@ -316,6 +370,8 @@ struct Scene {
     points: Vec<Point>,
     /// Point indices sorted by x, so a circle finds its candidates by binary search.
     by_x: Vec<usize>,
+    /// The x of each point of `by_x`.
+    sorted_x: Vec<f64>,
     /// Per trajectory: what choosing it earns (`-total_cost`).
     gains: Vec<f64>,
 }
@@ -374,65 +430,23 @@ pub fn place(
 ) -> Result<Placement, PlacementError> {
     check_inputs(trajs, frame_rows_px, frame_cols_px, pitch_mm, cfg)?;
     let grid = transform_grid(frame_rows_px, frame_cols_px, pitch_mm, layout, cfg);
-
-    let mut points = Vec::new();
-    for (t, traj) in trajs.iter().enumerate() {
-        for d in 0..traj.len() {
-            let (x, y) = pixel_centre_mm(traj.rows[d], traj.cols[d], pitch_mm);
-            points.push(Point {
-                x,
-                y,
-                traj: t,
-                frame: traj.frames[d],
-                cost: traj.costs[d],
-            });
-        }
-    }
-    let mut by_x: Vec<usize> = (0..points.len()).collect();
-    by_x.sort_by(|&a, &b| points[a].x.total_cmp(&points[b].x));
-    let sorted_x: Vec<f64> = by_x.iter().map(|&p| points[p].x).collect();
-    // The published objective: maximise the summed -total_cost of the chosen set.
-    let gains = trajs.iter().map(|t| -t.total_cost()).collect();
-    let scene = Scene {
-        points,
-        by_x,
-        gains,
+    let scene = Scene::new(trajs, pitch_mm);
+    let search = Search {
+        grid: &grid,
+        layout,
+        cfg,
+        scene: &scene,
     };
-
-    let mut scratch = Scratch {
-        mask: vec![0; scene.points.len()],
-        weight: vec![0.0; scene.points.len()],
-        touched: Vec::new(),
-        hits: Vec::new(),
-        chosen: vec![false; trajs.len()],
-        local: vec![usize::MAX; trajs.len()],
+    let mut state = Scores {
+        score: vec![0.0; grid.len()],
+        scored: vec![false; grid.len()],
+        evaluated: 0,
     };
-    let mut scores = vec![0.0; grid.len()];
-    let mut evaluated = 0;
-    let mut ranges = [(0usize, 0usize); CHANNELS];
-    let mut current_x = f64::NAN;
-    for (k, transform) in grid.iter().enumerate() {
-        let circles = transform.circles(layout);
-        if transform.x_mm != current_x {
-            // Grid transforms have scale 1 and no rotation, so circle x positions depend
-            // on x only: find each circle's slice of points once per x.
-            current_x = transform.x_mm;
-            for (range, c) in ranges.iter_mut().zip(&circles) {
-                // Widened by a hair: the exact test below decides membership.
-                let slack = 1e-9 * (1.0 + c.x_mm.abs() + c.r_mm);
-                let lo = sorted_x.partition_point(|&x| x < c.x_mm - c.r_mm - slack);
-                let hi = sorted_x.partition_point(|&x| x <= c.x_mm + c.r_mm + slack);
-                *range = (lo, hi.max(lo));
-            }
-        }
-        if ranges.iter().all(|&(lo, hi)| lo == hi) {
-            continue;
-        }
-        if let Some(score) = score_transform(&circles, &ranges, &scene, cfg, &mut scratch, None) {
-            scores[k] = score;
-            evaluated += 1;
-        }
+    match cfg.coarse_to_fine {
+        None => state.run(&search, (0..grid.len()).collect()),
+        Some(c) => coarse_to_fine(&search, &mut state, c.stride, c.keep),
     }
+    let scores = state.score;
 
     // Lowest score wins; strict comparison keeps the first of equal scores.
     let mut index = 0;
@@ -445,6 +459,7 @@ pub fn place(
     let circles = transform.circles(layout);
     let all = [(0, scene.by_x.len()); CHANNELS];
     let mut selected = Vec::new();
+    let mut scratch = Scratch::new(&scene, trajs.len());
     score_transform(
         &circles,
         &all,
@@ -460,8 +475,191 @@ pub fn place(
         selected,
         circles,
         scores,
-        transforms_evaluated: evaluated,
+        transforms_evaluated: state.evaluated,
     })
+}
+
+/// The coarse-to-fine search: the sub-grid of every `stride`-th point, then the full
+/// grid within `stride - 1` steps of its `keep` best, then steepest descent over the
+/// full grid's 26 neighbours of the best until no neighbour is left to score. If no
+/// coarse transform meets a trajectory, the whole grid is scored (the coarse grid may
+/// have stepped over a small, brief contact).
+fn coarse_to_fine(search: &Search, state: &mut Scores, stride: usize, keep: usize) {
+    let cfg = search.cfg;
+    let index = grid_indices(cfg);
+    let on = |i: usize, last: usize| i % stride == 0 || i == last;
+    let coarse: Vec<usize> = (0..index.len())
+        .filter(|&k| {
+            let [ix, iy, is] = index[k];
+            on(ix, cfg.grid_x - 1) && on(iy, cfg.grid_y - 1) && on(is, cfg.grid_y - 1 - iy)
+        })
+        .collect();
+    state.run(search, coarse.clone());
+    let mut best: Vec<usize> = coarse
+        .into_iter()
+        .filter(|&k| state.score[k] < 0.0)
+        .collect();
+    best.sort_by(|&a, &b| state.score[a].total_cmp(&state.score[b]).then(a.cmp(&b)));
+    best.truncate(keep);
+    if best.is_empty() {
+        let rest = (0..index.len()).filter(|&k| !state.scored[k]).collect();
+        state.run(search, rest);
+        return;
+    }
+    let near = |k: usize, r: usize| {
+        let [ix, iy, is] = index[k];
+        let span = |i: usize, n: usize| i.saturating_sub(r)..(i + r + 1).min(n);
+        let mut out = Vec::new();
+        for x in span(ix, cfg.grid_x) {
+            for y in span(iy, cfg.grid_y) {
+                for s in span(is, cfg.grid_y - y) {
+                    out.push(grid_position(cfg.grid_y, [x, y, s]));
+                }
+            }
+        }
+        out
+    };
+    let mut todo: Vec<usize> = best.iter().flat_map(|&k| near(k, stride - 1)).collect();
+    loop {
+        todo.sort_unstable();
+        todo.dedup();
+        todo.retain(|&k| !state.scored[k]);
+        if todo.is_empty() {
+            return;
+        }
+        state.run(search, std::mem::take(&mut todo));
+        let mut top = 0;
+        for (k, &s) in state.score.iter().enumerate() {
+            if s < state.score[top] {
+                top = k;
+            }
+        }
+        todo = near(top, 1);
+    }
+}
+
+/// What the search shares between threads: the grid and the trajectories.
+struct Search<'a> {
+    grid: &'a [Transform],
+    layout: &'a Layout,
+    cfg: &'a PlacementConfig,
+    scene: &'a Scene,
+}
+
+/// Scores found so far (0 for a transform that meets no point or was not scored).
+struct Scores {
+    score: Vec<f64>,
+    scored: Vec<bool>,
+    /// Transforms that met a point and needed a subset choice.
+    evaluated: usize,
+}
+
+/// Below this many transforms a batch runs on the calling thread: splitting costs more
+/// than it saves (one transform takes about a microsecond).
+const PARALLEL_MIN: usize = 1024;
+
+impl Scores {
+    /// Scores the transforms `ks` (ascending grid positions), in parallel chunks when
+    /// there are enough of them. Each transform's score depends on that transform only,
+    /// so the result is the same on any number of threads.
+    fn run(&mut self, search: &Search, ks: Vec<usize>) {
+        use rayon::prelude::*;
+        let results: Vec<Option<f64>> = if ks.len() < PARALLEL_MIN {
+            search.score_seq(&ks)
+        } else {
+            let chunk = (ks.len() / (4 * rayon::current_num_threads())).max(PARALLEL_MIN / 4);
+            ks.par_chunks(chunk)
+                .map(|c| search.score_seq(c))
+                .collect::<Vec<_>>()
+                .concat()
+        };
+        for (&k, r) in ks.iter().zip(results) {
+            self.scored[k] = true;
+            if let Some(v) = r {
+                self.score[k] = v;
+                self.evaluated += 1;
+            }
+        }
+    }
+}
+
+impl Search<'_> {
+    /// Scores `ks` one after another with one set of buffers; `None` = meets no point.
+    fn score_seq(&self, ks: &[usize]) -> Vec<Option<f64>> {
+        let scene = self.scene;
+        let mut scratch = Scratch::new(scene, scene.gains.len());
+        let mut ranges = [(0usize, 0usize); CHANNELS];
+        let mut current_x = f64::NAN;
+        ks.iter()
+            .map(|&k| {
+                let transform = &self.grid[k];
+                let circles = transform.circles(self.layout);
+                if transform.x_mm != current_x {
+                    // Grid transforms have scale 1 and no rotation, so circle x positions
+                    // depend on x only: find each circle's slice of points once per x.
+                    current_x = transform.x_mm;
+                    for (range, c) in ranges.iter_mut().zip(&circles) {
+                        // Widened by a hair: the exact test below decides membership.
+                        let slack = 1e-9 * (1.0 + c.x_mm.abs() + c.r_mm);
+                        let lo = scene
+                            .sorted_x
+                            .partition_point(|&x| x < c.x_mm - c.r_mm - slack);
+                        let hi = scene
+                            .sorted_x
+                            .partition_point(|&x| x <= c.x_mm + c.r_mm + slack);
+                        *range = (lo, hi.max(lo));
+                    }
+                }
+                if ranges.iter().all(|&(lo, hi)| lo == hi) {
+                    return None;
+                }
+                score_transform(&circles, &ranges, scene, self.cfg, &mut scratch, None)
+            })
+            .collect()
+    }
+}
+
+impl Scene {
+    /// Points in mm, sorted by x, and each trajectory's gain.
+    fn new(trajs: &[Trajectory], pitch_mm: f64) -> Scene {
+        let mut points = Vec::new();
+        for (t, traj) in trajs.iter().enumerate() {
+            for d in 0..traj.len() {
+                let (x, y) = pixel_centre_mm(traj.rows[d], traj.cols[d], pitch_mm);
+                points.push(Point {
+                    x,
+                    y,
+                    traj: t,
+                    frame: traj.frames[d],
+                    cost: traj.costs[d],
+                });
+            }
+        }
+        let mut by_x: Vec<usize> = (0..points.len()).collect();
+        by_x.sort_by(|&a, &b| points[a].x.total_cmp(&points[b].x));
+        let sorted_x = by_x.iter().map(|&p| points[p].x).collect();
+        // The published objective: maximise the summed -total_cost of the chosen set.
+        let gains = trajs.iter().map(|t| -t.total_cost()).collect();
+        Scene {
+            points,
+            by_x,
+            sorted_x,
+            gains,
+        }
+    }
+}
+
+impl Scratch {
+    fn new(scene: &Scene, trajectories: usize) -> Scratch {
+        Scratch {
+            mask: vec![0; scene.points.len()],
+            weight: vec![0.0; scene.points.len()],
+            touched: Vec::new(),
+            hits: Vec::new(),
+            chosen: vec![false; trajectories],
+            local: vec![usize::MAX; trajectories],
+        }
+    }
 }
 
 /// Scores one transform; `None` when no point lies in any circle (score 0).
@@ -480,6 +678,7 @@ fn score_transform(
         points,
         by_x,
         gains,
+        ..
     } = scene;
     let bonus = cfg.centre_bonus;
     // Channel order, later circles overwriting the weight, as the published code does.
@@ -612,6 +811,22 @@ mod tests {
         assert_eq!(grid[209].y_mm, 203.2);
         assert_eq!(grid[209].split_mm, 0.0);
         assert_ne!(grid[210].x_mm, -18.5);
+    }
+
+    #[test]
+    fn lattice_positions_are_grid_order() {
+        for (gx, gy) in [(1, 1), (3, 1), (2, 5), (20, 20)] {
+            let cfg = PlacementConfig {
+                grid_x: gx,
+                grid_y: gy,
+                ..PlacementConfig::default()
+            };
+            let idx = grid_indices(&cfg);
+            assert_eq!(Some(idx.len()), grid_size(&cfg));
+            for (k, &i) in idx.iter().enumerate() {
+                assert_eq!(grid_position(gy, i), k, "{gx} x {gy}: {i:?}");
+            }
+        }
     }
 
     fn traj(frames: &[usize], rows: &[usize], cols: &[usize], costs: &[f64]) -> Trajectory {

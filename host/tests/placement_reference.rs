@@ -5,7 +5,7 @@
 mod common;
 
 use common::Reference;
-use touchc::config::Config;
+use touchc::config::{CoarseToFine, Config, Preset};
 use touchc::layout::Layout;
 use touchc::placement::place;
 
@@ -78,4 +78,41 @@ fn stroke_60_matches_the_published_code() {
 #[test]
 fn tap_pat_200_matches_the_published_code() {
     check("tap_pat_200");
+}
+
+/// The `fast` preset's coarse-to-fine search scores a subset of the published grid with
+/// the published scores, and on both reference inputs finds the published winner.
+#[test]
+fn coarse_to_fine_finds_the_published_winner() {
+    for name in ["stroke_60", "tap_pat_200"] {
+        let r = Reference::load(name);
+        let cfg = Config::default();
+        let k = cfg.preprocess.upsample;
+        let (rows, cols) = (r.tared_shape[1] * k, r.tared_shape[2] * k);
+        let fast = Config::preset(Preset::Fast).placement;
+        assert_eq!(
+            fast.coarse_to_fine,
+            Some(CoarseToFine {
+                stride: 2,
+                keep: 32
+            })
+        );
+        let p = place(
+            &r.trajectories(),
+            rows,
+            cols,
+            cfg.input.cell_mm / k as f64,
+            &Layout::paper(),
+            &fast,
+        )
+        .unwrap();
+        assert_eq!(p.index, r.best_transform_index, "{name}");
+        assert_eq!(p.selected, r.selected_trajectories, "{name}");
+        assert!(p.transforms_evaluated < r.n_transforms / 2, "{name}");
+        for (i, (&ours, &theirs)) in p.scores.iter().zip(&r.transform_scores).enumerate() {
+            if ours != 0.0 {
+                assert!(((ours - theirs) / theirs).abs() <= 1e-9, "{name}: {i}");
+            }
+        }
+    }
 }

@@ -1,9 +1,18 @@
 //! `touchc compile REC.npy [-o OUT.touch] [--report report.json]`: the whole chain.
+//!
+//! `touchc compile A.npy B.npy ... --out-dir DIR` compiles many recordings in parallel
+//! into `DIR/<stem>.touch`, with a progress bar and a summary table; a file that fails is
+//! reported and the others still compile, and the exit code says whether any failed.
 
+use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use anyhow::Context;
-use touchc::compile::{compile, CompileOptions};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use touchc::compile::{compile, CompileOptions, Report};
 use touchc::layout::Layout;
 use touchc::output::write_atomic;
 use touchc::recording::Recording;
@@ -11,17 +20,25 @@ use touchc::recording::Recording;
 /// Arguments of `touchc compile`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Recording, `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell).
-    recording: PathBuf,
-    /// Stimulus file to write (default: the recording's name with `.touch`).
-    #[arg(short, long)]
+    /// Recordings, `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell).
+    /// Several need `--out-dir`.
+    #[arg(required = true)]
+    recordings: Vec<PathBuf>,
+    /// Stimulus file to write (default: the recording's name with `.touch`); one
+    /// recording only.
+    #[arg(short, long, conflicts_with = "out_dir")]
     output: Option<PathBuf>,
-    /// Also write the compile's figures as JSON.
+    /// Write `<stem>.touch` for every recording into this directory (created if needed),
+    /// compiling them in parallel.
+    #[arg(long)]
+    out_dir: Option<PathBuf>,
+    /// Also write the compile's figures as JSON (with `--out-dir`: `<stem>.json` in the
+    /// directory, whatever the name given).
     #[arg(long)]
     report: Option<PathBuf>,
-    /// TOML file overriding the paper's algorithm parameters.
-    #[arg(long)]
-    config: Option<PathBuf>,
+    /// Algorithm parameters: preset, config file, individual knobs.
+    #[command(flatten)]
+    params: super::params::ParamArgs,
     /// Actuator layout TOML (default: the paper's 2 x 4 sleeve).
     #[arg(long)]
     layout: Option<PathBuf>,
@@ -37,40 +54,67 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let config = super::load_config(args.config.as_deref())?;
+    let config = args.params.resolve()?;
     let layout = match &args.layout {
         Some(path) => Layout::load(path)?,
         None => Layout::paper(),
     };
-    let name = args.name.clone().unwrap_or_else(|| stem(&args.recording));
     let opts = CompileOptions {
         config,
         layout,
         fit: args.fit,
         crop: !args.no_crop,
-        name,
         ..CompileOptions::default()
     };
-    let recording = Recording::load(&args.recording)?;
+    match (&args.out_dir, args.recordings.as_slice()) {
+        (None, [one]) => {
+            let out = args
+                .output
+                .clone()
+                .unwrap_or_else(|| one.with_extension("touch"));
+            let r = compile_one(one, &out, args.report.as_deref(), args, &opts)?;
+            for w in &r.warnings {
+                eprintln!("touchc: warning: {}: {w}", one.display());
+            }
+            eprintln!("{}", summary_line(one, &out, &r));
+            Ok(())
+        }
+        (None, _) => anyhow::bail!(
+            "{} recordings given: use --out-dir DIR to compile several",
+            args.recordings.len()
+        ),
+        (Some(dir), recordings) => batch(recordings, dir, args, &opts),
+    }
+}
+
+/// Compiles `input` into `out` (and the report into `report`).
+fn compile_one(
+    input: &Path,
+    out: &Path,
+    report: Option<&Path>,
+    args: &Args,
+    opts: &CompileOptions,
+) -> anyhow::Result<Report> {
+    let opts = CompileOptions {
+        name: args.name.clone().unwrap_or_else(|| stem(input)),
+        ..opts.clone()
+    };
+    let recording = Recording::load(input)?;
     let compiled = compile(&recording, &opts)
-        .with_context(|| format!("{}: cannot compile", args.recording.display()))?;
-    let out = args
-        .output
-        .clone()
-        .unwrap_or_else(|| args.recording.with_extension("touch"));
-    let r = &compiled.report;
+        .with_context(|| format!("{}: cannot compile", input.display()))?;
     // The report first: if it cannot be written, no stimulus appears either.
-    if let Some(path) = &args.report {
-        let json = serde_json::to_vec_pretty(r)?;
+    if let Some(path) = report {
+        let json = serde_json::to_vec_pretty(&compiled.report)?;
         write_atomic(path, &json)?;
     }
-    write_atomic(&out, &compiled.stimulus)?;
-    for w in &r.warnings {
-        eprintln!("touchc: warning: {}: {w}", args.recording.display());
-    }
-    eprintln!(
+    write_atomic(out, &compiled.stimulus)?;
+    Ok(compiled.report)
+}
+
+fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
+    format!(
         "touchc: {} -> {}: {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, {:.1} ms",
-        args.recording.display(),
+        input.display(),
         out.display(),
         r.duration_s,
         r.bytes,
@@ -81,7 +125,107 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         r.selected.len(),
         r.trajectories,
         1e3 * r.seconds.get("total").copied().unwrap_or(0.0),
+    )
+}
+
+/// The batch form: every recording in parallel, one progress bar, one table.
+fn batch(
+    recordings: &[PathBuf],
+    dir: &Path,
+    args: &Args,
+    opts: &CompileOptions,
+) -> anyhow::Result<()> {
+    // Two inputs with one stem would overwrite each other's output: refuse up front.
+    let mut stems: BTreeMap<String, &Path> = BTreeMap::new();
+    for r in recordings {
+        if let Some(first) = stems.insert(stem(r), r) {
+            anyhow::bail!(
+                "{} and {} would both compile to {}",
+                first.display(),
+                r.display(),
+                dir.join(format!("{}.touch", stem(r))).display()
+            );
+        }
+    }
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    let bar = ProgressBar::new(recordings.len() as u64);
+    if let Ok(style) =
+        ProgressStyle::with_template("{bar:40} {pos}/{len} recordings, {elapsed} {wide_msg}")
+    {
+        bar.set_style(style);
+    }
+    let warnings = Mutex::new(Vec::new());
+    let results: Vec<anyhow::Result<Report>> = recordings
+        .par_iter()
+        .map(|input| {
+            bar.set_message(input.display().to_string());
+            let name = stem(input);
+            let out = dir.join(format!("{name}.touch"));
+            let report = args
+                .report
+                .as_ref()
+                .map(|_| dir.join(format!("{name}.json")));
+            let r = compile_one(input, &out, report.as_deref(), args, opts);
+            if let Ok(r) = &r {
+                if let Ok(mut w) = warnings.lock() {
+                    w.extend(
+                        r.warnings
+                            .iter()
+                            .map(|m| format!("touchc: warning: {}: {m}", input.display())),
+                    );
+                }
+            }
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    for w in warnings.into_inner().unwrap_or_default() {
+        eprintln!("{w}");
+    }
+    let stdout = std::io::stdout();
+    let mut w = stdout.lock();
+    write_summary(&mut w, recordings, &results)?;
+    let failed = results.iter().filter(|r| r.is_err()).count();
+    // Every error names its file (the recording, or the output that failed).
+    for e in results.iter().filter_map(|r| r.as_ref().err()) {
+        eprintln!("touchc: error: {e:#}");
+    }
+    anyhow::ensure!(
+        failed == 0,
+        "{failed} of {} recordings failed to compile",
+        recordings.len()
     );
+    Ok(())
+}
+
+fn write_summary(
+    w: &mut impl Write,
+    recordings: &[PathBuf],
+    results: &[anyhow::Result<Report>],
+) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "{:<32} {:>6} {:>8} {:>7} {:>9} {:>9} {:>9}",
+        "recording", "status", "seconds", "bytes", "rms % fs", "tracks", "ms"
+    )?;
+    for (input, r) in recordings.iter().zip(results) {
+        let name = input.display().to_string();
+        match r {
+            Ok(r) => writeln!(
+                w,
+                "{name:<32} {:>6} {:>8.2} {:>7} {:>9.3} {:>9} {:>9.1}",
+                "ok",
+                r.duration_s,
+                r.bytes,
+                100.0 * r.rms_error_fs,
+                format!("{}/{}", r.selected.len(), r.trajectories),
+                1e3 * r.seconds.get("total").copied().unwrap_or(0.0)
+            )?,
+            Err(_) => writeln!(w, "{name:<32} {:>6}", "FAILED")?,
+        }
+    }
     Ok(())
 }
 

@@ -4,18 +4,20 @@
 mod bank;
 mod compile;
 mod inspect;
+mod params;
 mod plot;
 mod preview;
 mod render;
 mod synth;
 mod track;
+mod trade;
 
 use std::path::Path;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use touch_protocol::{Bank, Stimulus};
-use touchc::config::Config;
+use touchc::config::{Config, Preset};
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
@@ -45,6 +47,9 @@ enum Command {
     Bank(bank::Args),
     /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
     Synth(synth::Args),
+    /// Compile recordings under every preset and compare time, placement, signal and
+    /// tracks with `exact`.
+    Trade(trade::Args),
 }
 
 /// Runs the chosen subcommand.
@@ -58,6 +63,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Preview(args) => preview::run(&args),
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
+        Command::Trade(args) => trade::run(&args),
     }
 }
 
@@ -82,14 +88,8 @@ pub(crate) fn stimulus_in<'a>(
     }
 }
 
-/// Reads a TOML config, or the paper preset when no file is given.
+/// Reads a TOML config laid over the paper preset, or the paper preset when no file is
+/// given (for subcommands without `--preset`).
 pub(crate) fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
-    match path {
-        None => Ok(Config::default()),
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("{}: cannot read config", p.display()))?;
-            toml::from_str(&text).with_context(|| format!("{}: invalid config", p.display()))
-        }
-    }
+    params::layered(Preset::Paper, path, &[])
 }

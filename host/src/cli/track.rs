@@ -15,9 +15,9 @@ pub struct TrackArgs {
     /// Print machine-readable JSON (the reference vectors' fields) instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// TOML file overriding the paper's parameters.
-    #[arg(long)]
-    pub config: Option<PathBuf>,
+    /// Algorithm parameters: preset, config file, individual knobs.
+    #[command(flatten)]
+    pub params: super::params::ParamArgs,
 }
 
 /// The JSON document: global statistics and trajectories in report order.
@@ -39,7 +39,7 @@ struct TrajectoryReport<'a> {
 
 /// Runs the subcommand.
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
-    let cfg = super::load_config(args.config.as_deref())?;
+    let cfg = args.params.resolve()?;
     let rec = Recording::load(&args.recording)?;
     let out = track(&rec, &cfg)?;
     let stdout = std::io::stdout();

@@ -1,0 +1,155 @@
+//! The whole compile and each of its stages on a ~700-frame synthetic combination (the
+//! length of the published code's 215.9 s reference input), per preset, on one core and
+//! on all cores. `touchc trade` prints the same split for any recording.
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use touchc::compile::{compile, layout_tag, CompileOptions};
+use touchc::config::{Config, Preset};
+use touchc::keyframes::{encode, HeaderFields};
+use touchc::layout::Layout;
+use touchc::placement::place;
+use touchc::recording::Recording;
+use touchc::synth::{generate, Gesture, Mask, SynthSpec};
+use touchc::{condition, detect, preprocess, scene, track};
+
+/// `touchc synth stroke tap pat squeeze shake (x3) stroke --seed 5 --quiet-frames 30`:
+/// 698 frames.
+fn long_recording() -> Recording {
+    use Gesture::*;
+    let mut gestures = Vec::new();
+    for _ in 0..3 {
+        gestures.extend([Stroke, Tap, Pat, Squeeze, Shake]);
+    }
+    gestures.push(Stroke);
+    let data = generate(&SynthSpec {
+        gestures,
+        seed: 5,
+        mask: Mask::Cells142,
+        noise_psi: 0.004,
+        quiet_frames: 30,
+    });
+    Recording::from_array("combination_698", data.view()).expect("valid synthetic data")
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
+}
+
+fn bench(c: &mut Criterion) {
+    let rec = long_recording();
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let pools = [("1 core", pool(1)), ("all cores", pool(cores))];
+
+    // The whole compile, per preset.
+    for preset in Preset::ALL {
+        let opts = CompileOptions {
+            config: Config::preset(preset),
+            ..CompileOptions::default()
+        };
+        for (cores, pool) in &pools {
+            c.bench_function(&format!("compile/{}/{cores}", preset.name()), |b| {
+                b.iter(|| pool.install(|| compile(black_box(&rec), &opts).expect("compiles")))
+            });
+        }
+    }
+
+    // Stage by stage, on the inputs the paper preset's compile hands each stage.
+    let opts = CompileOptions::default();
+    let cfg = &opts.config;
+    let compiled = compile(&rec, &opts).expect("compiles");
+    let (tracked, placement, signals) = (
+        compiled.tracked.as_ref().expect("touch"),
+        compiled.placement.as_ref().expect("trajectories"),
+        compiled.signals.as_ref().expect("touch"),
+    );
+    let crop = compiled.report.crop.clone().expect("cropped");
+    let tared = rec.tare(&cfg.input).expect("long enough");
+    let (frames, rows, cols) = tared.dim();
+    c.bench_function("stage/tare", |b| {
+        b.iter(|| rec.tare(black_box(&cfg.input)).expect("tare"))
+    });
+    for (cores, pool) in &pools {
+        c.bench_function(&format!("stage/preprocess (whole)/{cores}"), |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    preprocess::preprocess(black_box(tared.view()), &cfg.preprocess, 25.4)
+                        .expect("blur")
+                })
+            })
+        });
+    }
+    c.bench_function("stage/detect (crop)", |b| {
+        b.iter(|| detect::detect(black_box(&tracked.blurred), &cfg.detect))
+    });
+    c.bench_function("stage/track (crop)", |b| {
+        b.iter(|| track::link(black_box(&tracked.detections), &cfg.track).expect("link"))
+    });
+    for preset in Preset::ALL {
+        let p = Config::preset(preset);
+        // The placement stage sees the preset's own trajectories.
+        let own = compile(
+            &rec,
+            &CompileOptions {
+                config: p.clone(),
+                ..CompileOptions::default()
+            },
+        )
+        .expect("compiles");
+        let trajs = &own.tracked.as_ref().expect("touch").trajectories;
+        let kp = p.preprocess.upsample;
+        for (cores, pool) in &pools {
+            c.bench_function(&format!("stage/placement/{}/{cores}", preset.name()), |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        place(
+                            black_box(trajs),
+                            rows * kp,
+                            cols * kp,
+                            25.4 / kp as f64,
+                            &opts.layout,
+                            &p.placement,
+                        )
+                        .expect("place")
+                    })
+                })
+            });
+        }
+    }
+    c.bench_function("stage/signals", |b| {
+        b.iter(|| scene::actuator_signals(black_box(tracked), placement, &crop, frames))
+    });
+    c.bench_function("stage/condition", |b| {
+        b.iter(|| {
+            condition::condition(
+                black_box(&signals.psi),
+                &cfg.signal,
+                cfg.input.frame_rate_hz,
+            )
+            .expect("condition")
+        })
+    });
+    let layout = Layout::paper();
+    let fields = HeaderFields {
+        name: "bench",
+        layout_id: layout_tag(&layout),
+        limits: opts.limits,
+    };
+    c.bench_function("stage/keyframes", |b| {
+        b.iter(|| encode(black_box(&compiled.signal), fields, &opts.keyframes).expect("encode"))
+    });
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .sample_size(10)
+        .warm_up_time(std::time::Duration::from_millis(500))
+        .measurement_time(std::time::Duration::from_secs(2));
+    targets = bench
+}
+criterion_main!(benches);

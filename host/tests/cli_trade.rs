@@ -1,0 +1,162 @@
+//! The real binary: `--preset` and the knobs, batch compiles, `touchc trade`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn touchc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_touchc"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn synth(dir: &Path, name: &str, gesture: &str) -> PathBuf {
+    let path = dir.join(format!("{name}.npy"));
+    let out = touchc(&["synth", gesture, "--quiet-frames", "25", "-o", s(&path)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    path
+}
+
+fn report(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+#[test]
+fn presets_and_knobs_reach_the_compile() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = synth(dir.path(), "stroke", "stroke");
+    let out = dir.path().join("x.touch");
+    let json = dir.path().join("r.json");
+    let compile = |extra: &[&str]| {
+        let mut a = vec!["compile", s(&rec), "-o", s(&out), "--report", s(&json)];
+        a.extend_from_slice(extra);
+        touchc(&a)
+    };
+    let ok = compile(&["--preset", "fast"]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert!(report(&json)["transforms_evaluated"].as_u64().unwrap() < 4200);
+
+    let ok = compile(&[
+        "--preset",
+        "exact",
+        "--grid",
+        "3,2",
+        "--set",
+        "detect.sigma_k=1.5",
+    ]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert_eq!(report(&json)["transforms"], 9);
+
+    // A config file lays over the preset; unknown keys are refused by name.
+    let toml = dir.path().join("c.toml");
+    std::fs::write(&toml, "[placement]\ngrid_x = 2\n").unwrap();
+    let ok = compile(&["--preset", "fast", "--config", s(&toml)]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert_eq!(report(&json)["transforms"], 420);
+    let bad = compile(&["--set", "placement.nope=1"]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("nope"));
+    let bad = compile(&["--upsample", "0"]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("upsampling factor"));
+}
+
+#[test]
+fn batch_compiles_the_good_files_and_reports_the_bad() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = synth(dir.path(), "a", "stroke");
+    let b = synth(dir.path(), "b", "tap");
+    let bad = dir.path().join("bad.npy");
+    std::fs::write(&bad, b"not numpy").unwrap();
+    let out_dir = dir.path().join("out");
+    let out = touchc(&[
+        "compile",
+        s(&a),
+        s(&bad),
+        s(&b),
+        "--out-dir",
+        s(&out_dir),
+        "--report",
+        "r.json",
+    ]);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(!out.status.success());
+    assert!(
+        stdout.contains("FAILED") && stdout.contains("b.npy"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.contains("bad.npy") && stderr.contains("1 of 3"),
+        "{stderr}"
+    );
+    for f in ["a.touch", "b.touch", "a.json", "b.json"] {
+        assert!(out_dir.join(f).exists(), "{f}");
+    }
+    assert!(!out_dir.join("bad.touch").exists());
+
+    // Several recordings need --out-dir; one stem twice is refused before any work.
+    let out = touchc(&["compile", s(&a), s(&b)]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--out-dir"));
+    let sub = dir.path().join("sub");
+    std::fs::create_dir(&sub).unwrap();
+    let a2 = synth(&sub, "a", "pat");
+    let out = touchc(&["compile", s(&a), s(&a2), "--out-dir", s(&out_dir)]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("would both compile"));
+}
+
+#[test]
+fn trade_prints_every_preset_against_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = synth(dir.path(), "tap", "tap");
+    let csv = dir.path().join("t.csv");
+    let svg = dir.path().join("t.svg");
+    let out = touchc(&[
+        "trade",
+        s(&rec),
+        "--repeat",
+        "1",
+        "--threads",
+        "1",
+        "--csv",
+        s(&csv),
+        "--svg",
+        s(&svg),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 4, "{text}");
+    let exact: Vec<&str> = lines[3].split(',').collect();
+    assert_eq!(exact[1], "exact");
+    // Exact against itself: no gap, no difference, full agreement.
+    assert_eq!(&exact[12..16], &["0.000", "0.000", "0.000", "100.0"]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("fast"));
+    let svg = std::fs::read_to_string(&svg).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("exact"));
+}
