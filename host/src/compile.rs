@@ -213,7 +213,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     } else {
         Crop::whole(tared.dim())
     };
-    let tracked = scene::track_cropped(tared.view(), &crop, cfg, &mut |s| clock.stage(s))?;
+    let (tracked, crop) = scene::track_cropped(tared.view(), &crop, cfg, &mut |s| clock.stage(s))?;
 
     // Stage 4.
     let (rows_px, cols_px) = (

@@ -9,11 +9,12 @@
 //!
 //! The statistics are those of the whole recording: the blur runs on every frame (the
 //! cheap stage, a few ms for 705 frames) so that the mean and standard deviation, and
-//! with them every detection cost, are bit-identical to the uncropped run. What the crop
-//! drops is quiet: detections whose cost is positive, which a min-cost flow never starts
-//! or ends a trajectory on, and could use only to bridge a gap between two contacts
-//! cheaper than a new entry and exit (16); the margins are wider than such a bridge.
-//! `tests/crop.rs` shows the compiled stimulus is byte-identical with and without it.
+//! with them every detection cost, are bit-identical to the uncropped run. The crop is
+//! then checked against the blurred movie ([`exact_crop`]): where it would drop a pixel
+//! strong enough for a negative detection cost, it is widened to the whole recording in
+//! that dimension. What it drops can only score costs of 0 or more, which the min-cost
+//! flow never starts or ends a trajectory on. `host/tests/compile.rs` shows the compiled
+//! stimulus byte-identical with and without the crop.
 
 use std::ops::Range;
 
@@ -21,9 +22,9 @@ use ndarray::{ArrayView3, Axis, Slice};
 use serde::Serialize;
 
 use crate::config::{Config, InputConfig, PreprocessConfig};
-use crate::detect::{detect, Detections};
+use crate::detect::{detect, detection_cost, Detections};
 use crate::placement::Placement;
-use crate::preprocess::preprocess;
+use crate::preprocess::{preprocess, Blurred};
 use crate::signals::{self, ChannelSignals, Source};
 use crate::track::{link, TrackError, TrackOutput};
 use touch_protocol::CHANNELS;
@@ -91,14 +92,17 @@ pub fn active_crop(tared: ArrayView3<f64>, input: &InputConfig, _pre: &Preproces
 /// inside the crop. Trajectories come back in whole-recording frames and pixels;
 /// `blurred.frames` holds only the crop's frames (frame `crop.frames.start` first).
 ///
-/// `lap` is called after each stage with its name, for timing.
+/// The crop is first checked against the blurred movie and widened where it would drop
+/// a pixel that could score a negative detection cost (see [`exact_crop`]); the crop
+/// actually used is returned. `lap` is called after each stage with its name.
 pub fn track_cropped(
     tared: ArrayView3<f64>,
     crop: &Crop,
     cfg: &Config,
     lap: &mut dyn FnMut(&'static str),
-) -> Result<TrackOutput, TrackError> {
+) -> Result<(TrackOutput, Crop), TrackError> {
     let mut window = preprocess(tared, &cfg.preprocess, cfg.input.cell_mm)?;
+    let crop = exact_crop(crop, &window, cfg);
     // Narrow the view to the window without copying the movie.
     window
         .frames
@@ -114,11 +118,59 @@ pub fn track_cropped(
     lap("detect");
     let trajectories = link(&detections, &cfg.track)?;
     lap("track");
-    Ok(TrackOutput {
+    let tracked = TrackOutput {
         blurred: window,
         detections,
         trajectories,
-    })
+    };
+    Ok((tracked, crop))
+}
+
+/// The crop, widened to the whole recording in time and/or space wherever a blurred
+/// pixel it would drop is strong enough for a negative detection cost.
+///
+/// Outside such pixels every detection costs at least 0, so the min-cost flow never
+/// starts or ends a trajectory on one (dropping it from a path's end lowers the cost)
+/// and, in time, cannot use one to bridge two contacts either (a path only moves
+/// forward, and the window holds every frame between the first and the last strong
+/// one). The cost only falls as the pressure rises, so the strongest dropped pixel
+/// decides.
+pub fn exact_crop(crop: &Crop, blurred: &Blurred, cfg: &Config) -> Crop {
+    let (t, h, w) = blurred.frames.dim();
+    let k = cfg.preprocess.upsample;
+    // The strongest pixel each part of the crop would drop; one cost evaluation each.
+    let may_score = |v: f64| {
+        blurred.std > 0.0
+            && blurred.std.is_finite()
+            && detection_cost((v - blurred.mean) / blurred.std, &cfg.detect) < 0.0
+    };
+    let strongest = |it: &mut dyn Iterator<Item = f64>| it.fold(f64::NEG_INFINITY, f64::max);
+    let mut out = crop.clone();
+    let dropped_in_time = strongest(
+        &mut (0..t)
+            .filter(|f| !crop.frames.contains(f))
+            .flat_map(|f| blurred.frames.index_axis(Axis(0), f).into_iter().copied()),
+    );
+    if may_score(dropped_in_time) {
+        out.frames = 0..t;
+    }
+    let (rows, cols) = (
+        crop.rows.start * k..crop.rows.end * k,
+        crop.cols.start * k..crop.cols.end * k,
+    );
+    let mut dropped_in_space = f64::NEG_INFINITY;
+    for f in out.frames.clone() {
+        for ((r, c), &v) in blurred.frames.index_axis(Axis(0), f).indexed_iter() {
+            if v > dropped_in_space && !(rows.contains(&r) && cols.contains(&c)) {
+                dropped_in_space = v;
+            }
+        }
+    }
+    if may_score(dropped_in_space) {
+        out.rows = 0..h / k.max(1);
+        out.cols = 0..w / k.max(1);
+    }
+    out
 }
 
 /// Detections of the window, moved to whole-recording frames and limited to the
@@ -187,5 +239,51 @@ pub fn actuator_signals(
     ChannelSignals {
         psi: std::array::from_fn::<_, CHANNELS, _>(|c| pad(&inner.psi[c])),
         source: std::array::from_fn::<_, CHANNELS, _>(|c| pad_source(&inner.source[c])),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray::Array3;
+
+    fn blurred(frames: Array3<f64>) -> Blurred {
+        let n = frames.len() as f64;
+        let mean = frames.sum() / n;
+        let std = (frames.mapv(|v| (v - mean).powi(2)).sum() / n).sqrt();
+        Blurred {
+            frames,
+            mean,
+            std,
+            pitch_mm: 25.4 / 7.0,
+        }
+    }
+
+    #[test]
+    fn the_crop_widens_where_it_would_drop_a_scoring_pixel() {
+        let cfg = Config::default();
+        // 10 frames of 2 x 3 cells (14 x 21 pixels); the crop keeps frames 2..6,
+        // cell row 0 and cell columns 0..2.
+        let crop = Crop {
+            frames: 2..6,
+            rows: 0..1,
+            cols: 0..2,
+        };
+        let mut frames = Array3::from_elem((10, 14, 21), 0.001);
+        frames[[3, 3, 3]] = 1.0; // the contact, inside
+        let quiet = exact_crop(&crop, &blurred(frames.clone()), &cfg);
+        assert_eq!(quiet, crop);
+
+        let mut late = frames.clone();
+        late[[8, 3, 3]] = 1.0; // a second contact after the window
+        assert_eq!(exact_crop(&crop, &blurred(late), &cfg).frames, 0..10);
+
+        let mut aside = frames.clone();
+        aside[[4, 12, 18]] = 1.0; // in the window, outside the cells
+        let widened = exact_crop(&crop, &blurred(aside), &cfg);
+        assert_eq!(
+            (widened.frames, widened.rows, widened.cols),
+            (2..6, 0..2, 0..3)
+        );
     }
 }
