@@ -120,6 +120,11 @@ pub struct Report {
     pub crop: Option<Crop>,
     /// Things the user should know.
     pub warnings: Vec<String>,
+    /// Every algorithm parameter this compile used (preset and overrides applied), so
+    /// the report says how to reproduce it.
+    pub config: Config,
+    /// The actuator layout's id.
+    pub layout: String,
 }
 
 /// A compiled stimulus with its report and the intermediate results (for plots).
@@ -334,6 +339,8 @@ fn finish(
         no_touch,
         crop,
         warnings,
+        config: opts.config.clone(),
+        layout: opts.layout.id().to_string(),
     };
     Ok(Compiled {
         stimulus: encoded.bytes,

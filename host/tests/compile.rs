@@ -241,6 +241,8 @@ fn cli_writes_the_stimulus_and_the_report() {
         assert!(!r[key].is_null(), "report lacks {key}: {r}");
     }
     assert_eq!(r["transform"].as_array().unwrap().len(), 5);
+    assert_eq!(r["config"]["preprocess"]["upsample"], 7);
+    assert_eq!(r["layout"], "paper-2x4");
     assert_eq!(r["bytes"], bytes.len());
     assert!(r["seconds"]["total"].as_f64().unwrap() > 0.0);
     assert!(r["seconds"]["placement"].as_f64().is_some());
