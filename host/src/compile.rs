@@ -207,14 +207,12 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
             cfg.input.touch_threshold_psi, cfg.input.min_touch_readings
         ));
         let signal = vec![[0.0; CHANNELS]];
-        return finish(
-            rec, opts, clock, warnings, signal, 1.0, None, None, None, None, true,
-        );
+        return finish(rec, opts, clock, warnings, signal, 1.0, None);
     }
 
     // Stages 1-3, on the active scene only.
     let crop = if opts.crop {
-        scene::active_crop(tared.view(), &cfg.input, &cfg.preprocess)
+        scene::active_crop(tared.view(), &cfg.input)
     } else {
         Crop::whole(tared.dim())
     };
@@ -269,23 +267,24 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     }
     clock.stage("condition");
 
-    finish(
-        rec,
-        opts,
-        clock,
-        warnings,
-        signal,
-        fit_scale,
-        Some(tracked),
+    let scene = Scene {
+        tracked,
         placement,
-        Some(signals),
-        Some(crop),
-        false,
-    )
+        signals,
+        crop,
+    };
+    finish(rec, opts, clock, warnings, signal, fit_scale, Some(scene))
 }
 
-/// Stage 7 and the report.
-#[allow(clippy::too_many_arguments)]
+/// What stages 1-5 made of a recording with touch.
+struct Scene {
+    tracked: TrackOutput,
+    placement: Option<Placement>,
+    signals: ChannelSignals,
+    crop: Crop,
+}
+
+/// Stage 7 and the report; `scene` is `None` for a recording without touch.
 fn finish(
     rec: &Recording,
     opts: &CompileOptions,
@@ -293,12 +292,13 @@ fn finish(
     warnings: Vec<String>,
     signal: Vec<[f64; CHANNELS]>,
     fit_scale: f64,
-    tracked: Option<TrackOutput>,
-    placement: Option<Placement>,
-    signals: Option<ChannelSignals>,
-    crop: Option<Crop>,
-    no_touch: bool,
+    scene: Option<Scene>,
 ) -> Result<Compiled, CompileError> {
+    let no_touch = scene.is_none();
+    let (tracked, placement, signals, crop) = match scene {
+        Some(s) => (Some(s.tracked), s.placement, Some(s.signals), Some(s.crop)),
+        None => (None, None, None, None),
+    };
     let name = stimulus_name(&opts.name);
     let fields = HeaderFields {
         name,

@@ -21,7 +21,7 @@ use std::ops::Range;
 use ndarray::{ArrayView3, Axis, Slice};
 use serde::Serialize;
 
-use crate::config::{Config, InputConfig, PreprocessConfig};
+use crate::config::{Config, InputConfig};
 use crate::detect::{detect, detection_cost, Detections};
 use crate::placement::Placement;
 use crate::preprocess::{preprocess, Blurred};
@@ -63,7 +63,7 @@ pub fn touch_readings(tared: ArrayView3<f64>, threshold_psi: f64) -> usize {
 }
 
 /// The active scene with its margins; the whole recording when nothing is active.
-pub fn active_crop(tared: ArrayView3<f64>, input: &InputConfig, _pre: &PreprocessConfig) -> Crop {
+pub fn active_crop(tared: ArrayView3<f64>, input: &InputConfig) -> Crop {
     let (t, r, c) = tared.dim();
     let thr = input.touch_threshold_psi;
     let (mut f0, mut f1, mut r0, mut r1, mut c0, mut c1) = (t, 0, r, 0, c, 0);
