@@ -1,5 +1,5 @@
 //! Stage 6: conditioning, from per-actuator pressures (psi, frame rate) to the currents
-//! the sleeve should output (amperes, 1 kHz). ALGORITHM.md section 6 is the contract.
+//! the sleeve should output (amperes, 1 kHz). docs/algorithm.md section 6 is the contract.
 //!
 //! The steps, in order:
 //!
@@ -49,7 +49,7 @@ use thiserror::Error;
 use crate::config::SignalConfig;
 use crate::signals::CHANNELS;
 
-/// Update rate of the sleeve's outputs, Hz (HARDWARE.md): the rate of
+/// Update rate of the sleeve's outputs, Hz (docs/hardware.md): the rate of
 /// [`Conditioned::output`] and the time step of [`check_limits`].
 pub const OUTPUT_RATE_HZ: f64 = 1000.0;
 
@@ -494,7 +494,7 @@ fn raised_cosine(j: usize, n: usize) -> f64 {
     0.5 * (1.0 - (std::f64::consts::PI * j as f64 / n as f64).cos())
 }
 
-/// Safety limits for a 1 kHz current signal, per channel (HARDWARE.md "Safety"). The
+/// Safety limits for a 1 kHz current signal, per channel (docs/hardware.md, "Safety"). The
 /// firmware enforces the lower of its own and the stimulus's; the compiler checks here
 /// first so that a stimulus never depends on being cut off.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

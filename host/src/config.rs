@@ -1,7 +1,7 @@
 //! Every parameter of the mapping algorithm, in one typed config.
 //!
 //! [`Config::default`] is the `paper` preset: the values of the paper and of the
-//! authors' published code (see `shared/design/ALGORITHM.md`). Stages read their own
+//! authors' published code (see `docs/algorithm.md`). Stages read their own
 //! section and never hard-code a parameter. [`Config::preset`] gives the other points of
 //! the speed/accuracy trade ([`Preset`]); `touchc trade` measures them.
 

@@ -6,7 +6,7 @@
 //!
 //! One deliberate difference from the published code: it also forbids maxima at pixels
 //! with fewer than 5 in-frame neighbours (`findBadCells`, which after the blur only ever
-//! hits the four frame corners). The contract (ALGORITHM.md section 2) has no such rule,
+//! hits the four frame corners). The contract (docs/algorithm.md section 2) has no such rule,
 //! so corners may be detections here (the reference trajectories are unaffected).
 
 use ndarray::ArrayView2;

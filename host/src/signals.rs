@@ -1,4 +1,4 @@
-//! Stage 5: per-actuator pressure signals (ALGORITHM.md section 5).
+//! Stage 5: per-actuator pressure signals (docs/algorithm.md section 5).
 //!
 //! Placement hands over the eight workspace circles (in channel order) and the chosen
 //! trajectories; this stage decides, frame by frame, what pressure each actuator renders:
@@ -20,7 +20,7 @@ use crate::trajectory::Trajectory;
 pub const ROWS: usize = 2;
 /// Actuator columns per row; column 0 is nearest the elbow.
 pub const COLUMNS: usize = 4;
-/// Output channels, numbered `row * COLUMNS + column` (HARDWARE.md).
+/// Output channels, numbered `row * COLUMNS + column` (docs/hardware.md).
 pub const CHANNELS: usize = ROWS * COLUMNS;
 
 /// Why an actuator renders what it renders at one frame; kept next to the pressure so

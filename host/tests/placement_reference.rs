@@ -1,5 +1,5 @@
 //! Placement against the published Python code's outputs on the two reference inputs
-//! (`tests/data/*.reference.json`, copied from `shared/reference/`): every one of the
+//! (`tests/data/reference/*.reference.json`): every one of the
 //! 4,200 transform scores, the chosen transform and the selected trajectories.
 
 mod common;

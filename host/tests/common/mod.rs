@@ -61,21 +61,10 @@ pub fn moving_blobs(frames: usize, blobs: usize, seed: u64) -> Array3<f64> {
     a
 }
 
-/// `shared/reference/`: `$TOUCHC_REFERENCE_DIR`, or `shared/` beside the checkout (CI,
-/// the main tree) or beside the worktree folder. Panics if absent: the reference tests
-/// must fail, not silently pass, when the vectors are missing.
+/// The reference vectors shipped with the repository (`tests/data/reference/`, see its
+/// README for where they come from).
 pub fn reference_dir() -> std::path::PathBuf {
-    if let Ok(dir) = std::env::var("TOUCHC_REFERENCE_DIR") {
-        return dir.into();
-    }
-    let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    for up in ["../../shared/reference", "../../../shared/reference"] {
-        let p = manifest.join(up);
-        if p.join("stroke_60.npy").exists() {
-            return p;
-        }
-    }
-    panic!("shared/reference not found; set TOUCHC_REFERENCE_DIR");
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/reference")
 }
 
 use serde::Deserialize;
