@@ -1,5 +1,6 @@
 //! `touchc`: the command line. Parses arguments, runs one subcommand, and turns
-//! every error into a message on stderr and a non-zero exit, in one place.
+//! every error into one message on stderr and an exit status (0 ok, 1 bad input or
+//! failed compile, 2 usage), in one place: [`cli::report`].
 
 mod cli;
 
@@ -11,9 +12,6 @@ fn main() -> ExitCode {
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("touchc: error: {err:#}");
-            ExitCode::FAILURE
-        }
+        Err(err) => cli::report(&err),
     }
 }

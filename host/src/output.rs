@@ -1,40 +1,313 @@
-//! Writing results: whole files or nothing.
+//! Writing results the way Unix tools do: whole files or nothing, `-` for standard
+//! output, and devices, pipes and symlinked outputs written through to their target.
+//!
+//! A regular file is written to a temporary file beside it, flushed to disk and renamed
+//! over it, so a failed or killed run never leaves a half-written output. The temporary
+//! file is created with mode 0666 filtered by the umask (as any new file), or with the
+//! mode of the file it replaces. While it is being written it holds an exclusive lock;
+//! a run that is killed (SIGKILL skips every destructor) leaves its temporary file
+//! unlocked, and the next run that writes into the same directory removes such leftovers
+//! of its own name pattern that are older than itself.
 
-use std::io::Write;
+#[cfg(unix)]
+use std::fs::Permissions;
+use std::fs::{File, OpenOptions};
+use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use std::time::SystemTime;
+
+use tempfile::NamedTempFile;
+
+/// Temporary files are `.touchc-XXXXXX.tmp`: hidden, and recognisably ours.
+const TMP_PREFIX: &str = ".touchc-";
+/// See [`TMP_PREFIX`].
+const TMP_SUFFIX: &str = ".tmp";
+
+/// Symlinks followed before giving up (Linux's own limit is 40).
+const MAX_LINKS: usize = 40;
 
 /// A file could not be written.
 #[derive(Debug, thiserror::Error)]
-#[error("cannot write {}: {source}", path.display())]
+#[error("cannot write {}: {source}", shown(path))]
 pub struct WriteError {
-    /// The file that was being written.
+    /// The file that was being written (`-` is standard output).
     pub path: PathBuf,
     /// What went wrong.
-    #[source]
-    pub source: std::io::Error,
+    pub source: io::Error,
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same directory,
-/// flushed to disk, then renamed over `path`. On any error `path` is untouched and
-/// no temporary file is left behind, so a failed run never leaves partial output.
+impl WriteError {
+    /// Whether the reader went away (`touchc render --csv | head`): not a failure of
+    /// the writer, so the CLI ends quietly.
+    pub fn is_broken_pipe(&self) -> bool {
+        self.source.kind() == io::ErrorKind::BrokenPipe
+    }
+}
+
+/// How an output path is named in messages: `-` is standard output.
+pub fn shown(path: &Path) -> String {
+    if is_stdio(path) {
+        "standard output".into()
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// Whether `path` is `-`, the conventional name of standard input or output.
+pub fn is_stdio(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// An output being written; nothing is visible at its path until [`Output::finish`].
+/// Dropped unfinished, a regular file's temporary is removed and the target untouched.
+#[derive(Debug)]
+pub struct Output {
+    path: PathBuf,
+    sink: Sink,
+}
+
+#[derive(Debug)]
+enum Sink {
+    /// `-`.
+    Stdout(BufWriter<io::Stdout>),
+    /// A device, a FIFO, a socket: written in place, since it cannot be replaced.
+    Direct(BufWriter<File>),
+    /// A regular file (new or existing): a temporary beside it, renamed over it.
+    Atomic {
+        tmp: BufWriter<NamedTempFile>,
+        target: PathBuf,
+    },
+}
+
+impl Output {
+    /// Opens `path` for writing: `-` is standard output; an existing device or pipe
+    /// (also through symlinks, such as `/dev/stdout`) is written in place; anything
+    /// else goes to a temporary file beside the symlinks' final target.
+    pub fn create(path: &Path) -> Result<Output, WriteError> {
+        let fail = |source| WriteError {
+            path: path.to_path_buf(),
+            source,
+        };
+        if is_stdio(path) {
+            return Ok(Self::stdout());
+        }
+        let target = resolve_links(path).map_err(fail)?;
+        let existing = match std::fs::metadata(&target) {
+            Ok(m) => Some(m),
+            Err(e) if e.kind() == io::ErrorKind::NotFound => None,
+            Err(e) => return Err(fail(e)),
+        };
+        if let Some(m) = &existing {
+            if m.is_dir() {
+                return Err(fail(io::Error::new(
+                    io::ErrorKind::IsADirectory,
+                    "is a directory",
+                )));
+            }
+            if !m.is_file() {
+                let file = OpenOptions::new()
+                    .write(true)
+                    .truncate(true)
+                    .open(&target)
+                    .map_err(fail)?;
+                return Ok(Output {
+                    path: path.to_path_buf(),
+                    sink: Sink::Direct(BufWriter::new(file)),
+                });
+            }
+        }
+        let dir = match target.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        remove_stale_temporaries(dir, run_start());
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(TMP_PREFIX).suffix(TMP_SUFFIX);
+        #[cfg(unix)]
+        builder.permissions(new_file_permissions());
+        let tmp = builder
+            .tempfile_in(dir)
+            .map_err(|e| fail(without_path(e)))?;
+        // Held until the descriptor closes: a live run's temporary is never removed.
+        tmp.as_file()
+            .try_lock()
+            .map_err(|e| fail(io::Error::other(e.to_string())))?;
+        if let Some(m) = existing {
+            tmp.as_file()
+                .set_permissions(m.permissions())
+                .map_err(fail)?;
+        }
+        Ok(Output {
+            path: path.to_path_buf(),
+            sink: Sink::Atomic {
+                tmp: BufWriter::new(tmp),
+                target,
+            },
+        })
+    }
+
+    /// Standard output, buffered.
+    pub fn stdout() -> Output {
+        Output {
+            path: PathBuf::from("-"),
+            sink: Sink::Stdout(BufWriter::new(io::stdout())),
+        }
+    }
+
+    /// The path given to [`Output::create`].
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Wraps an I/O error with this output's name.
+    pub fn error(&self, source: io::Error) -> WriteError {
+        WriteError {
+            path: self.path.clone(),
+            source,
+        }
+    }
+
+    /// Flushes everything and, for a regular file, syncs it and renames it into place.
+    pub fn finish(self) -> Result<(), WriteError> {
+        let path = self.path;
+        let fail = |source| WriteError {
+            path: path.clone(),
+            source,
+        };
+        match self.sink {
+            Sink::Stdout(mut w) => w.flush().map_err(fail),
+            Sink::Direct(mut w) => w.flush().map_err(fail),
+            Sink::Atomic { tmp, target } => {
+                let tmp = tmp.into_inner().map_err(|e| fail(e.into_error()))?;
+                tmp.as_file().sync_all().map_err(fail)?;
+                tmp.persist(&target)
+                    .map_err(|e| fail(without_path(e.error)))?;
+                Ok(())
+            }
+        }
+    }
+
+    fn writer(&mut self) -> &mut dyn Write {
+        match &mut self.sink {
+            Sink::Stdout(w) => w,
+            Sink::Direct(w) => w,
+            Sink::Atomic { tmp, .. } => tmp,
+        }
+    }
+}
+
+/// Errors carry the output's name (as a [`WriteError`] inside the `io::Error`, whose
+/// kind is kept, so a broken pipe is still recognisable).
+impl Write for Output {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.writer().write(buf).map_err(|e| self.wrap(e))
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
+        self.writer().write_all(buf).map_err(|e| self.wrap(e))
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.writer().flush().map_err(|e| self.wrap(e))
+    }
+}
+
+impl Output {
+    fn wrap(&self, e: io::Error) -> io::Error {
+        if e.get_ref().is_some_and(|inner| inner.is::<WriteError>()) {
+            return e;
+        }
+        io::Error::new(e.kind(), self.error(e))
+    }
+}
+
+/// Writes `bytes` to `path` as one [`Output`]: atomically for a regular file, in
+/// place for a device or pipe, to standard output for `-`. On any error a regular
+/// file is untouched and no temporary file is left behind.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
-    let fail = |source| WriteError {
-        path: path.to_path_buf(),
-        source,
+    let mut out = Output::create(path)?;
+    out.writer().write_all(bytes).map_err(|e| out.error(e))?;
+    out.finish()
+}
+
+/// The OS error alone: tempfile appends ` at path "<the temporary>"`, a name that
+/// means nothing to the user (the message names the output instead).
+fn without_path(e: io::Error) -> io::Error {
+    let text = e.to_string();
+    match text.find(" at path ") {
+        Some(at) => io::Error::new(e.kind(), &text[..at]),
+        None => e,
+    }
+}
+
+/// Finds the file a chain of symlinks ends at, so that writing replaces the target,
+/// not the link. A dangling link's target is created.
+fn resolve_links(path: &Path) -> io::Result<PathBuf> {
+    let mut p = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => {}
+            _ => return Ok(p),
+        }
+        // /dev/stdout and /proc/self/fd/N name descriptors: their "targets" (pipe:[N])
+        // are not paths. Opening the link itself reaches the descriptor's file.
+        if p.starts_with("/proc") || p.starts_with("/dev") {
+            return match std::fs::metadata(&p) {
+                Ok(m) if m.is_file() => std::fs::canonicalize(&p),
+                _ => Ok(p),
+            };
+        }
+        let link = std::fs::read_link(&p)?;
+        p = match p.parent() {
+            Some(dir) if link.is_relative() => dir.join(link),
+            _ => link,
+        };
+    }
+    Err(io::Error::other(format!(
+        "more than {MAX_LINKS} symlinks in a chain"
+    )))
+}
+
+/// Mode 0666: the kernel filters it through the umask, as for any new file.
+#[cfg(unix)]
+fn new_file_permissions() -> Permissions {
+    use std::os::unix::fs::PermissionsExt;
+    Permissions::from_mode(0o666)
+}
+
+/// When this process began writing: temporaries older than this belong to other runs.
+fn run_start() -> SystemTime {
+    static START: OnceLock<SystemTime> = OnceLock::new();
+    *START.get_or_init(SystemTime::now)
+}
+
+/// Removes `.touchc-*.tmp` files in `dir` left by killed runs: last written before
+/// `start` and not locked (a live writer holds its temporary's lock until it closes
+/// it). Failures are ignored: cleaning is a courtesy, never a reason to refuse a write.
+fn remove_stale_temporaries(dir: &Path, start: SystemTime) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
     };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".touchc-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(fail)?;
-    tmp.write_all(bytes).map_err(fail)?;
-    tmp.as_file().sync_all().map_err(fail)?;
-    tmp.persist(path).map_err(|e| fail(e.error))?;
-    Ok(())
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(name) = name.to_str() else { continue };
+        if !(name.starts_with(TMP_PREFIX) && name.ends_with(TMP_SUFFIX)) {
+            continue;
+        }
+        let Ok(meta) = entry.metadata() else { continue };
+        let old = meta.modified().is_ok_and(|m| m < start);
+        if !meta.is_file() || !old {
+            continue;
+        }
+        let path = entry.path();
+        let Ok(file) = OpenOptions::new().read(true).open(&path) else {
+            continue;
+        };
+        if file.try_lock().is_ok() {
+            let _ = std::fs::remove_file(&path);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -58,5 +331,39 @@ mod tests {
         let err = write_atomic(&path, b"x").unwrap_err();
         assert!(err.to_string().contains("out.touch"), "{err}");
         assert!(!path.exists());
+    }
+
+    #[test]
+    fn an_unfinished_output_leaves_the_target_alone() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.csv");
+        std::fs::write(&path, b"old").unwrap();
+        let mut out = Output::create(&path).unwrap();
+        out.write_all(b"new, half").unwrap();
+        drop(out);
+        assert_eq!(std::fs::read(&path).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn locked_temporaries_are_kept_and_unlocked_old_ones_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let live = dir.path().join(".touchc-live.tmp");
+        let dead = dir.path().join(".touchc-dead.tmp");
+        let other = dir.path().join(".other.tmp");
+        for p in [&live, &dead, &other] {
+            std::fs::write(p, b"partial").unwrap();
+        }
+        let held = File::open(&live).unwrap();
+        held.lock().unwrap();
+        // Both temporaries must predate the run to be candidates at all.
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        remove_stale_temporaries(dir.path(), SystemTime::now());
+        assert!(live.exists(), "a locked temporary belongs to a live run");
+        assert!(
+            !dead.exists(),
+            "an unlocked old temporary is a killed run's"
+        );
+        assert!(other.exists(), "only our own pattern is touched");
     }
 }

@@ -74,15 +74,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 .unwrap_or_else(|| one.with_extension("touch"));
             let r = compile_one(one, &out, args.report.as_deref(), args, &opts)?;
             for w in &r.warnings {
-                eprintln!("touchc: warning: {}: {w}", one.display());
+                super::warn(one, w);
             }
-            eprintln!("{}", summary_line(one, &out, &r));
+            eprintln!("{}", super::escaped(&summary_line(one, &out, &r)));
             Ok(())
         }
-        (None, _) => anyhow::bail!(
+        (None, _) => Err(super::usage(format!(
             "{} recordings given: use --out-dir DIR to compile several",
             args.recordings.len()
-        ),
+        ))),
         (Some(dir), recordings) => batch(recordings, dir, args, &opts),
     }
 }
@@ -169,11 +169,7 @@ fn batch(
             let r = compile_one(input, &out, report.as_deref(), args, opts);
             if let Ok(r) = &r {
                 if let Ok(mut w) = warnings.lock() {
-                    w.extend(
-                        r.warnings
-                            .iter()
-                            .map(|m| format!("touchc: warning: {}: {m}", input.display())),
-                    );
+                    w.extend(r.warnings.iter().map(|m| (input.clone(), m.clone())));
                 }
             }
             bar.inc(1);
@@ -181,16 +177,16 @@ fn batch(
         })
         .collect();
     bar.finish_and_clear();
-    for w in warnings.into_inner().unwrap_or_default() {
-        eprintln!("{w}");
+    for (input, w) in warnings.into_inner().unwrap_or_default() {
+        super::warn(&input, &w);
     }
-    let stdout = std::io::stdout();
-    let mut w = stdout.lock();
+    let mut w = touchc::output::Output::stdout();
     write_summary(&mut w, recordings, &results)?;
+    w.finish()?;
     let failed = results.iter().filter(|r| r.is_err()).count();
     // Every error names its file (the recording, or the output that failed).
     for e in results.iter().filter_map(|r| r.as_ref().err()) {
-        eprintln!("touchc: error: {e:#}");
+        super::print_error(e);
     }
     anyhow::ensure!(
         failed == 0,

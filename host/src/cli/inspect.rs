@@ -1,5 +1,6 @@
 //! `touchc inspect FILE`: what is in a stimulus or bank file, and whether it is intact.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
@@ -9,16 +10,19 @@ use touch_protocol::{bank, stimulus, Bank, Error, Stimulus};
 /// Arguments of `touchc inspect`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A `.touch` stimulus or a `.bank` image.
+    /// A `.touch` stimulus or a `.bank` image (`-`: standard input).
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
+    /// Where to write (`-`: standard output).
+    #[arg(short, long, default_value = "-")]
+    output: PathBuf,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let bytes = super::read_input(&args.file)?;
-    let name = args.file.display();
+    let name = super::input_name(&args.file);
     let report = if bytes.starts_with(&bank::MAGIC) {
         let bank = Bank::decode(&bytes).with_context(|| format!("{name}: not a valid bank"))?;
         let slots: Vec<Value> = bank.stimuli().map(|s| stimulus_json(&s)).collect();
@@ -36,11 +40,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Err(e) => bail!("{name}: not a valid stimulus: {e}"),
         }
     };
+    let mut out = touchc::output::Output::create(&args.output)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        serde_json::to_writer_pretty(&mut out, &report)?;
+        writeln!(out)?;
     } else {
-        print_text(&report);
+        write_text(&mut out, &report)?;
     }
+    out.finish()?;
     Ok(())
 }
 
@@ -75,25 +82,30 @@ fn stimulus_json(s: &Stimulus<'_>) -> Value {
     })
 }
 
-fn print_text(report: &Value) {
+fn write_text(w: &mut impl Write, report: &Value) -> std::io::Result<()> {
     if report["kind"] == "bank" {
-        println!(
+        writeln!(
+            w,
             "bank v{}, {} bytes, CRC {}",
             report["version"], report["bytes"], report["crc"]
-        );
+        )?;
         for (i, slot) in report["slots"].as_array().into_iter().flatten().enumerate() {
-            print!("slot {i}: ");
-            print_stimulus(slot);
+            write!(w, "slot {i}: ")?;
+            write_stimulus(w, slot)?;
         }
+        Ok(())
     } else {
-        print_stimulus(report);
+        write_stimulus(w, report)
     }
 }
 
-fn print_stimulus(s: &Value) {
-    println!(
+/// Two lines about one stimulus; its name is escaped, since it comes from the file and
+/// may hold terminal control codes.
+fn write_stimulus(w: &mut impl Write, s: &Value) -> std::io::Result<()> {
+    writeln!(
+        w,
         "{} (stimulus v{}): {:.3} s, {} keyframes every {} ms, {} bytes ({} B/s), CRC {}",
-        s["name"].as_str().unwrap_or(""),
+        super::escaped(s["name"].as_str().unwrap_or("")),
         s["version"],
         s["duration_s"].as_f64().unwrap_or(0.0),
         s["keyframes"],
@@ -103,8 +115,9 @@ fn print_stimulus(s: &Value) {
             .as_f64()
             .map_or("-".into(), |b| format!("{b:.0}")),
         s["crc"].as_str().unwrap_or(""),
-    );
-    println!(
+    )?;
+    writeln!(
+        w,
         "  full scale {} mA, resolution {:.3} mA, ramp {} ms, layout {}; limits: peak {} mA, slew {} mA/ms, continuous {} mA, I2t {} mA2s",
         s["full_scale_ma"],
         s["resolution_ma"].as_f64().unwrap_or(0.0),
@@ -114,5 +127,5 @@ fn print_stimulus(s: &Value) {
         s["limits"]["slew_ma_per_ms"],
         s["limits"]["continuous_ma"],
         s["limits"]["i2t_budget_ma2s"],
-    );
+    )
 }

@@ -6,13 +6,12 @@ use std::path::PathBuf;
 use anyhow::Context;
 use touch_protocol::DeviceConfig;
 use touchc::output::write_atomic;
-use touchc::viz::play;
 use touchc::viz::plot::{self, Format, Size};
 
 /// Arguments of `touchc plot`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A `.touch` stimulus, or a `.bank` with `--slot`.
+    /// A `.touch` stimulus, or a `.bank` with `--slot` (`-`: standard input).
     file: PathBuf,
     /// The image to write; `.svg` or `.png` picks the format.
     #[arg(short, long)]
@@ -29,21 +28,20 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let format = Format::from_extension(&args.output).with_context(|| {
-        format!(
+    let Some(format) = Format::from_extension(&args.output) else {
+        return Err(super::usage(format!(
             "{}: name the output .svg or .png to choose the format",
             args.output.display()
-        )
-    })?;
+        )));
+    };
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
-    let playback = play(&stimulus, &DeviceConfig::default());
     let size = Size {
         width: args.width,
         height: args.height,
     };
-    let image = plot::plot(&stimulus, &playback, format, size)
-        .with_context(|| format!("{}: cannot plot", args.file.display()))?;
+    let image = plot::plot(&stimulus, &DeviceConfig::default(), format, size)
+        .with_context(|| format!("{}: cannot plot", super::input_name(&args.file)))?;
     write_atomic(&args.output, &image)?;
     Ok(())
 }

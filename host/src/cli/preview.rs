@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context};
+use anyhow::Context;
 use touchc::compile::{compile, CompileOptions};
 use touchc::layout::Layout;
 use touchc::output::write_atomic;
@@ -41,13 +41,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let gif = match ext.as_deref() {
         Some("gif") => true,
         Some("png") => false,
-        _ => bail!(
-            "{}: name the output .gif (animation) or .png (one frame)",
-            args.output.display()
-        ),
+        _ => {
+            return Err(super::usage(format!(
+                "{}: name the output .gif (animation) or .png (one frame)",
+                args.output.display()
+            )))
+        }
     };
     if args.every == 0 {
-        bail!("--every must be at least 1");
+        return Err(super::usage("--every must be at least 1"));
     }
     let config = super::load_config(args.config.as_deref())?;
     let layout = match &args.layout {
@@ -68,7 +70,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let recording = Recording::load(&args.recording)?;
     let compiled = compile(&recording, &opts).with_context(|| format!("{name}: cannot compile"))?;
     for w in &compiled.report.warnings {
-        eprintln!("touchc: warning: {name}: {w}");
+        super::warn(&args.recording, w);
     }
     let image = if gif {
         preview::gif(&compiled, args.every, rate)

@@ -1,27 +1,31 @@
 //! `touchc render FILE --csv | --wav out.wav`: the player's 1 kHz output, from the same
 //! code the firmware runs, as CSV or as an 8-channel WAV for an audio interface.
+//! Both are streamed tick by tick, so a stimulus of any length renders in constant
+//! memory, and `touchc render x.touch --csv | head` stops as soon as `head` has enough.
 
-use std::fmt::Write as _;
+use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context};
-use touch_protocol::DeviceConfig;
-use touchc::output::write_atomic;
-use touchc::viz::{play, wav, Playback};
+use anyhow::Context;
+use touch_protocol::{DeviceConfig, Stimulus};
+use touchc::output::Output;
+use touchc::viz::{describe_fault, play, wav, Ticks};
 
 /// Arguments of `touchc render`.
 #[derive(Debug, clap::Args)]
+#[command(group = clap::ArgGroup::new("format").required(true).multiple(true).args(["csv", "wav"]))]
 pub struct Args {
-    /// A `.touch` stimulus, or a `.bank` with `--slot`.
+    /// A `.touch` stimulus, or a `.bank` with `--slot` (`-`: standard input).
     file: PathBuf,
     /// Write CSV: `t_s,ch0,...,ch7`, currents in amperes, one row per 1 kHz tick.
     #[arg(long)]
     csv: bool,
-    /// Where to write the CSV (default: standard output).
-    #[arg(short, long)]
+    /// Where to write the CSV (default and `-`: standard output).
+    #[arg(short, long, requires = "csv")]
     output: Option<PathBuf>,
-    /// Write an 8-channel WAV here: 16-bit PCM, full scale = the device's full scale,
-    /// channels in sleeve order, linearly interpolated between the 1 kHz ticks.
+    /// Write an 8-channel WAV here (`-`: standard output): 16-bit PCM, full scale = the
+    /// device's full scale, channels in sleeve order, linearly interpolated between the
+    /// 1 kHz ticks.
     #[arg(long)]
     wav: Option<PathBuf>,
     /// The WAV's sample rate, Hz (1000 ..= 768000).
@@ -33,47 +37,64 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    if !args.csv && args.wav.is_none() {
-        bail!("choose an output: --csv and/or --wav FILE");
-    }
-    if args.output.is_some() && !args.csv {
-        bail!("-o names the CSV output: add --csv (the WAV goes to --wav FILE)");
+    let csv_out = args.csv.then(|| args.output.clone().unwrap_or("-".into()));
+    if let (Some(csv), Some(wav)) = (&csv_out, &args.wav) {
+        if touchc::output::is_stdio(csv) && touchc::output::is_stdio(wav) {
+            return Err(super::usage(
+                "the CSV and the WAV cannot both go to standard output: give -o FILE or --wav FILE",
+            ));
+        }
     }
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
-    let playback = play(&stimulus, &DeviceConfig::default());
-    if let Some((t, f)) = playback.fault {
-        eprintln!(
-            "touchc: warning: {:?} limit hit on channel {} at {:.3} s; the player ramped to 0 A",
-            f.kind,
-            f.channel,
-            t as f64 / 1000.0
-        );
-    }
+    let device = DeviceConfig::default();
+    let mut fault = None;
     if let Some(path) = &args.wav {
-        let audio = wav::encode(&playback.codes, args.rate)
-            .with_context(|| format!("{}: cannot write a WAV", path.display()))?;
-        write_atomic(path, &audio)?;
+        fault = write_wav(&stimulus, &device, path, args.rate)
+            .with_context(|| format!("{}: cannot write a WAV", super::input_name(&args.file)))?;
     }
-    if args.csv {
-        let csv = render_csv(&playback);
-        match &args.output {
-            Some(path) => write_atomic(path, csv.as_bytes())?,
-            None => print!("{csv}"),
-        }
+    if let Some(path) = &csv_out {
+        let mut out = Output::create(path)?;
+        let mut ticks = play(&stimulus, &device);
+        write_csv(&mut out, &mut ticks)?;
+        out.finish()?;
+        fault = ticks.fault();
+    }
+    if let Some(f) = fault {
+        super::warn(&args.file, &describe_fault(f));
     }
     Ok(())
 }
 
+/// Plays the stimulus twice: once to count its ticks (a WAV's header gives its length
+/// first; the count stops where no WAV could hold more), then to write the samples.
+fn write_wav(
+    stimulus: &Stimulus<'_>,
+    device: &DeviceConfig,
+    path: &std::path::Path,
+    rate: u32,
+) -> anyhow::Result<Option<(usize, touch_protocol::player::Fault)>> {
+    let limit = wav::max_ticks(rate).saturating_add(1);
+    let ticks = play(stimulus, device).take(limit).count();
+    let wav = wav::Wav::new(ticks, rate)?;
+    let mut out = Output::create(path)?;
+    let mut ticks = play(stimulus, device);
+    wav.write(&mut out, &mut ticks)?;
+    out.finish()?;
+    Ok(ticks.fault())
+}
+
 /// One CSV row per tick until the player finishes.
-fn render_csv(playback: &Playback) -> String {
-    let mut out = String::from("t_s,ch0,ch1,ch2,ch3,ch4,ch5,ch6,ch7\n");
-    for (t, codes) in playback.codes.iter().enumerate() {
-        let _ = write!(out, "{:.3}", t as f64 / 1000.0);
-        for ch in 0..codes.len() {
-            let _ = write!(out, ",{:.6}", playback.amps(t, ch));
+fn write_csv(out: &mut impl Write, ticks: &mut Ticks<'_>) -> std::io::Result<()> {
+    writeln!(out, "t_s,ch0,ch1,ch2,ch3,ch4,ch5,ch6,ch7")?;
+    let mut t = 0u64;
+    while let Some(codes) = ticks.next() {
+        write!(out, "{:.3}", t as f64 / 1000.0)?;
+        for code in codes {
+            write!(out, ",{:.6}", ticks.amps(code))?;
         }
-        out.push('\n');
+        writeln!(out)?;
+        t += 1;
     }
-    out
+    Ok(())
 }

@@ -24,7 +24,7 @@ pub struct Args {
     /// Noise-only frames before and after the gestures.
     #[arg(long, default_value_t = 30)]
     quiet_frames: usize,
-    /// The `.npy` file to write.
+    /// The `.npy` file to write (`-`: standard output).
     #[arg(short, long)]
     output: PathBuf,
 }
@@ -47,7 +47,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     write_atomic(&args.output, &bytes)?;
     eprintln!(
         "touchc: wrote {} ({} frames of {}x{})",
-        args.output.display(),
+        super::escaped(&touchc::output::shown(&args.output)),
         recording.shape()[0],
         synth::ROWS,
         synth::COLS

@@ -15,6 +15,9 @@ pub struct TrackArgs {
     /// Print machine-readable JSON (the reference vectors' fields) instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Where to write (`-`: standard output).
+    #[arg(short, long, default_value = "-")]
+    pub output: PathBuf,
     /// Algorithm parameters: preset, config file, individual knobs.
     #[command(flatten)]
     pub params: super::params::ParamArgs,
@@ -42,14 +45,14 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let cfg = args.params.resolve()?;
     let rec = Recording::load(&args.recording)?;
     let out = track(&rec, &cfg)?;
-    let stdout = std::io::stdout();
-    let mut w = stdout.lock();
+    let mut w = touchc::output::Output::create(&args.output)?;
     if args.json {
         serde_json::to_writer(&mut w, &report(&out))?;
         writeln!(w)?;
     } else {
         write_table(&mut w, &rec, &out)?;
     }
+    w.finish()?;
     Ok(())
 }
 
@@ -73,7 +76,11 @@ fn report(out: &TrackOutput) -> Report<'_> {
 
 fn write_table(w: &mut impl Write, rec: &Recording, out: &TrackOutput) -> std::io::Result<()> {
     let (t, r, c) = rec.dim();
-    writeln!(w, "{}: {t} frames of {r} x {c} cells", rec.name())?;
+    writeln!(
+        w,
+        "{}: {t} frames of {r} x {c} cells",
+        super::escaped(rec.name())
+    )?;
     writeln!(
         w,
         "blurred mean {:.6} psi, std {:.6} psi, {} detections, {} trajectories",

@@ -60,7 +60,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Ok(r) => rows.extend(r),
             Err(e) => {
                 failed += 1;
-                eprintln!("touchc: error: {}: cannot compile: {e}", path.display());
+                super::print_error(
+                    &anyhow::Error::new(e).context(format!("{}: cannot compile", path.display())),
+                );
             }
         }
     }
@@ -69,7 +71,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     } else {
         text(&rows)
     };
-    print!("{table}");
+    write_atomic(std::path::Path::new("-"), table.as_bytes())?;
     if let Some(path) = &args.csv {
         write_atomic(path, csv(&rows).as_bytes())?;
     }

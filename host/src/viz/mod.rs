@@ -65,45 +65,64 @@ pub(crate) fn register_font() -> Result<(), VizError> {
     }
 }
 
-/// The sleeve's output for one stimulus: every 1 kHz tick's codes, as the firmware
-/// would emit them, through the ramp down to the first idle tick.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Playback {
-    /// Output codes per tick, channel order (2048 = 0 A).
-    pub codes: Vec<[u16; CHANNELS]>,
-    /// The device the codes are for: its full scale turns codes into amperes.
-    pub device: DeviceConfig,
-    /// The first limit hit, and the tick it happened at; the player ramped down there.
-    pub fault: Option<(usize, Fault)>,
+/// The sleeve's output for one stimulus, tick by tick (1 kHz), as the firmware would
+/// emit it, through the ramp down to the first idle tick. An iterator, so that a
+/// stimulus of any length is rendered, plotted or resampled in constant memory.
+pub struct Ticks<'a> {
+    player: Player<'a>,
+    device: DeviceConfig,
+    t: usize,
+    fault: Option<(usize, Fault)>,
 }
 
-impl Playback {
-    /// Channel `ch`'s current at tick `t`, amperes.
-    pub fn amps(&self, t: usize, ch: usize) -> f64 {
-        code_to_amps(self.codes[t][ch], self.device.full_scale_ma)
+impl Ticks<'_> {
+    /// The first limit hit so far, and the tick it happened at; the player ramped down
+    /// from there.
+    pub fn fault(&self) -> Option<(usize, Fault)> {
+        self.fault
     }
 
-    /// Length in seconds (1 kHz ticks).
-    pub fn seconds(&self) -> f64 {
-        self.codes.len() as f64 / 1000.0
+    /// The device the codes are for.
+    pub fn device(&self) -> &DeviceConfig {
+        &self.device
+    }
+
+    /// A code's current on this device, amperes.
+    pub fn amps(&self, code: u16) -> f64 {
+        code_to_amps(code, self.device.full_scale_ma)
+    }
+}
+
+impl Iterator for Ticks<'_> {
+    /// Output codes of one tick, channel order (2048 = 0 A).
+    type Item = [u16; CHANNELS];
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let tick = self.player.next()?;
+        if let Status::Fault(f) = tick.status {
+            self.fault.get_or_insert((self.t, f));
+        }
+        self.t += 1;
+        Some(tick.codes)
     }
 }
 
 /// Plays `stimulus` on `device` to the end, exactly as the firmware would.
-pub fn play(stimulus: &Stimulus<'_>, device: &DeviceConfig) -> Playback {
-    let mut fault = None;
-    let codes = Player::new(stimulus, device)
-        .enumerate()
-        .map(|(t, tick)| {
-            if let Status::Fault(f) = tick.status {
-                fault.get_or_insert((t, f));
-            }
-            tick.codes
-        })
-        .collect();
-    Playback {
-        codes,
+pub fn play<'a>(stimulus: &Stimulus<'a>, device: &DeviceConfig) -> Ticks<'a> {
+    Ticks {
+        player: Player::new(stimulus, device),
         device: *device,
-        fault,
+        t: 0,
+        fault: None,
     }
+}
+
+/// Says which limit stopped the player and when, for warnings and plot titles.
+pub fn describe_fault((t, f): (usize, Fault)) -> String {
+    format!(
+        "{:?} limit hit on channel {} at {:.3} s; the player ramped to 0 A",
+        f.kind,
+        f.channel,
+        t as f64 / 1000.0
+    )
 }

@@ -4,13 +4,17 @@
 //!
 //! The traces are the [`Player`](touch_protocol::Player)'s output converted to amperes
 //! ([`super::play`]), so a reviewer sees the ramps, the clamping and any fault exactly
-//! as the sleeve would produce them, not the compiler's idealised signal.
+//! as the sleeve would produce them, not the compiler's idealised signal. The ticks are
+//! reduced while they stream to each channel's minimum and maximum per slice of time
+//! (about one slice per pixel column), so a stimulus of any length plots in constant
+//! memory and no peak falls between two drawn points.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use touch_protocol::{Stimulus, CHANNELS};
+use touch_protocol::player::Fault;
+use touch_protocol::{DeviceConfig, Stimulus, CHANNELS};
 
-use super::{register_font, Playback, VizError, FAMILY};
+use super::{describe_fault, play, register_font, VizError, FAMILY};
 
 /// Actuator rows on the sleeve (`channel = row * COLUMNS + column`).
 const ROWS: usize = 2;
@@ -67,11 +71,14 @@ impl Default for Size {
     }
 }
 
-/// Plots `stimulus` as played by `playback` (see [`super::play`]) and returns the
-/// file's bytes.
+/// Most points drawn per channel: about two per pixel column of the widest panel.
+const MAX_POINTS: usize = 2000;
+
+/// Plots `stimulus` as played on `device` (see [`super::play`]) and returns the file's
+/// bytes.
 pub fn plot(
     stimulus: &Stimulus<'_>,
-    playback: &Playback,
+    device: &DeviceConfig,
     format: Format,
     size: Size,
 ) -> Result<Vec<u8>, VizError> {
@@ -85,13 +92,35 @@ pub fn plot(
         });
     }
     register_font()?;
+    // The header's length is the player's length but for a fault (shorter) or a
+    // slew-limited ramp down (a little longer): slices stay about MAX_POINTS / 2.
+    let expected = stimulus.header().playback_ms() as usize + 1;
+    let mut ticks = play(stimulus, device);
+    let mut trace = Trace::new(expected.div_ceil(MAX_POINTS / 2));
+    for codes in &mut ticks {
+        trace.push(codes);
+    }
+    trace.finish();
+    let trace = Traced {
+        points: trace.points.map(|p| {
+            p.into_iter()
+                .map(|(t, code)| (t as f64 / 1000.0, ticks.amps(code)))
+                .collect()
+        }),
+        biggest: [trace.low, trace.high]
+            .iter()
+            .map(|&code| ticks.amps(code).abs())
+            .fold(0.0, f64::max),
+        seconds: trace.ticks as f64 / 1000.0,
+        fault: ticks.fault(),
+    };
     let dims = (size.width, size.height);
     match format {
         Format::Svg => {
             let mut svg = String::new();
             {
                 let root = SVGBackend::with_string(&mut svg, dims).into_drawing_area();
-                draw(&root, stimulus, playback).map_err(draw_error)?;
+                draw(&root, stimulus, &trace).map_err(draw_error)?;
                 root.present().map_err(draw_error)?;
             }
             Ok(svg.into_bytes())
@@ -100,7 +129,7 @@ pub fn plot(
             let mut rgb = vec![0u8; size.width as usize * size.height as usize * 3];
             {
                 let root = BitMapBackend::with_buffer(&mut rgb, dims).into_drawing_area();
-                draw(&root, stimulus, playback).map_err(draw_error)?;
+                draw(&root, stimulus, &trace).map_err(draw_error)?;
                 root.present().map_err(draw_error)?;
             }
             encode_png(&rgb, size.width, size.height)
@@ -127,34 +156,39 @@ pub(crate) fn draw_error(e: impl std::fmt::Display) -> VizError {
 
 type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
+/// What is drawn: each channel's reduced trace in (seconds, amperes).
+struct Traced {
+    points: [Vec<(f64, f64)>; CHANNELS],
+    /// Largest absolute current on any channel, A.
+    biggest: f64,
+    seconds: f64,
+    fault: Option<(usize, Fault)>,
+}
+
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     stimulus: &Stimulus<'_>,
-    playback: &Playback,
+    trace: &Traced,
 ) -> DrawResult<DB> {
     root.fill(&WHITE)?;
     let peak_a = f64::from(stimulus.limits().peak_ma) / 1000.0;
+    // The name comes from the file: control characters would not render anyway.
+    let name: String = stimulus
+        .name()
+        .chars()
+        .map(|c| if c.is_control() { '\u{fffd}' } else { c })
+        .collect();
     let mut title = format!(
-        "{}: {:.3} s played at 1 kHz, peak limit \u{b1}{:.2} A (red)",
-        stimulus.name(),
-        playback.seconds(),
-        peak_a
+        "{name}: {:.3} s played at 1 kHz, peak limit \u{b1}{:.2} A (red)",
+        trace.seconds, peak_a
     );
-    if let Some((t, f)) = playback.fault {
-        title.push_str(&format!(
-            "; {:?} limit hit on ch{} at {:.3} s, ramped down",
-            f.kind,
-            f.channel,
-            t as f64 / 1000.0
-        ));
+    if let Some(f) = trace.fault {
+        title.push_str("; ");
+        title.push_str(&describe_fault(f));
     }
     let body = root.titled(&title, (FAMILY, 20))?;
-    let t_end = playback.seconds().max(0.001);
-    let biggest = (0..CHANNELS)
-        .flat_map(|ch| (0..playback.codes.len()).map(move |t| (t, ch)))
-        .map(|(t, ch)| playback.amps(t, ch).abs())
-        .fold(peak_a, f64::max);
-    let y = (biggest * 1.1).max(0.1);
+    let t_end = trace.seconds.max(0.001);
+    let y = (trace.biggest.max(peak_a) * 1.1).max(0.1);
     let panels = body.split_evenly((ROWS, COLUMNS));
     for (ch, panel) in panels.iter().enumerate() {
         let (row, col) = (ch / COLUMNS, ch % COLUMNS);
@@ -185,63 +219,119 @@ fn draw<DB: DrawingBackend>(
             ))?;
         }
         chart.draw_series(LineSeries::new(
-            envelope(playback, ch, 2000),
+            trace.points[ch].iter().copied(),
             TRACE.stroke_width(2),
         ))?;
     }
     Ok(())
 }
 
-/// Channel `ch` as (seconds, amperes) points; longer than `max_points` ticks, it keeps
-/// each bucket's minimum and maximum in time order, so a long stimulus stays light in
-/// SVG and no peak disappears between two drawn points.
-fn envelope(playback: &Playback, ch: usize, max_points: usize) -> Vec<(f64, f64)> {
-    let n = playback.codes.len();
-    let at = |t: usize| (t as f64 / 1000.0, playback.amps(t, ch));
-    if n <= max_points {
-        return (0..n).map(at).collect();
+/// Each channel's minimum and maximum per slice of `slice` ticks, in time order,
+/// gathered as the ticks stream past.
+struct Trace {
+    slice: usize,
+    ticks: usize,
+    /// Per channel: (tick, code) of the slice's minimum and maximum so far.
+    open: [Option<((usize, u16), (usize, u16))>; CHANNELS],
+    /// Per channel: the finished slices' points, as (tick, code).
+    points: [Vec<(usize, u16)>; CHANNELS],
+    /// The last tick, drawn so a trace reaches the end.
+    last: Option<[u16; CHANNELS]>,
+    low: u16,
+    high: u16,
+}
+
+impl Trace {
+    fn new(slice: usize) -> Self {
+        Trace {
+            slice: slice.max(1),
+            ticks: 0,
+            open: [None; CHANNELS],
+            points: std::array::from_fn(|_| Vec::new()),
+            last: None,
+            low: touch_protocol::IDLE_CODE,
+            high: touch_protocol::IDLE_CODE,
+        }
     }
-    let buckets = (max_points / 2).max(1);
-    let mut out = Vec::with_capacity(2 * buckets + 1);
-    for b in 0..buckets {
-        let (lo, hi) = (
-            b * n / buckets,
-            ((b + 1) * n / buckets).max(b * n / buckets + 1),
-        );
-        let (mut tmin, mut tmax) = (lo, lo);
-        for t in lo..hi.min(n) {
-            if playback.amps(t, ch) < playback.amps(tmin, ch) {
-                tmin = t;
+
+    fn push(&mut self, codes: [u16; CHANNELS]) {
+        let t = self.ticks;
+        if t > 0 && t % self.slice == 0 {
+            self.close();
+        }
+        for (ch, &code) in codes.iter().enumerate() {
+            let (lo, hi) = self.open[ch].get_or_insert(((t, code), (t, code)));
+            if code < lo.1 {
+                *lo = (t, code);
             }
-            if playback.amps(t, ch) > playback.amps(tmax, ch) {
-                tmax = t;
+            if code > hi.1 {
+                *hi = (t, code);
+            }
+            self.low = self.low.min(code);
+            self.high = self.high.max(code);
+        }
+        self.last = Some(codes);
+        self.ticks += 1;
+    }
+
+    /// Ends the open slice: its extremes, earlier one first.
+    fn close(&mut self) {
+        for (open, points) in self.open.iter_mut().zip(&mut self.points) {
+            if let Some((lo, hi)) = open.take() {
+                let (a, b) = if lo.0 <= hi.0 { (lo, hi) } else { (hi, lo) };
+                points.push(a);
+                if b.0 != a.0 {
+                    points.push(b);
+                }
             }
         }
-        out.push(at(tmin.min(tmax)));
-        out.push(at(tmin.max(tmax)));
     }
-    out.push(at(n - 1));
-    out
+
+    fn finish(&mut self) {
+        self.close();
+        if let Some(codes) = self.last {
+            let t = self.ticks - 1;
+            for (points, code) in self.points.iter_mut().zip(codes) {
+                if points.last().is_none_or(|p| p.0 != t) {
+                    points.push((t, code));
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use touch_protocol::DeviceConfig;
 
     #[test]
-    fn envelope_keeps_extremes_of_long_signals() {
-        let codes: Vec<[u16; 8]> = (0..10_000)
-            .map(|t| [if t == 7777 { 4095 } else { 2048 }; 8])
-            .collect();
-        let pb = Playback {
-            codes,
-            device: DeviceConfig::default(),
-            fault: None,
-        };
-        let pts = envelope(&pb, 3, 100);
-        assert!(pts.len() <= 101);
-        assert!(pts.iter().any(|&(t, a)| t == 7.777 && a > 0.99));
-        assert!(pts.windows(2).all(|w| w[0].0 <= w[1].0));
+    fn trace_keeps_extremes_of_long_signals_in_time_order() {
+        let mut trace = Trace::new(10_000usize.div_ceil(50));
+        for t in 0..10_000 {
+            let mut codes = [2048; 8];
+            codes[3] = match t {
+                7777 => 4095,
+                1234 => 0,
+                _ => 2048,
+            };
+            trace.push(codes);
+        }
+        trace.finish();
+        let pts = &trace.points[3];
+        assert!(pts.len() <= 101, "{}", pts.len());
+        assert!(pts.contains(&(7777, 4095)) && pts.contains(&(1234, 0)));
+        assert!(pts.windows(2).all(|w| w[0].0 < w[1].0));
+        assert_eq!(pts.last(), Some(&(9999, 2048)));
+        assert_eq!((trace.low, trace.high), (0, 4095));
+        // Short signals keep every tick.
+        let mut short = Trace::new(1);
+        for t in 0..5u16 {
+            short.push([2048 + t; 8]);
+        }
+        short.finish();
+        assert_eq!(
+            short.points[0],
+            (0..5).map(|t| (t, 2048 + t as u16)).collect::<Vec<_>>()
+        );
     }
 }

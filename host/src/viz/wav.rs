@@ -93,35 +93,91 @@ pub fn frames_for(ticks: usize, rate: u32) -> u64 {
     }
 }
 
-/// The whole WAV file for the player's output `codes` (one entry per 1 kHz tick, see
-/// [`super::play`]), resampled to `rate` Hz.
-pub fn encode(codes: &[[u16; CHANNELS]], rate: u32) -> Result<Vec<u8>, WavError> {
-    if !(RATE_HZ.0..=RATE_HZ.1).contains(&rate) {
-        return Err(WavError::Rate(rate));
-    }
-    let frames = frames_for(codes.len(), rate);
-    let too_long = WavError::TooLong { frames };
-    let frames32 = u32::try_from(frames).map_err(|_| too_long.clone())?;
-    let head = header(rate, frames32)?;
-    let mut out = Vec::with_capacity(HEADER_LEN + frames as usize * usize::from(BLOCK_ALIGN));
-    out.extend_from_slice(&head);
-    let rate = i64::from(rate);
-    for m in 0..frames as i64 {
-        // Sample m sits at m / rate s = tick (m * 1000 / rate) plus a fraction.
-        let pos = m * 1000;
-        let (n, frac) = ((pos / rate) as usize, pos % rate);
-        let a = &codes[n];
-        let b = codes.get(n + 1).unwrap_or(a);
-        for ch in 0..CHANNELS {
-            let (ca, cb) = (offset(a[ch]), offset(b[ch]));
-            // Rounded to nearest, half away from zero, in units of 1/16 code.
-            let num = (ca * (rate - frac) + cb * frac) * 16;
-            let v = (num + num.signum() * (rate / 2)) / rate;
-            let v = v.clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16;
-            out.extend_from_slice(&v.to_le_bytes());
+/// Most 1 kHz ticks a WAV at `rate` Hz can hold (its sizes are 32-bit), so that a caller
+/// counting a stimulus's ticks can stop counting there.
+pub fn max_ticks(rate: u32) -> usize {
+    let frames = (u64::from(u32::MAX) - HEADER_LEN as u64) / u64::from(BLOCK_ALIGN);
+    let ticks = (frames - 1) * 1000 / u64::from(rate.max(1)) + 1;
+    usize::try_from(ticks).unwrap_or(usize::MAX)
+}
+
+/// A WAV file's shape: `ticks` ticks of the player resampled to `rate` Hz, checked to
+/// fit the format before a byte is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Wav {
+    rate: u32,
+    ticks: usize,
+    frames: u32,
+}
+
+impl Wav {
+    /// Checks the rate against [`RATE_HZ`] and the length against the format's 4 GiB.
+    pub fn new(ticks: usize, rate: u32) -> Result<Wav, WavError> {
+        if !(RATE_HZ.0..=RATE_HZ.1).contains(&rate) {
+            return Err(WavError::Rate(rate));
         }
+        let frames = frames_for(ticks, rate);
+        let too_long = WavError::TooLong { frames };
+        let frames = u32::try_from(frames).map_err(|_| too_long.clone())?;
+        header(rate, frames)?;
+        Ok(Wav {
+            rate,
+            ticks,
+            frames,
+        })
     }
-    Ok(out)
+
+    /// Bytes of the whole file.
+    pub fn len(&self) -> u64 {
+        HEADER_LEN as u64 + u64::from(self.frames) * u64::from(BLOCK_ALIGN)
+    }
+
+    /// Whether the file holds no samples (a stimulus of no ticks).
+    pub fn is_empty(&self) -> bool {
+        self.frames == 0
+    }
+
+    /// Streams the file into `out`: the header, then the samples interpolated from
+    /// `codes` (the player's output, one entry per 1 kHz tick, see [`super::play`]),
+    /// holding two ticks at a time. `codes` must yield the `ticks` given to
+    /// [`Wav::new`]; missing ticks repeat the last one, extra ones are ignored.
+    pub fn write(
+        &self,
+        out: &mut impl std::io::Write,
+        codes: impl IntoIterator<Item = [u16; CHANNELS]>,
+    ) -> std::io::Result<()> {
+        let head = header(self.rate, self.frames).map_err(std::io::Error::other)?;
+        out.write_all(&head)?;
+        let mut codes = codes.into_iter().take(self.ticks);
+        let Some(mut a) = codes.next() else {
+            return Ok(());
+        };
+        let mut next = codes.next();
+        let mut at = 0i64;
+        let rate = i64::from(self.rate);
+        let mut frame = [0u8; BLOCK_ALIGN as usize];
+        for m in 0..i64::from(self.frames) {
+            // Sample m sits at m / rate s = tick (m * 1000 / rate) plus a fraction.
+            let pos = m * 1000;
+            let (n, frac) = (pos / rate, pos % rate);
+            while at < n {
+                a = next.unwrap_or(a);
+                next = codes.next();
+                at += 1;
+            }
+            let b = next.unwrap_or(a);
+            for ch in 0..CHANNELS {
+                let (ca, cb) = (offset(a[ch]), offset(b[ch]));
+                // Rounded to nearest, half away from zero, in units of 1/16 code.
+                let num = (ca * (rate - frac) + cb * frac) * 16;
+                let v = (num + num.signum() * (rate / 2)) / rate;
+                let v = v.clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16;
+                frame[2 * ch..2 * ch + 2].copy_from_slice(&v.to_le_bytes());
+            }
+            out.write_all(&frame)?;
+        }
+        Ok(())
+    }
 }
 
 /// A code's distance from the idle code (0 A).
@@ -132,6 +188,15 @@ fn offset(code: u16) -> i64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The whole file in memory.
+    fn encode(codes: &[[u16; CHANNELS]], rate: u32) -> Result<Vec<u8>, WavError> {
+        let wav = Wav::new(codes.len(), rate)?;
+        let mut out = Vec::new();
+        wav.write(&mut out, codes.iter().copied()).unwrap();
+        assert_eq!(out.len() as u64, wav.len());
+        Ok(out)
+    }
 
     #[test]
     fn header_bytes_are_pinned() {
@@ -205,5 +270,10 @@ mod tests {
         ));
         let empty = encode(&[], 48_000).unwrap();
         assert_eq!(empty.len(), HEADER_LEN);
+        // The longest WAV at each rate fits, one tick more does not.
+        for rate in [1000, 44_100, 48_000, 768_000] {
+            assert!(Wav::new(max_ticks(rate), rate).is_ok(), "{rate}");
+            assert!(Wav::new(max_ticks(rate) + 1, rate).is_err(), "{rate}");
+        }
     }
 }
