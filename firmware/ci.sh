@@ -89,15 +89,19 @@ cargo fmt -p sleeve-firmware -- --check
 cargo clippy -p sleeve-firmware --no-deps --all-targets --locked -- -D warnings
 cargo test -p sleeve-firmware --locked
 
-step "target: clippy, release build"
+# The workspace's `firmware` profile: size and speed first (fat LTO, one codegen unit),
+# while `release` is tuned for the host tools' build time.
+profile=firmware
+
+step "target: clippy, $profile build"
 cd "$here"
 for features in "" "dac-outputs" "button-per-slot" "dac-outputs,button-per-slot"; do
-    cargo clippy --release --no-deps --locked --features "$features" -- -D warnings
+    cargo clippy --profile "$profile" --no-deps --locked --features "$features" -- -D warnings
 done
-cargo build --release --locked
-elf="$root/target/$target/release/sleeve-firmware"
+cargo build --profile "$profile" --locked
+elf="$root/target/$target/$profile/sleeve-firmware"
 read -r flash ram < <(elf_use "$elf")
-echo "sleeve-firmware release: flash $flash B ($((flash / 1024)) KB, budget $((flash_budget / 1024)) KB), static RAM $ram B ($((ram / 1024)) KB, budget $((ram_budget / 1024)) KB)"
+echo "sleeve-firmware ($profile profile): flash $flash B ($((flash / 1024)) KB, budget $((flash_budget / 1024)) KB), static RAM $ram B ($((ram / 1024)) KB, budget $((ram_budget / 1024)) KB)"
 if [ "$flash" -gt "$flash_budget" ] || [ "$ram" -gt "$ram_budget" ]; then
     echo "firmware over its flash or RAM budget" >&2
     exit 1
@@ -122,7 +126,7 @@ rm -f "$log"
 step "default bank linked into the BANK region"
 bank="$(realpath "$(ls -t target/$target/release/build/sleeve-qemu-test-*/out/bank.bin | head -n1)")"
 cd "$here"
-SLEEVE_DEFAULT_BANK="$bank" cargo build --release --locked --features default-bank
+SLEEVE_DEFAULT_BANK="$bank" cargo build --profile "$profile" --locked --features default-bank
 # The .bank section must sit at 0x080C0000 and hold the whole image.
 read -r addr size < <(readelf -SW "$elf" | sed -n 's/^ *\[ *[0-9]*\] *//p' | awk '$1 == ".bank" { print $3, $5 }')
 if [ "$addr" != 080c0000 ] || [ "$((16#$size))" != "$(stat -c %s "$bank")" ]; then
@@ -130,6 +134,6 @@ if [ "$addr" != 080c0000 ] || [ "$((16#$size))" != "$(stat -c %s "$bank")" ]; th
     exit 1
 fi
 echo "default bank: $((16#$size)) bytes at 0x$addr"
-# Leave the plain build in place for `cargo run --release`.
-cargo build --release --locked
+# Leave the plain build in place for `cargo run --profile firmware`.
+cargo build --profile "$profile" --locked
 echo "firmware checks passed"

@@ -1,12 +1,10 @@
 //! The real `touchc` binary: `track --json` on a reference file, the table, bad files.
 
 mod common;
+#[path = "common/bin.rs"]
+mod bin;
 
-use std::process::Command;
-
-fn touchc() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_touchc"))
-}
+use bin::command as touchc;
 
 #[test]
 fn track_json_reproduces_the_reference() {

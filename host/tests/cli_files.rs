@@ -1,19 +1,15 @@
 //! Drives the real `touchc` binary on stimulus and bank files built here.
 
+#[path = "common/bin.rs"]
+mod bin;
+
+use bin::touchc;
 use std::path::Path;
-use std::process::Command;
 
 use touch_protocol::Bank;
 
 #[path = "common/stimuli.rs"]
 mod stimuli;
-
-fn touchc(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_touchc"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn stimulus_file(dir: &Path, name: &str) -> std::path::PathBuf {
     // A 4 Hz-ish swell on channel 2 over a -0.9 A pre-dent elsewhere, 1 s long.

@@ -1,14 +1,10 @@
 //! The real binary: `--preset` and the knobs, batch compiles, `touchc trade`.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+#[path = "common/bin.rs"]
+mod bin;
 
-fn touchc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_touchc"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use bin::touchc;
+use std::path::{Path, PathBuf};
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()

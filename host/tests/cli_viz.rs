@@ -1,19 +1,16 @@
 //! Drives the real `touchc` binary: `plot` (PNG, SVG, bank slots) and `render --wav`.
 
+#[path = "common/bin.rs"]
+mod bin;
+
+use bin::touchc;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use touch_protocol::bank;
 
 #[path = "common/stimuli.rs"]
 mod stimuli;
-
-fn touchc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_touchc"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn ok(out: &Output) {
     assert!(

@@ -1,8 +1,10 @@
 //! The whole chain, recording to stimulus: what a user of `touchc compile` relies on.
 
 mod common;
+#[path = "common/bin.rs"]
+mod bin;
 
-use std::process::Command;
+use bin::touchc;
 
 use touchc::compile::{compile, CompileOptions, Compiled};
 use touchc::layout::Layout;
@@ -188,13 +190,6 @@ fn the_reference_recordings_compile_to_the_reference_placement() {
         assert_eq!(c.report.selected, reference.selected_trajectories, "{name}");
         assert!((c.report.score / reference.best_score - 1.0).abs() < 1e-9);
     }
-}
-
-fn touchc(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_touchc"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 #[test]

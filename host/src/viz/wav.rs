@@ -96,8 +96,10 @@ pub fn frames_for(ticks: usize, rate: u32) -> u64 {
 /// Most 1 kHz ticks a WAV at `rate` Hz can hold (its sizes are 32-bit), so that a caller
 /// counting a stimulus's ticks can stop counting there.
 pub fn max_ticks(rate: u32) -> usize {
-    let frames = (u64::from(u32::MAX) - HEADER_LEN as u64) / u64::from(BLOCK_ALIGN);
-    let ticks = (frames - 1) * 1000 / u64::from(rate.max(1)) + 1;
+    // The RIFF size (everything after its first 8 bytes) is the binding 32-bit field.
+    let frames = (u64::from(u32::MAX) - (HEADER_LEN as u64 - 8)) / u64::from(BLOCK_ALIGN);
+    // The largest n with (n - 1) * rate / 1000 + 1 <= frames (see `frames_for`).
+    let ticks = (1000 * frames - 1) / u64::from(rate.max(1)) + 1;
     usize::try_from(ticks).unwrap_or(usize::MAX)
 }
 

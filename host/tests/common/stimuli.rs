@@ -42,3 +42,27 @@ pub fn one_second(rest: f64, special: &[(usize, Shape)]) -> Vec<[f64; 8]> {
         })
         .collect()
 }
+
+/// A stimulus of `seconds` s, `name`d as given: one keyframe per second, every channel
+/// rising to 0.3 A in the first second and holding there (a run, so a few dozen bytes
+/// however long).
+pub fn long(name: &str, seconds: u32) -> Vec<u8> {
+    let header = stimulus::Header {
+        channels: 8,
+        output_rate_hz: 1000,
+        keyframe_period_ms: 1000,
+        keyframe_count: 0,
+        duration_ms: 0,
+        ramp_ms: 10,
+        full_scale_ma: 1000,
+        quant_shift: 5,
+        layout_id: 1,
+        limits: Limits::SLEEVE,
+        name,
+    };
+    let hold = (0.3f64 * 32768.0).round() as i16;
+    let kf: Vec<[i16; 8]> = (0..=seconds)
+        .map(|k| if k == 0 { [0; 8] } else { [hold; 8] })
+        .collect();
+    stimulus::encode(header, &kf).unwrap()
+}
