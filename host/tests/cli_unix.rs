@@ -161,6 +161,13 @@ fn csv_rows(csv: &[u8]) -> usize {
     csv.iter().filter(|&&b| b == b'\n').count() - 1
 }
 
+fn is_symlink(path: &Path) -> bool {
+    std::fs::symlink_metadata(path)
+        .unwrap()
+        .file_type()
+        .is_symlink()
+}
+
 #[test]
 fn outputs_through_symlinks_land_in_their_target() {
     let dir = tempfile::tempdir().unwrap();
@@ -170,10 +177,7 @@ fn outputs_through_symlinks_land_in_their_target() {
     std::os::unix::fs::symlink("real.npy", &link).unwrap();
     let out = touchc(&["synth", "tap", "-o", s(&link)]);
     assert!(out.status.success(), "{}", stderr(&out));
-    assert!(std::fs::symlink_metadata(&link)
-        .unwrap()
-        .file_type()
-        .is_symlink());
+    assert!(is_symlink(&link));
     assert!(std::fs::read(&target).unwrap().starts_with(b"\x93NUMPY"));
 
     // A dangling link: its target is created, the link kept.
@@ -182,10 +186,7 @@ fn outputs_through_symlinks_land_in_their_target() {
     std::fs::create_dir(dir.path().join("sub")).unwrap();
     let out = touchc(&["synth", "tap", "-o", s(&dangling)]);
     assert!(out.status.success(), "{}", stderr(&out));
-    assert!(std::fs::symlink_metadata(&dangling)
-        .unwrap()
-        .file_type()
-        .is_symlink());
+    assert!(is_symlink(&dangling));
     assert!(dir.path().join("sub/made.npy").is_file());
 }
 
@@ -213,15 +214,20 @@ fn a_fifo_is_written_in_place_not_replaced() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
 
-/// Runs `touchc args` under `umask`.
-fn with_umask(umask: &str, args: &[&str]) -> std::process::Output {
+/// Runs `touchc args` from a shell that first runs `setup` (a `umask`, a `ulimit`).
+fn after(setup: &str, args: &[&str]) -> std::process::Output {
     Command::new("sh")
         .arg("-c")
-        .arg(format!("umask {umask}; exec \"$0\" \"$@\""))
+        .arg(format!("{setup}; exec \"$0\" \"$@\""))
         .arg(env!("CARGO_BIN_EXE_touchc"))
         .args(args)
         .output()
         .unwrap()
+}
+
+/// Runs `touchc args` under `umask`.
+fn with_umask(umask: &str, args: &[&str]) -> std::process::Output {
+    after(&format!("umask {umask}"), args)
 }
 
 fn mode(path: &Path) -> u32 {
@@ -403,13 +409,7 @@ fn names_with_control_codes_are_escaped_on_the_terminal() {
 /// Runs `touchc args` with at most `mb` MB of data memory (RLIMIT_DATA covers the heap,
 /// including large allocations made with mmap).
 fn with_memory_limit(mb: u32, args: &[&str]) -> std::process::Output {
-    Command::new("sh")
-        .arg("-c")
-        .arg(format!("ulimit -d {}; exec \"$0\" \"$@\"", mb * 1024))
-        .arg(env!("CARGO_BIN_EXE_touchc"))
-        .args(args)
-        .output()
-        .unwrap()
+    after(&format!("ulimit -d {}", mb * 1024), args)
 }
 
 #[test]
