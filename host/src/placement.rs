@@ -487,7 +487,7 @@ pub fn place(
 fn coarse_to_fine(search: &Search, state: &mut Scores, stride: usize, keep: usize) {
     let cfg = search.cfg;
     let index = grid_indices(cfg);
-    let on = |i: usize, last: usize| i % stride == 0 || i == last;
+    let on = |i: usize, last: usize| i.is_multiple_of(stride) || i == last;
     let coarse: Vec<usize> = (0..index.len())
         .filter(|&k| {
             let [ix, iy, is] = index[k];

@@ -226,15 +226,18 @@ fn draw<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A tick and its code.
+type Point = (usize, u16);
+
 /// Each channel's minimum and maximum per slice of `slice` ticks, in time order,
 /// gathered as the ticks stream past.
 struct Trace {
     slice: usize,
     ticks: usize,
     /// Per channel: (tick, code) of the slice's minimum and maximum so far.
-    open: [Option<((usize, u16), (usize, u16))>; CHANNELS],
+    open: [Option<(Point, Point)>; CHANNELS],
     /// Per channel: the finished slices' points, as (tick, code).
-    points: [Vec<(usize, u16)>; CHANNELS],
+    points: [Vec<Point>; CHANNELS],
     /// The last tick, drawn so a trace reaches the end.
     last: Option<[u16; CHANNELS]>,
     low: u16,
@@ -256,7 +259,7 @@ impl Trace {
 
     fn push(&mut self, codes: [u16; CHANNELS]) {
         let t = self.ticks;
-        if t > 0 && t % self.slice == 0 {
+        if t > 0 && t.is_multiple_of(self.slice) {
             self.close();
         }
         for (ch, &code) in codes.iter().enumerate() {

@@ -1,5 +1,8 @@
 //! Stimulus files built in the tests (`#[path]`-included by the CLI tests).
 
+// Each test crate uses a different part of this module.
+#![allow(dead_code)]
+
 use touch_protocol::{stimulus, Limits};
 
 /// A stimulus named `name` with keyframes every 40 ms (`keyframes` in amperes, 1 A full
