@@ -149,7 +149,13 @@ fn dash_is_standard_output_and_input() {
     let npy = run(&["synth", "tap", "-o", "-"], None);
     assert!(npy.starts_with(b"\x93NUMPY"));
     let json = run(
-        &["track", "../../examples/stroke.npy", "--json", "-o", "-"],
+        &[
+            "track",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/stroke.npy"),
+            "--json",
+            "-o",
+            "-",
+        ],
         None,
     );
     assert!(json.starts_with(b"{"));
