@@ -51,7 +51,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut fault = None;
     if let Some(path) = &args.wav {
         fault = write_wav(&stimulus, &device, path, args.rate)
-            .with_context(|| format!("{}: cannot write a WAV", super::input_name(&args.file)))?;
+            .with_context(|| format!("{}: cannot write a WAV", touchc::output::shown(path)))?;
     }
     if let Some(path) = &csv_out {
         let mut out = Output::create(path)?;
