@@ -220,6 +220,20 @@ impl Recording {
     }
 }
 
+/// The recording's own metadata. Until `.npz` input lands (helper "inputs"), a file
+/// states neither rate nor pitch, so the command line or the config decides.
+impl Recording {
+    /// The frame rate the file states (a `.npz` scalar `rate_hz`), Hz.
+    pub fn file_rate_hz(&self) -> Option<f64> {
+        None
+    }
+
+    /// The cell pitch the file states (a `.npz` scalar `pitch_mm`), mm.
+    pub fn file_pitch_mm(&self) -> Option<f64> {
+        None
+    }
+}
+
 fn npy_error(name: String, e: ReadNpyError) -> RecordingError {
     match e {
         ReadNpyError::Io(source) => RecordingError::Io { name, source },
