@@ -281,7 +281,7 @@ fn preview_animates_every_frame_with_the_trajectories() {
     };
     let compiled = compile(&rec, &opts).unwrap();
     let layout = preview::layout(&compiled).unwrap();
-    let tare = opts.config.input.tare_frames;
+    let tare = touchc::config::Sampling::PAPER.frames(opts.config.input.trim_s);
     assert_eq!(
         frames.len(),
         rec.dim().0 - 2 * tare,
