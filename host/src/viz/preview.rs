@@ -406,7 +406,12 @@ pub fn gif(
 fn changes<'f>(before: &[u8], now: &[u8], width: u16) -> gif::Frame<'f> {
     let w = usize::from(width);
     let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
-    for (i, _) in before.iter().zip(now).enumerate().filter(|(_, (a, b))| a != b) {
+    for (i, _) in before
+        .iter()
+        .zip(now)
+        .enumerate()
+        .filter(|(_, (a, b))| a != b)
+    {
         let (x, y) = (i % w, i / w);
         (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
     }
@@ -486,9 +491,10 @@ impl Canvas<'_> {
     /// Fills the half-open rectangle `[x0, x1) x [y0, y1)`.
     fn fill(&mut self, (x0, y0, x1, y1): (usize, usize, usize, usize), colour: [u8; 3]) {
         for y in y0..y1 {
-            for x in x0..x1 {
-                self.set(x, y, colour);
-            }
+            let row = 3 * y * self.width;
+            self.rgb[row + 3 * x0..row + 3 * x1]
+                .chunks_exact_mut(3)
+                .for_each(|p| p.copy_from_slice(&colour));
         }
     }
 
@@ -556,7 +562,10 @@ fn mark_unexplained(canvas: &mut Canvas<'_>, l: &FrameLayout, cells: ndarray::Ar
     let (rows, cols) = cells.dim();
     let red = rgb_of(UNEXPLAINED);
     let missed = |r: usize, c: usize| cells[[r, c]] == Cell::Unexplained;
-    for ((r, c), _) in cells.indexed_iter().filter(|&(_, &v)| v == Cell::Unexplained) {
+    for ((r, c), _) in cells
+        .indexed_iter()
+        .filter(|&(_, &v)| v == Cell::Unexplained)
+    {
         let rect @ (x0, y0, x1, y1) = l.cell_rect(r, c);
         canvas.hatch(rect, red);
         let w = OUTLINE_PX;
@@ -756,7 +765,10 @@ fn orientation<'b>(scene: &Scene<'_>, root: &Area<'b>) -> DrawResult<'b> {
     };
     let (mid, bar_y) = ((x0 + x1) / 2, y + 18);
     let (a, b) = (mid - len / 2, mid - len / 2 + len);
-    root.draw(&Rectangle::new([(a, bar_y - 1), (b, bar_y + 2)], BLACK.filled()))?;
+    root.draw(&Rectangle::new(
+        [(a, bar_y - 1), (b, bar_y + 2)],
+        BLACK.filled(),
+    ))?;
     for x in [a, b - 1] {
         root.draw(&PathElement::new(
             vec![(x, bar_y - 5), (x, bar_y + 5)],
