@@ -545,7 +545,6 @@ fn draw_frame(scene: &Scene<'_>, t: usize, rate_hz: f64, rgb: &mut [u8]) -> Resu
     canvas.fill(band, [OFF_SENSOR; 3]);
     let swatch = swatch_rect(&l, 4);
     canvas.hatch(swatch, rgb_of(UNEXPLAINED));
-    drop(canvas);
     let root = BitMapBackend::with_buffer(rgb, (l.width, l.height)).into_drawing_area();
     overlay(scene, t, rate_hz, &root).map_err(draw_error)?;
     root.present().map_err(draw_error)
@@ -611,7 +610,8 @@ fn swatch_rect(l: &FrameLayout, k: u32) -> (usize, usize, usize, usize) {
 /// `max_px` long at `px_per_mm`, and its length in px; `None` when not even 1 mm fits.
 fn scale_bar(px_per_mm: f64, max_px: f64) -> Option<(f64, i32)> {
     let max_mm = max_px / px_per_mm;
-    if !(max_mm >= 1.0) {
+    // NaN (no scale) fails this too.
+    if max_mm.is_nan() || max_mm < 1.0 {
         return None;
     }
     let decade = 10f64.powf(max_mm.log10().floor());
