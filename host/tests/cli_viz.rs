@@ -461,6 +461,36 @@ fn preview_of_a_recording_without_touch_says_so() {
     assert!(!gif_path.exists());
 }
 
+/// Runs `touchc preview` on `rec_path` into a GIF next to it, and the compile the
+/// command runs: (width, composited frames, recording, compile, frame layout).
+fn preview_gif_and_compile(
+    rec_path: &Path,
+) -> (
+    u16,
+    Vec<Vec<u8>>,
+    touchc::recording::Recording,
+    touchc::compile::Compiled,
+    touchc::viz::preview::FrameLayout,
+) {
+    let gif_path = rec_path.with_extension("gif");
+    ok(&touchc(&[
+        "preview",
+        rec_path.to_str().unwrap(),
+        "-o",
+        gif_path.to_str().unwrap(),
+    ]));
+    let (w, _, frames, _) = decode_gif(&gif_path);
+    let rec = touchc::recording::Recording::load(rec_path).unwrap();
+    let opts = touchc::compile::CompileOptions {
+        fit: true,
+        crop: false,
+        ..Default::default()
+    };
+    let compiled = touchc::compile::compile(&rec, &opts).unwrap();
+    let layout = touchc::viz::preview::layout(&compiled).unwrap();
+    (w, frames, rec, compiled, layout)
+}
+
 /// A recording whose touch is partly missed: a press held for 2 s (tracked) and, in the
 /// middle of it, a one-frame blip at the far end of the sleeve (too brief for a
 /// trajectory). 20 quiet frames before and after for the tare and trim.
@@ -480,33 +510,16 @@ fn press_and_blip() -> ndarray::Array3<f64> {
 
 #[test]
 fn preview_marks_touch_no_contact_explains_and_only_that() {
-    use touchc::compile::{compile, CompileOptions};
     use touchc::coverage::{self, Cell};
-    use touchc::recording::Recording;
     use touchc::viz::preview;
 
     let dir = tempfile::tempdir().unwrap();
     let rec_path = dir.path().join("blip.npy");
     std::fs::write(&rec_path, touchc::synth::to_npy(&press_and_blip()).unwrap()).unwrap();
-    let gif_path = dir.path().join("blip.gif");
-    ok(&touchc(&[
-        "preview",
-        rec_path.to_str().unwrap(),
-        "-o",
-        gif_path.to_str().unwrap(),
-    ]));
-    let (w, _, frames, _) = decode_gif(&gif_path);
+    let (w, frames, rec, compiled, layout) = preview_gif_and_compile(&rec_path);
 
     // What the picture must show, from the coverage module on the compile's own
     // trajectories (the module is tested on its own in `coverage.rs`).
-    let rec = Recording::load(&rec_path).unwrap();
-    let opts = CompileOptions {
-        fit: true,
-        crop: false,
-        ..CompileOptions::default()
-    };
-    let compiled = compile(&rec, &opts).unwrap();
-    let layout = preview::layout(&compiled).unwrap();
     let input = &compiled.report.config.input;
     let tared = rec.tare(input).unwrap();
     let points = coverage::contact_points(
