@@ -75,9 +75,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         eprintln!("touchc: warning: {name}: {w}");
     }
     let image = if gif {
-        preview::gif(&compiled, args.every, rate)
+        preview::gif(&compiled, &recording, args.every, rate)
     } else {
-        preview::png_frame(&compiled, args.frame, rate)
+        preview::png_frame(&compiled, &recording, args.frame, rate)
     }
     .with_context(|| format!("{name}: cannot preview"))?;
     write_atomic(&args.output, &image)?;
