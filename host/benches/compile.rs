@@ -7,7 +7,7 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion};
 use touchc::compile::{compile, layout_tag, CompileOptions};
 use touchc::config::{Config, Preset};
-use touchc::keyframes::{encode, HeaderFields};
+use touchc::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::layout::Layout;
 use touchc::placement::place;
 use touchc::recording::Recording;
@@ -137,7 +137,14 @@ fn bench(c: &mut Criterion) {
         limits: opts.limits,
     };
     c.bench_function("stage/keyframes", |b| {
-        b.iter(|| encode(black_box(&compiled.signal), fields, &opts.keyframes).expect("encode"))
+        b.iter(|| {
+            encode(
+                black_box(&compiled.signal),
+                fields,
+                &KeyframeOptions::new(&cfg.keyframes),
+            )
+            .expect("encode")
+        })
     });
 }
 

@@ -521,7 +521,9 @@ fn preview_marks_touch_no_contact_explains_and_only_that() {
     // What the picture must show, from the coverage module on the compile's own
     // trajectories (the module is tested on its own in `coverage.rs`).
     let input = &compiled.report.config.input;
-    let tared = rec.tare(input).unwrap();
+    let sampling =
+        touchc::config::Sampling::new(&compiled.report.metadata, &compiled.report.config);
+    let tared = rec.tare(input, &sampling).unwrap();
     let points = coverage::contact_points(
         &compiled.tracked.as_ref().unwrap().trajectories,
         compiled.report.config.preprocess.upsample,

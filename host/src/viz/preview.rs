@@ -33,6 +33,7 @@ use super::palette::{heat, Palette, UNCHANGED};
 use super::plot::{draw_error, encode_png};
 use super::{register_font, VizError, FAMILY};
 use crate::compile::Compiled;
+use crate::config::Sampling;
 use crate::coverage::{self, Cell, Coverage, DEFAULT_RADIUS_CELLS};
 use crate::geometry::Circle;
 use crate::recording::{Recording, RecordingError};
@@ -271,7 +272,9 @@ impl<'a> Scene<'a> {
         let tracked = compiled.tracked.as_ref().ok_or(PreviewError::NoTouch)?;
         let signals = compiled.signals.as_ref().ok_or(PreviewError::NoTouch)?;
         let input = &compiled.report.config.input;
-        let tared = recording.tare(input)?;
+        // The sampling the compile used (its report carries the resolved metadata).
+        let sampling = Sampling::new(&compiled.report.metadata, &compiled.report.config);
+        let tared = recording.tare(input, &sampling)?;
         let (t, r, c) = tared.dim();
         let k = layout.upsample;
         if frames.dim() != (t, r * k, c * k) {
