@@ -4,6 +4,7 @@
 //! - [`stimulus`]: one haptic pattern, keyframed, with its safety limits.
 //! - [`bank`]: several stimuli, one per button slot, as one flash image.
 //! - [`player`]: turns a stimulus into eight 12-bit output codes per 1 kHz tick.
+//! - [`thermal`]: the coils' heat, which the device keeps across plays.
 //!
 //! Both files are framed the same way (magic, version, length, CRC-32; see
 //! [`container`]) and `SPEC.md` describes every byte. The crate is `no_std` and
@@ -17,12 +18,14 @@ mod error;
 mod limits;
 pub mod player;
 pub mod stimulus;
+pub mod thermal;
 
 pub use bank::Bank;
 pub use error::Error;
 pub use limits::Limits;
 pub use player::{DeviceConfig, OutputSink, Player, Status, Tick};
 pub use stimulus::Stimulus;
+pub use thermal::Thermal;
 
 /// Output channels: 2 rows x 4 columns of actuators, `channel = row * 4 + column`.
 pub const CHANNELS: usize = 8;

@@ -89,11 +89,16 @@ pub async fn run(spawner: Spawner) -> ! {
         match report {
             Report::Fault(..) => warn!("limit hit, ramping to 0 A: {}", report),
             Report::BadSlot(_) => error!("{}", report),
+            Report::TooHot(slot, hot) => warn!(
+                "slot {}: coil {} at {} per mille of its I2t budget, start refused; playable again after {} ms idle",
+                slot, hot.channel, hot.permille, hot.cooldown_ms
+            ),
             _ => info!("{}", report),
         }
         match report {
             Report::Started(_) => led.set_high(),
             Report::Finished(_) => led.set_low(),
+            Report::TooHot(..) => too_hot_flicker(&mut led).await,
             _ => {}
         }
     }
@@ -129,6 +134,17 @@ async fn button_task(mut button: ExtiInput<'static, Async>, mailbox: &'static Ed
         // Quiet: re-read without inventing an edge.
         last = board::pressed(&button);
         mailbox.post(last);
+    }
+}
+
+/// A refused start (coil too hot): five quick flashes (60 ms on, 60 ms off), then
+/// the LED off, as nothing plays. Distinct from the boot codes' slow blinks.
+async fn too_hot_flicker(led: &mut Output<'static>) {
+    for _ in 0..5 {
+        led.set_high();
+        Timer::after_millis(60).await;
+        led.set_low();
+        Timer::after_millis(60).await;
     }
 }
 
