@@ -101,6 +101,24 @@ pub(crate) fn open<'a>(
     })
 }
 
+/// The framing of bytes that [`open`] already accepted (inside a validated bank):
+/// length only, no CRC. Still never indexes out of bounds.
+pub(crate) fn open_unchecked(bytes: &[u8]) -> Result<Container<'_>, Error> {
+    let min = PREFIX_LEN + CRC_LEN;
+    let len = if bytes.len() >= min {
+        le_u32(bytes, 6) as usize
+    } else {
+        0
+    };
+    if len < min || len > bytes.len() {
+        return Err(Error::BadLength(len as u32));
+    }
+    Ok(Container {
+        bytes: &bytes[..len],
+        payload: &bytes[PREFIX_LEN..len - CRC_LEN],
+    })
+}
+
 /// Wraps `payload` in a container with the given magic and version.
 #[cfg(any(test, feature = "std"))]
 pub(crate) fn seal(magic: [u8; 4], version: u16, payload: &[u8]) -> Result<Vec<u8>, Error> {
