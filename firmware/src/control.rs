@@ -9,17 +9,19 @@
 //! cools it on every idle tick. A start while a coil is still above half its budget is
 //! refused ([`Report::TooHot`]); the player never lets the heat pass the budget.
 //!
-//! Every slot is decoded once, at boot: decoding checks a stimulus's CRC and every
-//! keyframe, far too slow for the tick, so starting one in the tick is only
-//! [`Player::new`].
+//! Every slot is decoded once, at boot (by [`Bank::decode`] in the boot check):
+//! decoding checks a stimulus's CRC and every record, far too slow for the tick, so
+//! [`Controller::new`] only reads each slot's header back and checks that it was
+//! compiled for this sleeve ([`LAYOUT_ID`]), and starting one in the tick is only
+//! [`Player::with_thermal`]. A slot for another layout is never played.
 
 use touch_protocol::bank::MAX_SLOTS;
 use touch_protocol::player::{Fault, Status};
 use touch_protocol::thermal::TooHot;
-use touch_protocol::{Bank, DeviceConfig, Player, Stimulus, Thermal};
+use touch_protocol::{Bank, DeviceConfig, Error, Player, Stimulus, Thermal};
 
 use crate::button::Event;
-use crate::output::{Frame, IDLE_FRAME};
+use crate::output::{Frame, IDLE_FRAME, LAYOUT_ID};
 
 /// What happened, for the log (the tick interrupt never logs itself).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,8 +37,9 @@ pub enum Report {
     Fault(usize, Fault),
     /// The selection moved to this slot.
     Selected(usize),
-    /// The slot could not be read from the bank (never after a good boot check).
-    BadSlot(usize),
+    /// The slot is refused and never plays: compiled for another layout
+    /// ([`Error::WrongLayout`]), or unreadable (never after a good boot check).
+    BadSlot(usize, Error),
     /// The slot was not started: a coil is still too hot. Nothing plays.
     TooHot(usize, TooHot),
 }
@@ -44,8 +47,8 @@ pub enum Report {
 /// The playback state machine, stepped once per 1 kHz tick.
 #[derive(Debug)]
 pub struct Controller<'a> {
-    /// The bank's slots, decoded (`None`: the slot did not decode).
-    stimuli: heapless::Vec<Option<Stimulus<'a>>, { MAX_SLOTS as usize }>,
+    /// The bank's slots, or why each is refused.
+    stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
     device: DeviceConfig,
     selected: usize,
     /// The slot playing (or ramping down) and its player.
@@ -59,10 +62,14 @@ pub struct Controller<'a> {
 }
 
 impl<'a> Controller<'a> {
-    /// Nothing playing, slot 0 selected. Decodes every slot (slow: call at boot).
+    /// Nothing playing, slot 0 selected, the coils cold. O(slots): `bank` was
+    /// validated by [`Bank::decode`].
     pub fn new(bank: Bank<'a>, device: DeviceConfig) -> Self {
         let stimuli = (0..bank.len().min(MAX_SLOTS as usize))
-            .map(|slot| bank.slot(slot).ok())
+            .map(|slot| {
+                let s = bank.slot(slot)?;
+                s.check_layout(LAYOUT_ID).map(|()| s)
+            })
             .collect();
         Controller {
             stimuli,
@@ -86,6 +93,15 @@ impl<'a> Controller<'a> {
     /// Number of slots.
     pub fn slots(&self) -> usize {
         self.stimuli.len()
+    }
+
+    /// Slot `slot`'s stimulus, or why it is refused (for the boot log).
+    pub fn slot(&self, slot: usize) -> Result<Stimulus<'a>, Error> {
+        let slot16 = u16::try_from(slot).unwrap_or(u16::MAX);
+        self.stimuli
+            .get(slot)
+            .copied()
+            .unwrap_or(Err(Error::NoSuchSlot(slot16)))
     }
 
     /// The selected slot (what a short press plays).
@@ -144,8 +160,8 @@ impl<'a> Controller<'a> {
     }
 
     fn start(&mut self, slot: usize) -> Option<Report> {
-        match self.stimuli.get(slot).copied().flatten() {
-            Some(stimulus) => {
+        match self.slot(slot) {
+            Ok(stimulus) => {
                 let limits = stimulus.limits().min(self.device.limits);
                 if let Err(hot) = self.thermal.check_start(&limits) {
                     return Some(Report::TooHot(slot, hot));
@@ -155,7 +171,7 @@ impl<'a> Controller<'a> {
                 self.stopping = false;
                 Some(Report::Started(slot))
             }
-            None => Some(Report::BadSlot(slot)),
+            Err(e) => Some(Report::BadSlot(slot, e)),
         }
     }
 
@@ -287,6 +303,27 @@ mod tests {
             prev = f;
         }
         assert_eq!(c.playing(), Some(1));
+    }
+
+    #[test]
+    fn a_slot_for_another_layout_is_refused_and_never_plays() {
+        let good = constant_stimulus("good", 300, 200);
+        let mut other = constant_stimulus("other", 300, 200);
+        let s = Stimulus::decode(&other).unwrap();
+        let mut h = *s.header();
+        h.layout_id = LAYOUT_ID.wrapping_add(1);
+        let frames: std::vec::Vec<_> = s.keyframes().collect();
+        other = touch_protocol::stimulus::encode(h, &frames).unwrap();
+        let image = bank(&[good, other]);
+        let mut c = Controller::new(Bank::decode(&image).unwrap(), device_config());
+        let refusal = Error::WrongLayout {
+            found: LAYOUT_ID.wrapping_add(1),
+            expected: LAYOUT_ID,
+        };
+        assert_eq!(c.slot(1).unwrap_err(), refusal);
+        assert_eq!(c.handle(Event::Slot(1)), Some(Report::BadSlot(1, refusal)));
+        assert!(run(&mut c, 500).iter().all(|f| *f == IDLE_FRAME));
+        assert_eq!(c.handle(Event::Slot(0)), Some(Report::Started(0)));
     }
 
     /// The coils' heat as a thermometer would see it: a leaky bucket of `I^2 -

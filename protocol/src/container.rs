@@ -26,6 +26,11 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     CRC32.checksum(bytes)
 }
 
+/// [`crc32`] at compile time.
+pub(crate) const fn crc32_const(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
 /// A verified container: the whole byte range and its payload.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Container<'a> {

@@ -32,3 +32,13 @@ pub const CHANNELS: usize = 8;
 
 /// The code for 0 A on a 12-bit output (mid-scale).
 pub const IDLE_CODE: u16 = 2048;
+
+/// The `layout_id` a stimulus carries for the layout whose `id` is `id`: the low 16
+/// bits of its CRC-32 (one definition for the compiler, `touchc bank` and the firmware).
+pub const fn layout_id(id: &str) -> u16 {
+    container::crc32_const(id.as_bytes()) as u16
+}
+
+/// The `layout_id` of the sleeve this firmware drives: the paper's 2 x 4 layout
+/// (`host/layouts/paper.toml`, id `paper-2x4`).
+pub const SLEEVE_LAYOUT_ID: u16 = layout_id("paper-2x4");

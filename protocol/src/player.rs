@@ -11,10 +11,10 @@
 //! 3. enforce the limits, the stricter of the stimulus's and the device's: clamp to
 //!    the peak, clamp the change since the last tick to the slew bound (less one
 //!    output step, so the step still fits after rounding to a code), and account
-//!    the thermal I^2 t budget in the device's [`Thermal`] state. A tick whose
-//!    values would leave too little budget for a ramp down is not played: the
-//!    player ramps down from the previous tick instead, so the heat never passes
-//!    the budget. While playing, any limit hit is a [`Fault`]: the player reports
+//!    the thermal I^2 t budget in the device's [`Thermal`] state. Once the heat
+//!    leaves too little budget for one more tick and a ramp down, the next tick
+//!    is not played: the player ramps down from the last one instead, so the heat
+//!    never passes the budget. While playing, any limit hit is a [`Fault`]: the player reports
 //!    it once and ramps every channel from where it is to 0 A;
 //! 4. convert to a DAC/PWM code, 2048 = 0 A, 0 and 4095 = -/+ device full scale.
 //!
@@ -133,9 +133,12 @@ pub struct Player<'a> {
     slew_ua: i32,
     /// The bucket's leak per tick, mA^2.
     cool_ma2: u64,
-    /// Heat above which a tick is not played: the budget less the most a ramp down
-    /// can add (see [`trip_ma2ms`]).
+    /// Heat above which no further signal tick is played: the budget less the most
+    /// one tick and a ramp down can add (see [`trip_ma2ms`]).
     trip_ma2ms: u64,
+    /// The first channel whose heat passed `trip_ma2ms` (its next signal tick
+    /// becomes a thermal fault).
+    hot: Option<u8>,
     /// Half an output step plus one, uA: a code stands for at most this much more
     /// current than the value it was rounded from.
     half_step_ua: u32,
@@ -185,6 +188,7 @@ impl<'a> Player<'a> {
             slew_ua,
             cool_ma2: continuous_ma2(&limits),
             trip_ma2ms: trip_ma2ms(&limits, peak_ua, slew_ua, ramp_ms, half_step_ua),
+            hot: None,
             half_step_ua,
             code_mul: (2048i64 << 32) / device_ua,
             thermal,
@@ -192,6 +196,10 @@ impl<'a> Player<'a> {
             mode: Mode::Signal,
             fault: None,
         };
+        let (channel, heat) = thermal.hottest();
+        if heat > player.trip_ma2ms {
+            player.hot = Some(channel);
+        }
         if player.slew_ua == 0 || player.peak_ua == 0 {
             // Nothing may move: finish at once rather than pretend to play.
             player.mode = Mode::Done;
@@ -254,39 +262,9 @@ impl<'a> Player<'a> {
     }
 
     fn signal_tick(&mut self) -> Status {
-        // Ramp-in envelope, Q16: (t + 1) / ramp, reaching 1 after `ramp_ms` ticks.
-        let t1 = self.t.saturating_add(1);
-        let env = if t1 < self.ramp_ms {
-            (t1 << 16) / self.ramp_ms
-        } else {
-            1 << 16
-        };
-        let mut fault = None;
-        let mut next = [0i32; CHANNELS];
-        let mut heat = self.thermal.heat;
-        let mut hot = None;
-        for c in 0..CHANNELS {
-            let (a, b) = (self.a[c], self.b[c]);
-            // |b - a| < 2^16 and phase < period <= 1000: the product fits in i32.
-            let q = a + (b - a) * self.phase as i32 / self.period as i32;
-            let ua = ((i64::from(q) * self.full_scale_ua) >> 15) as i32;
-            let target = ((i64::from(ua) * i64::from(env)) >> 16) as i32;
-            let (value, hit) = self.clamp(c, target);
-            next[c] = value;
-            if fault.is_none() {
-                fault = hit.map(|kind| Fault {
-                    kind,
-                    channel: c as u8,
-                });
-            }
-            heat[c] = (heat[c] + self.ma2(value)).saturating_sub(self.cool_ma2);
-            if heat[c] > self.trip_ma2ms && hot.is_none() {
-                hot = Some(c as u8);
-            }
-        }
-        if let Some(channel) = hot {
-            // Not played: a ramp down from these values could pass the budget; one
-            // from the last tick's cannot (it passed this check).
+        if let Some(channel) = self.hot {
+            // Too hot for another tick: one more at any current, then a ramp down,
+            // could pass the budget; a ramp down from the last tick's outputs cannot.
             let f = Fault {
                 kind: LimitKind::Thermal,
                 channel,
@@ -295,8 +273,30 @@ impl<'a> Player<'a> {
             self.ramp_tick(self.out, 0);
             return Status::Fault(f);
         }
-        self.out = next;
-        self.thermal.heat = heat;
+        // Ramp-in envelope, Q16: (t + 1) / ramp, reaching 1 after `ramp_ms` ticks.
+        let t1 = self.t.saturating_add(1);
+        let env = if t1 < self.ramp_ms {
+            (t1 << 16) / self.ramp_ms
+        } else {
+            1 << 16
+        };
+        let mut fault = None;
+        for c in 0..CHANNELS {
+            let (a, b) = (self.a[c], self.b[c]);
+            // |b - a| < 2^16 and phase < period <= 1000: the product fits in i32.
+            let q = a + (b - a) * self.phase as i32 / self.period as i32;
+            let ua = ((i64::from(q) * self.full_scale_ua) >> 15) as i32;
+            let target = ((i64::from(ua) * i64::from(env)) >> 16) as i32;
+            let (value, hit) = self.clamp(c, target);
+            self.out[c] = value;
+            self.heat(c, value);
+            if fault.is_none() {
+                fault = hit.map(|kind| Fault {
+                    kind,
+                    channel: c as u8,
+                });
+            }
+        }
         self.advance();
         if let Some(f) = fault {
             self.fault.get_or_insert(f);
@@ -340,8 +340,7 @@ impl<'a> Player<'a> {
             // Limits still bound every output; hits while ramping down are not faults.
             let (value, _) = self.clamp(c, target);
             self.out[c] = value;
-            let ma2 = self.ma2(value);
-            self.thermal.add(c, ma2, self.cool_ma2);
+            self.heat(c, value);
             all_zero &= value == 0;
         }
         if left == 0 && all_zero {
@@ -369,11 +368,15 @@ impl<'a> Player<'a> {
         (v, hit)
     }
 
-    /// The square of the current the code for `ua` stands for, rounded up, mA^2.
+    /// Accounts one tick at `ua` on channel `c`: the current the code stands for,
+    /// rounded up to a whole mA, squared; notes the first channel too hot to play on.
     #[inline(always)]
-    fn ma2(&self, ua: i32) -> u64 {
+    fn heat(&mut self, c: usize, ua: i32) {
         let ma = u64::from((ua.unsigned_abs() + self.half_step_ua + 999) / 1000);
-        ma * ma
+        let h = self.thermal.add(c, ma * ma, self.cool_ma2);
+        if h > self.trip_ma2ms && self.hot.is_none() {
+            self.hot = Some(c as u8);
+        }
     }
 
     /// One tick at 0 A.
@@ -415,17 +418,19 @@ pub fn slew_bound_ua(slew_ma_per_ms: u16, step_ua: u32) -> i32 {
     (i32::from(slew_ma_per_ms) * 1000 - step_ua as i32).max(0)
 }
 
-/// Heat above which the player will not play a tick, mA^2 ms: the budget less the
-/// most that a ramp down from any output within the peak can add.
+/// Heat above which the player plays no further signal tick, mA^2 ms: the budget
+/// less the most that one more tick and then a ramp down can add.
 ///
 /// A ramp down from `|f| <= peak` never leaves `[-|f|, |f|]` and ends within
-/// `ramp_ms + ceil(peak / slew)` ticks, so it adds at most that many times
-/// `acc(peak)^2`, where `acc` is the accounted (rounded-up) current.
+/// `ramp_ms + ceil(peak / slew)` ticks, so with the tick before it, it adds at most
+/// `ramp_ms + ceil(peak / slew) + 1` times `acc(peak)^2`, where `acc` is the
+/// accounted (rounded-up) current. A tick is played only when the heat before it is
+/// at most this, so a ramp down from any played tick stays within the budget.
 fn trip_ma2ms(limits: &Limits, peak_ua: i32, slew_ua: i32, ramp_ms: u32, half_step_ua: u32) -> u64 {
     let peak = peak_ua.unsigned_abs();
     let acc = u64::from((peak + half_step_ua + 999) / 1000);
     let descent = u64::from(peak.div_ceil(slew_ua.unsigned_abs().max(1)));
-    let ramp_down = acc * acc * (u64::from(ramp_ms) + descent + 1);
+    let ramp_down = acc * acc * (u64::from(ramp_ms) + descent + 2);
     budget_ma2ms(limits).saturating_sub(ramp_down)
 }
 

@@ -197,6 +197,19 @@ impl<'a> Stimulus<'a> {
         self.header.duration_ms
     }
 
+    /// Refuses a stimulus compiled for another layout than `layout_id` (the channel
+    /// count is the format's, checked by [`Stimulus::decode`]).
+    pub fn check_layout(&self, layout_id: u16) -> Result<(), Error> {
+        if self.header.layout_id == layout_id {
+            Ok(())
+        } else {
+            Err(Error::WrongLayout {
+                found: self.header.layout_id,
+                expected: layout_id,
+            })
+        }
+    }
+
     /// The limits the stimulus was compiled for.
     pub fn limits(&self) -> Limits {
         self.header.limits

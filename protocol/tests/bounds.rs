@@ -73,7 +73,10 @@ fn keyframe_counts_past_the_maximum_are_refused() {
 /// checked in one step, and the line it follows is range-checked at its far end.
 #[test]
 fn a_maximal_run_decodes_in_one_step_and_its_line_is_checked() {
-    let file = craft(&header(1, MAX_KEYFRAMES, MAX_DURATION_MS), &run(MAX_KEYFRAMES));
+    let file = craft(
+        &header(1, MAX_KEYFRAMES, MAX_DURATION_MS),
+        &run(MAX_KEYFRAMES),
+    );
     let s = Stimulus::decode(&file).unwrap();
     assert_eq!(s.duration_ms(), MAX_DURATION_MS);
     // A line rising 1 per keyframe (residual +1 on channel 0 then a run) leaves the
@@ -97,7 +100,10 @@ fn a_maximal_run_decodes_in_one_step_and_its_line_is_checked() {
 /// ticks without overflow, and a stop from deep inside it ramps to rest.
 #[test]
 fn the_longest_stimulus_plays_and_stops() {
-    let file = craft(&header(1, MAX_KEYFRAMES, MAX_DURATION_MS), &run(MAX_KEYFRAMES));
+    let file = craft(
+        &header(1, MAX_KEYFRAMES, MAX_DURATION_MS),
+        &run(MAX_KEYFRAMES),
+    );
     let s = Stimulus::decode(&file).unwrap();
     let mut p = Player::new(&s, &DeviceConfig::default());
     assert_eq!(p.tick().status, Status::Playing);
@@ -111,7 +117,10 @@ fn the_longest_stimulus_plays_and_stops() {
 /// the header again and trusts the keyframes `Bank::decode` validated).
 #[test]
 fn bank_slots_of_maximal_stimuli_read_back() {
-    let one = craft(&header(1, MAX_KEYFRAMES, MAX_DURATION_MS), &run(MAX_KEYFRAMES));
+    let one = craft(
+        &header(1, MAX_KEYFRAMES, MAX_DURATION_MS),
+        &run(MAX_KEYFRAMES),
+    );
     let image = touch_protocol::bank::encode(&[&one, &one]).unwrap();
     let bank = Bank::decode(&image).unwrap();
     assert_eq!(bank.slot(1).unwrap().duration_ms(), MAX_DURATION_MS);

@@ -183,10 +183,11 @@ fn limit_hits_fault_and_ramp_to_zero() {
     assert_eq!(p.fault().map(|f| f.kind), Some(LimitKind::Slew));
 
     // Holding 1 A against a 0.5 A continuous rating with a 1 A^2 s budget fills it at
-    // (1 - 0.25) A^2 per second, in 1.333 s. The player stops early enough for the
-    // ramp down to fit (a 1 ms ramp: 3 ticks of reserve at 1 A) and accounts the
-    // current rounded up to the code's (1.001 A): 752,001 mA^2 per tick passes
-    // 1e9 - 3 * 1001^2 mA^2 ms on the 1,326th tick (index 1325).
+    // (1 - 0.25) A^2 per second, in 1.333 s. The player stops early enough for one
+    // more tick and the ramp down to fit (a 1 ms ramp: 4 ticks of reserve at 1 A)
+    // and accounts the current rounded up to the code's (1.001 A): 752,001 mA^2 per
+    // tick passes 1e9 - 4 * 1001^2 mA^2 ms after 1,325 ticks, so tick index 1325
+    // is the fault.
     let kf = vec![[32767; 8]; 3];
     let hot = Limits {
         continuous_ma: 500,
