@@ -133,28 +133,22 @@ mod tests {
     /// region of dense records: both checked in one pass over the bytes.
     #[test]
     fn huge_claims_in_few_bytes_and_a_full_region_are_checked_in_one_pass() {
-        use touch_protocol::stimulus::MAX_KEYFRAMES;
-        let mut frames = vec![[0i16; 8]; 1];
-        frames.extend(std::iter::repeat_n([0i16; 8], 1000));
+        use touch_protocol::container;
+        use touch_protocol::stimulus::{self, MAX_KEYFRAMES};
+        let frames = vec![[0i16; 8]; 2];
         let one =
             crate::testutil::stimulus_from("long", 1, &frames, touch_protocol::Limits::SLEEVE);
-        // Patch the count and duration in place: a run of 1001 becomes a run of the maximum.
+        // The same header claiming the maximum, over one run record of that length.
         let s = touch_protocol::Stimulus::decode(&one).unwrap();
         let mut h = *s.header();
         h.keyframe_count = MAX_KEYFRAMES;
         h.duration_ms = MAX_KEYFRAMES - 1;
         let mut head = [0u8; touch_protocol::stimulus::HEADER_MAX_LEN];
-        let used = postcard::to_slice(&h, &mut head).unwrap().to_vec();
-        let mut run = vec![0u8];
+        let mut payload = postcard::to_slice(&h, &mut head).unwrap().to_vec();
+        payload.push(0);
         let mut buf = [0u8; 5];
-        run.extend_from_slice(postcard::to_slice(&MAX_KEYFRAMES, &mut buf).unwrap());
-        let mut file = one[..4 + 2].to_vec();
-        let len = (10 + used.len() + run.len() + 4) as u32;
-        file.extend_from_slice(&len.to_le_bytes());
-        file.extend_from_slice(&used);
-        file.extend_from_slice(&run);
-        let crc = touch_protocol::container::crc32(&file);
-        file.extend_from_slice(&crc.to_le_bytes());
+        payload.extend_from_slice(postcard::to_slice(&MAX_KEYFRAMES, &mut buf).unwrap());
+        let file = container::seal(stimulus::MAGIC, stimulus::VERSION, &payload).unwrap();
         let image = bank(&[file.clone(), file.clone(), file.clone(), file]);
         assert!(image.len() < 300, "{} bytes", image.len());
         let region = region_with(&image);

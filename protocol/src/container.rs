@@ -124,9 +124,10 @@ pub(crate) fn open_unchecked(bytes: &[u8]) -> Result<Container<'_>, Error> {
     })
 }
 
-/// Wraps `payload` in a container with the given magic and version.
+/// Wraps `payload` in a container with the given magic and version (also for tests
+/// and fuzzers that craft payloads an encoder would not write).
 #[cfg(any(test, feature = "std"))]
-pub(crate) fn seal(magic: [u8; 4], version: u16, payload: &[u8]) -> Result<Vec<u8>, Error> {
+pub fn seal(magic: [u8; 4], version: u16, payload: &[u8]) -> Result<Vec<u8>, Error> {
     let len = u32::try_from(PREFIX_LEN + payload.len() + CRC_LEN).map_err(|_| Error::TooLarge)?;
     let mut out = Vec::with_capacity(len as usize);
     out.extend_from_slice(&magic);

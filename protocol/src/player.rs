@@ -14,8 +14,8 @@
 //!    the thermal I^2 t budget in the device's [`Thermal`] state. Once the heat
 //!    leaves too little budget for one more tick and a ramp down, the next tick
 //!    is not played: the player ramps down from the last one instead, so the heat
-//!    never passes the budget. While playing, any limit hit is a [`Fault`]: the player reports
-//!    it once and ramps every channel from where it is to 0 A;
+//!    never passes the budget. While playing, any limit hit is a [`Fault`]: the
+//!    player reports it once and ramps every channel from where it is to 0 A;
 //! 4. convert to a DAC/PWM code, 2048 = 0 A, 0 and 4095 = -/+ device full scale.
 //!
 //! After the last keyframe, and after [`Player::stop`], the outputs ramp linearly
@@ -424,8 +424,9 @@ pub fn slew_bound_ua(slew_ma_per_ms: u16, step_ua: u32) -> i32 {
 /// A ramp down from `|f| <= peak` never leaves `[-|f|, |f|]` and ends within
 /// `ramp_ms + ceil(peak / slew)` ticks, so with the tick before it, it adds at most
 /// `ramp_ms + ceil(peak / slew) + 1` times `acc(peak)^2`, where `acc` is the
-/// accounted (rounded-up) current. A tick is played only when the heat before it is
-/// at most this, so a ramp down from any played tick stays within the budget.
+/// accounted (rounded-up) current; the threshold keeps one tick more as margin. A
+/// tick is played only when the heat before it is at most this, so a ramp down from
+/// any played tick stays within the budget.
 fn trip_ma2ms(limits: &Limits, peak_ua: i32, slew_ua: i32, ramp_ms: u32, half_step_ua: u32) -> u64 {
     let peak = peak_ua.unsigned_abs();
     let acc = u64::from((peak + half_step_ua + 999) / 1000);

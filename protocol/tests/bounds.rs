@@ -24,16 +24,9 @@ fn header(period: u16, count: u32, duration: u32) -> Header<'static> {
 /// A sealed stimulus file: `header` as given (not recomputed), then `body`.
 fn craft(header: &Header<'_>, body: &[u8]) -> Vec<u8> {
     let mut head = [0u8; stimulus::HEADER_MAX_LEN];
-    let used = postcard::to_slice(header, &mut head).unwrap();
-    let mut out = b"TCHS".to_vec();
-    out.extend_from_slice(&1u16.to_le_bytes());
-    let len = (10 + used.len() + body.len() + 4) as u32;
-    out.extend_from_slice(&len.to_le_bytes());
-    out.extend_from_slice(used);
-    out.extend_from_slice(body);
-    let crc = container::crc32(&out);
-    out.extend_from_slice(&crc.to_le_bytes());
-    out
+    let mut payload = postcard::to_slice(header, &mut head).unwrap().to_vec();
+    payload.extend_from_slice(body);
+    container::seal(stimulus::MAGIC, stimulus::VERSION, &payload).unwrap()
 }
 
 /// A run record of `n` keyframes.
