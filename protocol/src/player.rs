@@ -372,7 +372,7 @@ impl<'a> Player<'a> {
     /// rounded up to a whole mA, squared; notes the first channel too hot to play on.
     #[inline(always)]
     fn heat(&mut self, c: usize, ua: i32) {
-        let ma = u64::from((ua.unsigned_abs() + self.half_step_ua + 999) / 1000);
+        let ma = accounted_ma(ua.unsigned_abs(), self.half_step_ua);
         let h = self.thermal.add(c, ma * ma, self.cool_ma2);
         if h > self.trip_ma2ms && self.hot.is_none() {
             self.hot = Some(c as u8);
@@ -408,6 +408,12 @@ impl Iterator for Player<'_> {
     }
 }
 
+/// The current the code for `ua_abs` stands for, rounded up to a whole mA.
+#[inline(always)]
+fn accounted_ma(ua_abs: u32, half_step_ua: u32) -> u64 {
+    u64::from((ua_abs + half_step_ua).div_ceil(1000))
+}
+
 /// The slew bound the player enforces, uA per tick: the limit less one output step.
 ///
 /// Two values `d` apart round to codes at most `d / step + 1` apart, so values kept
@@ -429,7 +435,7 @@ pub fn slew_bound_ua(slew_ma_per_ms: u16, step_ua: u32) -> i32 {
 /// any played tick stays within the budget.
 fn trip_ma2ms(limits: &Limits, peak_ua: i32, slew_ua: i32, ramp_ms: u32, half_step_ua: u32) -> u64 {
     let peak = peak_ua.unsigned_abs();
-    let acc = u64::from((peak + half_step_ua + 999) / 1000);
+    let acc = accounted_ma(peak, half_step_ua);
     let descent = u64::from(peak.div_ceil(slew_ua.unsigned_abs().max(1)));
     let ramp_down = acc * acc * (u64::from(ramp_ms) + descent + 2);
     budget_ma2ms(limits).saturating_sub(ramp_down)
