@@ -167,7 +167,7 @@ pub fn stimulus_name(name: &str) -> &str {
 /// The 16-bit layout tag written into stimuli: the low half of the CRC-32 of the
 /// layout's id, so a firmware can tell which layout a file was compiled for.
 pub fn layout_tag(layout: &Layout) -> u16 {
-    touch_protocol::container::crc32(layout.id().as_bytes()) as u16
+    touch_protocol::layout_id(layout.id())
 }
 
 struct Clock {
