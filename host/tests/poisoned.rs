@@ -3,13 +3,18 @@
 //! rest of the batch still compiles.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
+use ndarray_npy::WriteNpyExt;
+
+mod common;
 #[path = "common/poison.rs"]
 mod poison;
 
-fn touchc(args: &[&str]) -> Output {
+/// Runs `touchc compile ARGS...`.
+fn compile(args: &[&Path]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_touchc"))
+        .arg("compile")
         .args(args)
         .output()
         .unwrap()
@@ -19,14 +24,12 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-fn synth(dir: &Path, name: &str, gesture: &str) -> PathBuf {
-    let path = dir.join(format!("{name}.npy"));
-    let out = touchc(&["synth", gesture, "--quiet-frames", "25", "-o", s(&path)]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+/// A valid recording with one moving contact.
+fn good(dir: &Path, name: &str, seed: u64) -> PathBuf {
+    let path = dir.join(name);
+    common::moving_blobs(80, 1, seed)
+        .write_npy(std::fs::File::create(&path).unwrap())
+        .unwrap();
     path
 }
 
@@ -37,7 +40,7 @@ fn compile_refuses_each_poisoned_file_by_name() {
         let input = dir.path().join(name);
         std::fs::write(&input, bytes).unwrap();
         let out_file = dir.path().join("out.touch");
-        let out = touchc(&["compile", s(&input), "-o", s(&out_file)]);
+        let out = compile(&[&input, Path::new("-o"), &out_file]);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{name}: {stderr}");
         assert!(
@@ -52,20 +55,13 @@ fn compile_refuses_each_poisoned_file_by_name() {
 #[test]
 fn a_batch_survives_each_poisoned_file() {
     let dir = tempfile::tempdir().unwrap();
-    let good = synth(dir.path(), "good", "tap");
-    let good2 = synth(dir.path(), "good2", "stroke");
+    let good = good(dir.path(), "good.npy", 1);
+    let good2 = self::good(dir.path(), "good2.npy", 2);
     for (name, bytes, phrase) in poison::poisoned() {
         let bad = dir.path().join(name);
         std::fs::write(&bad, bytes).unwrap();
         let out_dir = dir.path().join(format!("out_{name}"));
-        let out = touchc(&[
-            "compile",
-            s(&good),
-            s(&bad),
-            s(&good2),
-            "--out-dir",
-            s(&out_dir),
-        ]);
+        let out = compile(&[&good, &bad, &good2, Path::new("--out-dir"), &out_dir]);
         let (stdout, stderr) = (
             String::from_utf8_lossy(&out.stdout),
             String::from_utf8_lossy(&out.stderr),
