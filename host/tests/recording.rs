@@ -458,7 +458,14 @@ fn archive_entries_are_checked_like_files() {
         }],
     );
     assert!(
-        matches!(load_err(&p), RecordingError::Truncated { needed: 96, found: 40, .. }),
+        matches!(
+            load_err(&p),
+            RecordingError::Truncated {
+                needed: 96,
+                found: 40,
+                ..
+            }
+        ),
         "{}",
         load_err(&p)
     );
