@@ -10,6 +10,7 @@
 use super::{Config, Sampling};
 use crate::placement::{grid_size, MAX_TRANSFORMS};
 use crate::preprocess::MAX_UPSAMPLE;
+use crate::recording::{PITCH_MM_RANGE, RATE_HZ_RANGE};
 
 /// A knob outside its range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -82,8 +83,20 @@ impl Config {
     /// range is the error.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let i = &self.input;
-        within("input.rate_hz", i.rate_hz, 1.0, 1000.0, " Hz")?;
-        within("input.pitch_mm", i.pitch_mm, 0.1, 1000.0, " mm")?;
+        within(
+            "input.rate_hz",
+            i.rate_hz,
+            *RATE_HZ_RANGE.start(),
+            *RATE_HZ_RANGE.end(),
+            " Hz",
+        )?;
+        within(
+            "input.pitch_mm",
+            i.pitch_mm,
+            *PITCH_MM_RANGE.start(),
+            *PITCH_MM_RANGE.end(),
+            " mm",
+        )?;
         within("input.tare_s", i.tare_s, 0.0, 60.0, " s")?;
         within("input.trim_s", i.trim_s, 0.0, 60.0, " s")?;
         within("input.baseline_quantile", i.baseline_quantile, 0.0, 0.5, "")?;
@@ -207,12 +220,19 @@ impl Config {
         (rows, cols): (usize, usize),
     ) -> Result<(), ConfigError> {
         self.validate()?;
-        within("rate_hz (--rate)", sampling.rate_hz, 1.0, 1000.0, " Hz")?;
+        // The same ranges a file's own metadata must meet (one source for each fact).
+        within(
+            "rate_hz (--rate)",
+            sampling.rate_hz,
+            *RATE_HZ_RANGE.start(),
+            *RATE_HZ_RANGE.end(),
+            " Hz",
+        )?;
         within(
             "pitch_mm (--pitch-mm)",
             sampling.pitch_mm,
-            0.1,
-            1000.0,
+            *PITCH_MM_RANGE.start(),
+            *PITCH_MM_RANGE.end(),
             " mm",
         )?;
         let at = format!(
