@@ -20,7 +20,6 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{CommandFactory, Parser, Subcommand};
 use touch_protocol::{Bank, Stimulus};
-use touchc::config::{Config, Preset};
 
 /// What `--help` says about exit codes, `-` and errors.
 const AFTER_HELP: &str = "\
@@ -205,10 +204,4 @@ pub(crate) fn stimulus_in<'a>(
     } else {
         Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
     }
-}
-
-/// Reads a TOML config laid over the paper preset, or the paper preset when no file is
-/// given (for subcommands without `--preset`).
-pub(crate) fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
-    params::layered(Preset::Paper, path, &[])
 }

@@ -26,7 +26,7 @@ fn header(name: &str, keyframe_period_ms: u16) -> stimulus::Header<'_> {
         ramp_ms: 10,
         full_scale_ma: 1000,
         quant_shift: 5,
-        layout_id: 1,
+        layout_id: touch_protocol::SLEEVE_LAYOUT_ID,
         limits: Limits::SLEEVE,
         name,
     }
