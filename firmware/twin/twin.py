@@ -58,7 +58,8 @@ class Fault(Exception):
 
 def load_elf(path):
     """(segments [(paddr, bytes)], symbols {name: addr}) of a 32-bit little-endian ELF."""
-    data = open(path, "rb").read()
+    with open(path, "rb") as f:
+        data = f.read()
     if data[:4] != b"\x7fELF" or data[4] != 1 or data[5] != 1:
         raise ValueError(f"{path}: not a 32-bit little-endian ELF")
     (phoff, shoff, _flags, _ehsize, phentsize, phnum, shentsize, shnum, _shstrndx) = struct.unpack_from(
@@ -410,9 +411,11 @@ class Iwdg:
                 self.fed_at = b.t
                 if self.running:
                     self.feeds.append(b.t)
+                    b.all_feeds.append(b.t)
             elif v == 0xCCCC and not self.running:
                 self.running, self.fed_at, self.started_at = True, b.t, b.t
                 self.feeds.append(b.t)
+                b.all_feeds.append(b.t)
         elif off == 0x04 and self.unlocked:
             self.pr = v & 7
         elif off == 0x08 and self.unlocked:
@@ -427,9 +430,13 @@ class Gpio:
 
     MODER, PUPDR, IDR, ODR, BSRR, AFRL, AFRH = 0x00, 0x0C, 0x10, 0x14, 0x18, 0x20, 0x24
 
+    # Reset values that are not zero (RM0090 8.4): the debug pins PA13-15, PB3-4.
+    RESET = {0: {0x00: 0xA800_0000, 0x0C: 0x6400_0000},
+             1: {0x00: 0x0000_0280, 0x08: 0x0000_00C0, 0x0C: 0x0000_0100}}
+
     def __init__(self, board, name, index):
         self.board, self.name, self.index = board, name, index
-        self.r = {}
+        self.r = dict(self.RESET.get(index, {}))
         self.external = {}
 
     def level(self, pin):
@@ -464,6 +471,7 @@ class Gpio:
             self.board.note(f"{self.name} written with its clock off (ignored)")
             return
         before = self.levels()
+        modes = [self.mode(p) for p in range(16)]
         if off == self.BSRR:
             odr = self.r.get(self.ODR, 0)
             odr = (odr | (v & 0xFFFF)) & ~(v >> 16)
@@ -472,6 +480,9 @@ class Gpio:
             self.r[off] = v
         self.board.trace(self.name, off, v)
         self.board.pins_changed(self, before)
+        for p in range(16):
+            if self.mode(p) != modes[p]:
+                self.board.mode_changed(self, p)
 
     def drive(self, pin, level):
         before = self.levels()
@@ -616,8 +627,10 @@ class Board:
         self.notes = []
         self.unmodelled = set()
         self.resets = []  # (t, cause)
+        self.all_feeds = []  # every watchdog start and reload, across resets
         self.frames = []  # (t, ccr[8] preload, ccr[8] active) after each TIM7 handler
         self.led = []  # (t, level) of PC12
+        self.pin_modes = []  # (t, pin, mode, af, {timer: (running, ccr, ccr active)})
         self.taken = []  # (t, exception number) entries, for the tests
         self.tick_irq_blocked = False
         self.fault_addr = None
@@ -709,6 +722,7 @@ class Board:
     def reset(self, cause):
         """A system reset: peripherals and core to their reset state, RAM kept."""
         self.resets.append((self.t, cause))
+        self.tick_irq_blocked = False
         flag = {"IWDG": 1 << 29, "SYSRESETREQ": 1 << 28}.get(cause, 0)
         self.csr_flags = self.rcc.r.get(Rcc.CSR, 0) & 0xFF00_0000 | flag | (1 << 26)
         self._power_on()
@@ -775,6 +789,12 @@ class Board:
                     self.exti.edge(pin, after[pin] == 1)
                 if port.name == "GPIOC" and pin == 12:
                     self.led.append((self.t, after[pin]))
+
+    def mode_changed(self, port, pin):
+        """Records a pin's new mode with the state of the PWM timers at that moment."""
+        timers = {n: (t.running(), tuple(t.ccr), tuple(t.ccr_a)) for n, t in self.timers.items()
+                  if n in ("TIM3", "TIM4")}
+        self.pin_modes.append((self.t, f"P{port.name[-1]}{pin}", port.mode(pin), port.af(pin), timers))
 
     # -- harness controls
     def at(self, t_s, fn):
