@@ -313,6 +313,16 @@ class LimitTrip(unittest.TestCase):
         self.assertFalse(b.led[-1][1], "LED off once at rest")
 
 
+class ErasedBank(unittest.TestCase):
+    def test_an_erased_bank_region_plays_the_built_in_emoji_bank(self):
+        b = boot(erase=True)
+        want, _ = expected(EMOJI, 0)
+        b.press(0.2, SHORT)
+        b.run(0.5 + len(want) / 1000)
+        Played(b, EMOJI).check_slot(self, 0, 0.2 + SHORT)
+        self.assertEqual(b.resets, [])
+
+
 class LinkedBank(unittest.TestCase):
     def test_the_bank_linked_into_the_elf_plays(self):
         linked = os.environ.get("TWIN_LINKED_BANK")
