@@ -10,7 +10,7 @@ use embassy_stm32::exti::ExtiInput;
 use embassy_stm32::gpio::Output;
 use embassy_stm32::mode::Async;
 use embassy_time::{with_timeout, Duration, Timer};
-use sleeve_firmware::boot::{check_bank, BootError};
+use sleeve_firmware::boot::{bank_source, check_bank, BootError};
 use sleeve_firmware::button::{boot_events, Buttons, EdgeMailbox, DEBOUNCE_TICKS};
 use sleeve_firmware::control::{Controller, Report};
 use sleeve_firmware::engine::Engine;
@@ -29,6 +29,10 @@ const BANK_LEN: usize = 256 * 1024;
 #[unsafe(link_section = ".bank")]
 static DEFAULT_BANK: [u8; include_bytes!(env!("SLEEVE_DEFAULT_BANK_PATH")).len()] =
     *include_bytes!(env!("SLEEVE_DEFAULT_BANK_PATH"));
+
+/// The built-in emoji bank (`examples/emoji/`), in the code region: played when the
+/// bank region is erased, so a freshly flashed sleeve plays on the first press.
+static EMOJI_BANK: &[u8] = include_bytes!("../../../examples/emoji/emoji.bank");
 
 /// The whole bank region of flash.
 fn bank_region() -> &'static [u8] {
@@ -55,7 +59,11 @@ pub async fn run(spawner: Spawner) -> ! {
     }
     Timer::after_millis(1).await;
 
-    let bank = match check_bank(bank_region()) {
+    let source = bank_source(bank_region(), EMOJI_BANK);
+    if core::ptr::eq(source, EMOJI_BANK) {
+        info!("bank region erased: playing the built-in emoji bank");
+    }
+    let bank = match check_bank(source) {
         Ok(bank) => bank,
         Err(e) => {
             error!("bank refused, nothing plays: {}", e);
@@ -78,24 +86,30 @@ pub async fn run(spawner: Spawner) -> ! {
     Timer::after_millis(1).await;
     for event in boot_events(board::BUTTON_MODE, &tick::EDGES) {
         if let Some(report) = engine.inject(event) {
-            info!("press during boot: {}", report);
+            info!("press during boot:");
+            show(report, &mut led);
         }
     }
     tick::start(engine, tim7);
     info!("ready: press to play slot 0, hold to select the next");
 
     loop {
-        let report = tick::REPORTS.receive().await;
-        match report {
-            Report::Fault(..) => warn!("limit hit, ramping to 0 A: {}", report),
-            Report::BadSlot(_) => error!("{}", report),
-            _ => info!("{}", report),
-        }
-        match report {
-            Report::Started(_) => led.set_high(),
-            Report::Finished(_) => led.set_low(),
-            _ => {}
-        }
+        show(tick::REPORTS.receive().await, &mut led);
+    }
+}
+
+/// Logs a report and shows it on the LED (on while a slot plays). Every report goes
+/// through here, those of presses during boot included, so the LED never misses one.
+fn show(report: Report, led: &mut Output<'static>) {
+    match report {
+        Report::Fault(..) => warn!("limit hit, ramping to 0 A: {}", report),
+        Report::BadSlot(_) => error!("{}", report),
+        _ => info!("{}", report),
+    }
+    match report {
+        Report::Started(_) => led.set_high(),
+        Report::Finished(_) => led.set_low(),
+        _ => {}
     }
 }
 
