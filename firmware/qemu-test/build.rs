@@ -6,6 +6,10 @@
 mod crc32;
 #[path = "src/scenario.rs"]
 mod scenario;
+// The firmware's test fixtures (the boot check's worst-case bank); not all used here.
+#[allow(dead_code)]
+#[path = "../src/testutil.rs"]
+mod testutil;
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -71,7 +75,7 @@ fn encode(
         ramp_ms: 50,
         full_scale_ma,
         quant_shift: 4,
-        layout_id: 1,
+        layout_id: touch_protocol::SLEEVE_LAYOUT_ID,
         limits,
         name,
     };
@@ -138,6 +142,11 @@ fn main() {
     println!("cargo:rerun-if-changed=src/crc32.rs");
     println!("cargo:rerun-if-changed=src/scenario.rs");
     println!("cargo:rerun-if-changed=../../protocol/src");
+    println!("cargo:rerun-if-changed=../src/testutil.rs");
+
+    // The boot check's worst case: a whole region of two-byte records.
+    let dense = testutil::dense_bank(touch_protocol::bank::REGION_LEN);
+    fs::write(out.join("dense.bin"), &dense).expect("write dense bank");
 
     let stimuli = [stroke(), tap(), bold()];
     let refs: Vec<&[u8]> = stimuli.iter().map(Vec::as_slice).collect();

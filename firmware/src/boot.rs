@@ -45,6 +45,13 @@ pub fn bank_source<'a>(region: &'a [u8], builtin: &'a [u8]) -> &'a [u8] {
 /// Checks the bank region (the whole flash region; the bank says its own length).
 ///
 /// Never panics, whatever the bytes: a refused bank leaves every output at 0 A.
+///
+/// Bounded: this is the one validation of the bank ([`Bank::decode`]: its CRC, then
+/// each stimulus's CRC and records once), O(bytes) of a region of at most
+/// [`touch_protocol::bank::REGION_LEN`] bytes, whatever the keyframe counts claim (a
+/// run of keyframes is checked in one step). The worst case for a full region, a
+/// record every two bytes, is measured under QEMU by `firmware/ci.sh` and must stay
+/// under the boot watchdog's timeout (`src/hw/tick.rs`).
 pub fn check_bank(region: &[u8]) -> Result<Bank<'_>, BootError> {
     let head = region.get(..16).unwrap_or(region);
     if head.iter().all(|&b| b == 0xFF) {
@@ -125,6 +132,64 @@ mod tests {
         corrupt[40] ^= 1;
         let e = check_bank(bank_source(&corrupt, &builtin)).unwrap_err();
         assert!(matches!(e, BootError::Corrupt(_)), "{e:?}");
+    }
+
+    /// `memory.x` and the protocol's bank region agree (address and length).
+    #[test]
+    fn bank_region_matches_memory_x() {
+        use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
+        let text = include_str!("../../memory.x");
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with("BANK"))
+            .expect("memory.x has a BANK region");
+        let field = |name: &str| {
+            let at = line.find(name).expect(name) + name.len();
+            let rest = line[at..].trim_start().trim_start_matches('=').trim_start();
+            rest.split(|c: char| c == ',' || c.is_whitespace())
+                .next()
+                .unwrap()
+                .to_string()
+        };
+        let origin = usize::from_str_radix(field("ORIGIN").trim_start_matches("0x"), 16).unwrap();
+        let length = field("LENGTH");
+        let length = match length.strip_suffix('K') {
+            Some(k) => k.parse::<usize>().unwrap() * 1024,
+            None => length.parse().unwrap(),
+        };
+        assert_eq!((origin, length), (REGION_ADDR, REGION_LEN), "{line}");
+    }
+
+    /// Four slots claiming the most keyframes the format allows, in a few hundred
+    /// bytes (the old check walked 100 M keyframes per slot, three times), and a full
+    /// region of dense records: both checked in one pass over the bytes.
+    #[test]
+    fn huge_claims_in_few_bytes_and_a_full_region_are_checked_in_one_pass() {
+        use touch_protocol::container;
+        use touch_protocol::stimulus::{self, MAX_KEYFRAMES};
+        let frames = vec![[0i16; 8]; 2];
+        let one =
+            crate::testutil::stimulus_from("long", 1, &frames, touch_protocol::Limits::SLEEVE);
+        // The same header claiming the maximum, over one run record of that length.
+        let s = touch_protocol::Stimulus::decode(&one).unwrap();
+        let mut h = *s.header();
+        h.keyframe_count = MAX_KEYFRAMES;
+        h.duration_ms = MAX_KEYFRAMES - 1;
+        let mut head = [0u8; touch_protocol::stimulus::HEADER_MAX_LEN];
+        let mut payload = postcard::to_slice(&h, &mut head).unwrap().to_vec();
+        payload.push(0);
+        let mut buf = [0u8; 5];
+        payload.extend_from_slice(postcard::to_slice(&MAX_KEYFRAMES, &mut buf).unwrap());
+        let file = container::seal(stimulus::MAGIC, stimulus::VERSION, &payload).unwrap();
+        let image = bank(&[file.clone(), file.clone(), file.clone(), file]);
+        assert!(image.len() < 300, "{} bytes", image.len());
+        let region = region_with(&image);
+        let b = check_bank(&region).unwrap();
+        assert_eq!(b.slot(3).unwrap().duration_ms(), MAX_KEYFRAMES - 1);
+
+        let dense = crate::testutil::dense_bank(touch_protocol::bank::REGION_LEN);
+        assert!(dense.len() > touch_protocol::bank::REGION_LEN - 64);
+        assert!(check_bank(&dense).is_ok());
     }
 
     proptest! {

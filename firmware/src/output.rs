@@ -16,6 +16,9 @@ pub const PWM_PERIOD: u32 = 4096;
 /// Current at codes 0 and 4095: the LM675T stage has a gain of 1 A/V.
 pub const FULL_SCALE_MA: u16 = 1000;
 
+/// The actuator layout this firmware drives: a slot compiled for another is refused.
+pub const LAYOUT_ID: u16 = touch_protocol::SLEEVE_LAYOUT_ID;
+
 /// Limits compiled into the firmware. The stimulus carries its own; the player
 /// enforces the stricter of the two on every tick, so a bank compiled for a bolder
 /// device cannot exceed these.

@@ -21,7 +21,7 @@ pub fn stimulus_from(
         ramp_ms: RAMP_MS,
         full_scale_ma: 1000,
         quant_shift: 0,
-        layout_id: 1,
+        layout_id: touch_protocol::SLEEVE_LAYOUT_ID,
         limits,
         name,
     };
@@ -43,4 +43,36 @@ pub fn constant_stimulus(name: &str, ma: i32, duration_ms: u16) -> Vec<u8> {
 pub fn bank(stimuli: &[Vec<u8>]) -> Vec<u8> {
     let refs: Vec<&[u8]> = stimuli.iter().map(Vec::as_slice).collect();
     tbank::encode(&refs).expect("test bank encodes")
+}
+
+/// The boot check's worst case per byte: a bank of one stimulus whose records
+/// alternate a one-residual change and a run of one (two bytes per keyframe, each
+/// keyframe a full pass over the eight channels), as large as fits in `limit` bytes.
+pub fn dense_bank(limit: usize) -> Vec<u8> {
+    // Channel 0's residuals +1, 0, -1, 0, -1, 0, +1, 0 (the zeros are runs of one):
+    // its line turns up, flat, down and flat again, so it stays in range.
+    const RESIDUALS: [i32; 8] = [1, 0, -1, 0, -1, 0, 1, 0];
+    let frames = |n: usize| -> Vec<[i16; CHANNELS]> {
+        let (mut before, mut last) = (0i32, 0i32);
+        (0..n)
+            .map(|k| {
+                let next = 2 * last - before + RESIDUALS[k % 8];
+                (before, last) = (last, next);
+                let mut f = [0i16; CHANNELS];
+                f[0] = next as i16;
+                f
+            })
+            .collect()
+    };
+    // About two bytes a keyframe; shrink by the excess until the bank (the stimulus
+    // plus 24 bytes of framing and index) fits.
+    let room = limit - 24;
+    let mut n = room / 2;
+    loop {
+        let one = stimulus_from("dense", 1, &frames(n), Limits::SLEEVE);
+        if one.len() <= room {
+            return bank(&[one]);
+        }
+        n -= (one.len() - room).div_ceil(2);
+    }
 }

@@ -14,7 +14,7 @@ use touchc::placement::place;
 fn bench(c: &mut Criterion) {
     let cfg = Config::default();
     let k = cfg.preprocess.upsample;
-    let pitch = cfg.input.cell_mm / k as f64;
+    let pitch = cfg.input.pitch_mm / k as f64;
     let layout = Layout::paper();
     for name in ["tap_pat_200", "stroke_60"] {
         let r = Reference::load(name);

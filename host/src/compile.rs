@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use crate::condition::{self, ConditionError, LimitViolation};
 use crate::config::Config;
+use crate::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
 use crate::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
 use crate::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
@@ -32,8 +33,9 @@ pub struct CompileOptions {
     pub fit: bool,
     /// Crop time and space to the active scene before the heavy stages.
     pub crop: bool,
-    /// Fidelity bounds and choices of the keyframe encoding.
-    pub keyframes: KeyframeOptions,
+    /// The recording's rate and pitch from the command line (over the file's, over the
+    /// config's `input.rate_hz` / `input.pitch_mm`).
+    pub metadata: MetadataOverrides,
     /// The stimulus name written into the file (at most 32 bytes).
     pub name: String,
 }
@@ -46,7 +48,7 @@ impl Default for CompileOptions {
             limits: Limits::SLEEVE,
             fit: false,
             crop: true,
-            keyframes: KeyframeOptions::default(),
+            metadata: MetadataOverrides::default(),
             name: String::from("touch"),
         }
     }
@@ -56,6 +58,9 @@ impl Default for CompileOptions {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum CompileError {
+    /// A knob is out of its range (names the knob, the value and the range).
+    #[error("config: {0}")]
+    Config(#[from] ConfigError),
     /// The recording is unusable (the message names the file).
     #[error(transparent)]
     Recording(#[from] RecordingError),
@@ -120,6 +125,9 @@ pub struct Report {
     pub crop: Option<Crop>,
     /// Things the user should know.
     pub warnings: Vec<String>,
+    /// The recording's rate and pitch as used, each with its source (cli, file,
+    /// default).
+    pub metadata: Metadata,
     /// Every algorithm parameter this compile used (preset and overrides applied), so
     /// the report says how to reproduce it.
     pub config: Config,
@@ -159,7 +167,7 @@ pub fn stimulus_name(name: &str) -> &str {
 /// The 16-bit layout tag written into stimuli: the low half of the CRC-32 of the
 /// layout's id, so a firmware can tell which layout a file was compiled for.
 pub fn layout_tag(layout: &Layout) -> u16 {
-    touch_protocol::container::crc32(layout.id().as_bytes()) as u16
+    touch_protocol::layout_id(layout.id())
 }
 
 struct Clock {
@@ -197,8 +205,14 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     let mut clock = Clock::new();
     let mut warnings = Vec::new();
 
+    // Every knob, in the units of this recording, before any work.
+    let metadata = Metadata::resolve(&opts.metadata, rec, cfg);
+    let sampling = Sampling::new(&metadata, cfg);
+    let (_, rows, cols) = rec.dim();
+    cfg.validate_for(&sampling, (rows, cols))?;
+
     // Stage 0: tare and trim, and the paper's "no touch" filter.
-    let tared = rec.tare(&cfg.input)?;
+    let tared = rec.tare(&cfg.input, &sampling)?;
     let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
     clock.stage("tare");
     if touched <= cfg.input.min_touch_readings {
@@ -207,16 +221,17 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
             cfg.input.touch_threshold_psi, cfg.input.min_touch_readings
         ));
         let signal = vec![[0.0; CHANNELS]];
-        return finish(rec, opts, clock, warnings, signal, 1.0, None);
+        return finish(rec, opts, &metadata, clock, warnings, signal, 1.0, None);
     }
 
     // Stages 1-3, on the active scene only.
     let crop = if opts.crop {
-        scene::active_crop(tared.view(), &cfg.input)
+        scene::active_crop(tared.view(), cfg, &sampling)
     } else {
         Crop::whole(tared.dim())
     };
-    let (tracked, crop) = scene::track_cropped(tared.view(), &crop, cfg, &mut |s| clock.stage(s))?;
+    let (tracked, crop) =
+        scene::track_cropped(tared.view(), &crop, cfg, &sampling, &mut |s| clock.stage(s))?;
 
     // Stage 4.
     let (rows_px, cols_px) = (
@@ -250,7 +265,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     clock.stage("signals");
 
     // Stage 6.
-    let conditioned = condition::condition(&signals.psi, &cfg.signal, cfg.input.frame_rate_hz)?;
+    let conditioned = condition::condition(&signals.psi, &cfg.signal, sampling.rate_hz)?;
     let mut signal = conditioned.output;
     let limits = condition::Limits::from(opts.limits);
     let fit_scale = if opts.fit {
@@ -273,7 +288,16 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
         signals,
         crop,
     };
-    finish(rec, opts, clock, warnings, signal, fit_scale, Some(scene))
+    finish(
+        rec,
+        opts,
+        &metadata,
+        clock,
+        warnings,
+        signal,
+        fit_scale,
+        Some(scene),
+    )
 }
 
 /// What stages 1-5 made of a recording with touch.
@@ -285,9 +309,11 @@ struct Scene {
 }
 
 /// Stage 7 and the report; `scene` is `None` for a recording without touch.
+#[allow(clippy::too_many_arguments)]
 fn finish(
     rec: &Recording,
     opts: &CompileOptions,
+    metadata: &Metadata,
     mut clock: Clock,
     warnings: Vec<String>,
     signal: Vec<[f64; CHANNELS]>,
@@ -305,7 +331,11 @@ fn finish(
         layout_id: layout_tag(&opts.layout),
         limits: opts.limits,
     };
-    let encoded = keyframes::encode(&signal, fields, &opts.keyframes)?;
+    let encoded = keyframes::encode(
+        &signal,
+        fields,
+        &KeyframeOptions::new(&opts.config.keyframes),
+    )?;
     clock.stage("keyframes");
     let duration_s = (signal.len().saturating_sub(1)) as f64 / 1000.0;
     let bytes = encoded.bytes.len();
@@ -339,6 +369,7 @@ fn finish(
         no_touch,
         crop,
         warnings,
+        metadata: *metadata,
         config: opts.config.clone(),
         layout: opts.layout.id().to_string(),
     };

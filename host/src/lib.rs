@@ -36,6 +36,7 @@ pub mod keyframes;
 
 pub mod scene;
 pub mod compile;
+pub mod coverage;
 pub mod trade;
 
 pub mod output;

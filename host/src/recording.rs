@@ -1,16 +1,33 @@
 //! Stage 0: load a pressure-sleeve recording and tare it.
 //!
-//! A recording is a `.npy` array `[T, rows, cols]` of psi at the sensor frame rate, with
-//! NaN for "no sensor cell" (the public data set pads every frame to 8 x 21 cells).
+//! A recording is an array `[T, rows, cols]` of psi at the sensor frame rate, with NaN
+//! for "no sensor cell" (the public data set pads every frame to 8 x 21 cells), either as
+//! a `.npy` file or as a numpy `.npz` archive holding it as `pressure` beside optional
+//! scalars `rate_hz` and `pitch_mm`. The format is told by the content, not the name.
 //! Everything a user can get wrong about the file is a typed [`RecordingError`] that
 //! names the file, so the CLI can print one clear line.
+//!
+//! Reading is bounded by the file: the header is checked against the bytes that follow
+//! it before anything is allocated (see `npy.rs`), and an archive entry is decompressed
+//! only up to the size its own header says it needs (see `npz.rs`).
 
+use std::ops::RangeInclusive;
 use std::path::Path;
 
-use ndarray::{Array3, ArrayD, ArrayView3, Axis, Ix3};
-use ndarray_npy::{ReadNpyError, ReadNpyExt};
+use ndarray::{Array2, Array3, ArrayView3, Axis};
 
-use crate::config::InputConfig;
+use crate::config::{Baseline, InputConfig, Sampling};
+
+mod npy;
+mod npz;
+
+/// Frame rates a file may declare, in Hz: from a slow pressure mat to a fast tactile
+/// array. Outside this the value is more likely a unit mistake (a period, kHz) than a
+/// sensor.
+pub const RATE_HZ_RANGE: RangeInclusive<f64> = 1.0..=10_000.0;
+
+/// Cell pitches a file may declare, in mm: from e-skin taxels to a coarse seat mat.
+pub const PITCH_MM_RANGE: RangeInclusive<f64> = 0.1..=100.0;
 
 /// What can be wrong with a recording file or its contents.
 #[derive(Debug, thiserror::Error)]
@@ -31,6 +48,108 @@ pub enum RecordingError {
         name: String,
         /// What the parser objected to.
         detail: String,
+    },
+    /// The header's shape needs more bytes than 64 bits can count.
+    #[error("{name}: shape {} of {descr} is too large: its size in bytes overflows 64 bits", npy::shape_str(.shape))]
+    TooLarge {
+        /// The file the recording came from.
+        name: String,
+        /// The shape in the header.
+        shape: Vec<usize>,
+        /// The element type in the header.
+        descr: String,
+    },
+    /// Fewer data bytes follow the header than its shape needs.
+    #[error("{name}: truncated: shape {} of {descr} needs {needed} bytes of data, the file holds {found}", npy::shape_str(.shape))]
+    Truncated {
+        /// The file the recording came from.
+        name: String,
+        /// The shape in the header.
+        shape: Vec<usize>,
+        /// The element type in the header.
+        descr: String,
+        /// Data bytes the shape needs.
+        needed: u64,
+        /// Data bytes present.
+        found: u64,
+    },
+    /// More data bytes follow the header than its shape needs.
+    #[error("{name}: {} unexpected bytes after the data: shape {} of {descr} needs {needed} bytes, the file holds {found}", .found - .needed, npy::shape_str(.shape))]
+    TrailingBytes {
+        /// The file the recording came from.
+        name: String,
+        /// The shape in the header.
+        shape: Vec<usize>,
+        /// The element type in the header.
+        descr: String,
+        /// Data bytes the shape needs.
+        needed: u64,
+        /// Data bytes present.
+        found: u64,
+    },
+    /// The bytes look like a zip archive but cannot be read as one.
+    #[error("{name}: not a readable .npz archive ({detail})")]
+    NotNpz {
+        /// The file the recording came from.
+        name: String,
+        /// What the zip reader objected to.
+        detail: String,
+    },
+    /// The archive has no `pressure` array.
+    #[error("{name}: no array named 'pressure' in the archive (it holds {found})")]
+    MissingPressure {
+        /// The file the recording came from.
+        name: String,
+        /// The entries it does hold, quoted.
+        found: String,
+    },
+    /// An archive entry declares another uncompressed size than its header needs.
+    #[error("{name}: entry {entry:?} declares {declared} bytes uncompressed but its header needs {needed} (a zip bomb or a corrupt archive)")]
+    EntrySize {
+        /// The file the recording came from.
+        name: String,
+        /// The entry's name in the archive.
+        entry: String,
+        /// The uncompressed size the archive declares.
+        declared: u64,
+        /// The size the entry's `.npy` header and shape need.
+        needed: u64,
+    },
+    /// An archive entry decompresses to more than its header needs.
+    #[error("{name}: entry {entry:?} decompresses to more than the {needed} bytes its header needs (a zip bomb or a corrupt archive)")]
+    Inflated {
+        /// The file the recording came from.
+        name: String,
+        /// The entry's name in the archive.
+        entry: String,
+        /// The size the entry's `.npy` header and shape need.
+        needed: u64,
+    },
+    /// A metadata entry is not a single number.
+    #[error(
+        "{name}: {field} must be a single number (a 0-d float or integer array), found {found}"
+    )]
+    BadMetadata {
+        /// The file the recording came from.
+        name: String,
+        /// `rate_hz` or `pitch_mm`.
+        field: &'static str,
+        /// What the entry holds instead.
+        found: String,
+    },
+    /// A metadata value is not finite or outside its plausible range.
+    #[error("{name}: {field} = {value} is outside the plausible range {} to {} {unit}", .range.start(), .range.end())]
+    MetadataRange {
+        /// The file the recording came from.
+        name: String,
+        /// `rate_hz` or `pitch_mm`.
+        field: &'static str,
+        /// The value found.
+        value: f64,
+        /// The range accepted ([`RATE_HZ_RANGE`], [`PITCH_MM_RANGE`]).
+        range: RangeInclusive<f64>,
+        /// The unit of the value.
+        unit: &'static str,
     },
     /// The array holds something other than float32 or float64.
     #[error("{name}: unsupported element type {descr}; expected float32 or float64")]
@@ -76,8 +195,8 @@ pub enum RecordingError {
     },
     /// Too few frames to tare and still keep one frame.
     #[error(
-        "{name}: {frames} frame(s) is too short: the tare uses {tare} frames and drops \
-         {tare} at each end, so at least {min} frames are needed"
+        "{name}: {frames} frame(s) is too short: the tare window ({tare} frames) and the \
+         trim at each end need at least {min} frames (input.tare_s, input.trim_s)"
     )]
     TooShort {
         /// The file the recording came from.
@@ -99,10 +218,15 @@ pub enum RecordingError {
 pub struct Recording {
     name: String,
     data: Array3<f64>,
+    rate_hz: Option<f64>,
+    pitch_mm: Option<f64>,
 }
 
 impl Recording {
-    /// Loads and validates a `.npy` file (float32 or float64, C or Fortran order).
+    /// Loads and validates a `.npy` file (float32 or float64, either byte order, C or
+    /// Fortran order) or a numpy `.npz` archive (`savez` or `savez_compressed`) holding
+    /// such an array as `pressure`, with optional scalars `rate_hz` and `pitch_mm`. The
+    /// format is told by the first bytes, whatever the file is called.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
         let path = path.as_ref();
         let name = path.display().to_string();
@@ -110,30 +234,41 @@ impl Recording {
             name: name.clone(),
             source,
         })?;
-        Self::from_npy_bytes(name, &bytes)
+        Self::from_bytes(name, &bytes)
+    }
+
+    /// Parses and validates the bytes of a `.npy` or `.npz` file, told apart by their
+    /// magic numbers; `name` is used in errors.
+    pub fn from_bytes(name: impl Into<String>, bytes: &[u8]) -> Result<Self, RecordingError> {
+        let name = name.into();
+        if npz::is_zip(bytes) {
+            Self::from_npz_bytes(name, bytes)
+        } else if bytes.starts_with(npy::MAGIC) {
+            Self::from_npy_bytes(name, bytes)
+        } else {
+            Err(RecordingError::NotNpy {
+                name,
+                detail: "it starts with neither the .npy magic \\x93NUMPY nor the .npz \
+                         (zip) magic PK"
+                    .into(),
+            })
+        }
     }
 
     /// Parses and validates the bytes of a `.npy` file; `name` is used in errors.
     pub fn from_npy_bytes(name: impl Into<String>, bytes: &[u8]) -> Result<Self, RecordingError> {
         let name = name.into();
-        // ndarray-npy does not convert element types, so try f64 first and fall back to
-        // f32 only when the header names another type.
-        let data: ArrayD<f64> = match ArrayD::<f64>::read_npy(bytes) {
-            Ok(a) => a,
-            Err(ReadNpyError::WrongDescriptor(_)) => match ArrayD::<f32>::read_npy(bytes) {
-                Ok(a) => a.mapv(f64::from),
-                Err(e) => return Err(npy_error(name, e)),
-            },
-            Err(e) => return Err(npy_error(name, e)),
-        };
-        let ndim = data.ndim();
-        let data = data
-            .into_dimensionality::<Ix3>()
-            .map_err(|_| RecordingError::WrongRank {
-                name: name.clone(),
-                ndim,
-            })?;
-        Self::from_array(name, data.view())
+        let header = npy::parse_header(&name, bytes)?;
+        let body = bytes.get(header.data_start..).unwrap_or_default();
+        let data = npy::pressure(&name, &header, body)?;
+        Self::validated(name, data, None, None)
+    }
+
+    /// Parses and validates the bytes of a numpy `.npz` archive; `name` is used in errors.
+    pub fn from_npz_bytes(name: impl Into<String>, bytes: &[u8]) -> Result<Self, RecordingError> {
+        let name = name.into();
+        let npz = npz::read(&name, bytes)?;
+        Self::validated(name, npz.pressure, npz.rate_hz, npz.pitch_mm)
     }
 
     /// Validates an in-memory `[T, rows, cols]` array (tests, other front ends).
@@ -141,7 +276,22 @@ impl Recording {
         name: impl Into<String>,
         data: ArrayView3<f64>,
     ) -> Result<Self, RecordingError> {
-        let name = name.into();
+        // Fortran-order files arrive as a transposed view; store C order so every later
+        // stage can walk frames as contiguous rows.
+        Self::validated(
+            name.into(),
+            data.as_standard_layout().into_owned(),
+            None,
+            None,
+        )
+    }
+
+    fn validated(
+        name: String,
+        data: Array3<f64>,
+        rate_hz: Option<f64>,
+        pitch_mm: Option<f64>,
+    ) -> Result<Self, RecordingError> {
         let (t, r, c) = data.dim();
         if t == 0 || r == 0 || c == 0 {
             return Err(RecordingError::Empty {
@@ -160,12 +310,43 @@ impl Recording {
         if data.iter().all(|v| v.is_nan()) {
             return Err(RecordingError::AllNan { name });
         }
-        // Fortran-order files arrive as a transposed view; store C order so every later
-        // stage can walk frames as contiguous rows.
+        for (field, value, range, unit) in [
+            ("rate_hz", rate_hz, RATE_HZ_RANGE, "Hz"),
+            ("pitch_mm", pitch_mm, PITCH_MM_RANGE, "mm"),
+        ] {
+            if let Some(value) = value.filter(|v| !range.contains(v)) {
+                return Err(RecordingError::MetadataRange {
+                    name,
+                    field,
+                    value,
+                    range,
+                    unit,
+                });
+            }
+        }
+        let data = if data.is_standard_layout() {
+            data
+        } else {
+            data.as_standard_layout().into_owned()
+        };
         Ok(Self {
             name,
-            data: data.as_standard_layout().into_owned(),
+            data,
+            rate_hz,
+            pitch_mm,
         })
+    }
+
+    /// The frame rate the file declares (`rate_hz` in a `.npz`), validated against
+    /// [`RATE_HZ_RANGE`]; `None` for a `.npy` or an archive without it.
+    pub fn file_rate_hz(&self) -> Option<f64> {
+        self.rate_hz
+    }
+
+    /// The cell pitch the file declares (`pitch_mm` in a `.npz`), validated against
+    /// [`PITCH_MM_RANGE`]; `None` for a `.npy` or an archive without it.
+    pub fn file_pitch_mm(&self) -> Option<f64> {
+        self.pitch_mm
     }
 
     /// The file name (or in-memory name) used in messages.
@@ -183,33 +364,43 @@ impl Recording {
         self.data.dim()
     }
 
-    /// Tare and trim: subtract each cell's mean over the first `B` frames, drop `B`
-    /// frames at both ends, and turn NaN into 0.
+    /// Tare and trim: subtract each cell's baseline, drop `trim_s` at both ends, and turn
+    /// NaN into 0. `sampling` turns the config's seconds into frames.
     ///
-    /// Follows numpy semantics: a cell that is NaN in any tare frame has a NaN mean and
-    /// is therefore 0 ("no cell") for the whole recording; a NaN reading elsewhere is 0
-    /// in that frame only.
-    pub fn tare(&self, cfg: &InputConfig) -> Result<Array3<f64>, RecordingError> {
-        let b = cfg.tare_frames;
-        let (t, r, c) = self.dim();
-        let min = b.saturating_mul(2).saturating_add(1);
+    /// The `leading` baseline (the paper) is each cell's mean over the first `tare_s`,
+    /// with numpy semantics: a cell that is NaN in any tare frame has a NaN mean and is
+    /// therefore 0 ("no cell") for the whole recording; a NaN reading elsewhere is 0 in
+    /// that frame only. The `robust` baseline is each cell's `baseline_quantile` over
+    /// the whole recording (NaN readings ignored; a cell with none is 0), so a recording
+    /// may begin or end mid-touch.
+    pub fn tare(
+        &self,
+        cfg: &InputConfig,
+        sampling: &Sampling,
+    ) -> Result<Array3<f64>, RecordingError> {
+        let tare = match cfg.baseline {
+            Baseline::Leading => sampling.frames(cfg.tare_s),
+            Baseline::Robust => 0,
+        };
+        let trim = sampling.frames(cfg.trim_s);
+        let (t, _, _) = self.dim();
+        let min = trim.saturating_mul(2).saturating_add(1).max(tare);
         if t < min {
             return Err(RecordingError::TooShort {
                 name: self.name.clone(),
                 frames: t,
-                tare: b,
+                tare,
                 min,
             });
         }
-        let mut baseline = ndarray::Array2::<f64>::zeros((r, c));
-        if b > 0 {
-            // Sequential sum over frames, as numpy reduces a non-contiguous axis.
-            for frame in self.data.axis_iter(Axis(0)).take(b) {
-                baseline += &frame;
-            }
-            baseline /= b as f64;
-        }
-        let mut out = self.data.slice(ndarray::s![b..t - b, .., ..]).to_owned();
+        let baseline = match cfg.baseline {
+            Baseline::Leading => leading_baseline(self.data.view(), tare),
+            Baseline::Robust => robust_baseline(self.data.view(), cfg.baseline_quantile),
+        };
+        let mut out = self
+            .data
+            .slice(ndarray::s![trim..t - trim, .., ..])
+            .to_owned();
         for mut frame in out.axis_iter_mut(Axis(0)) {
             frame.zip_mut_with(&baseline, |v, &m| {
                 let x = *v - m;
@@ -220,18 +411,50 @@ impl Recording {
     }
 }
 
-fn npy_error(name: String, e: ReadNpyError) -> RecordingError {
-    match e {
-        ReadNpyError::Io(source) => RecordingError::Io { name, source },
-        ReadNpyError::WrongDescriptor(descr) => RecordingError::UnsupportedDtype {
-            name,
-            descr: descr.to_string(),
-        },
-        other => RecordingError::NotNpy {
-            name,
-            detail: other.to_string(),
-        },
+/// Each cell's mean over the first `frames` frames (0 when `frames` is 0), summed frame
+/// by frame as numpy reduces a non-contiguous axis.
+fn leading_baseline(data: ArrayView3<f64>, frames: usize) -> Array2<f64> {
+    let (_, r, c) = data.dim();
+    let mut baseline = Array2::<f64>::zeros((r, c));
+    if frames > 0 {
+        for frame in data.axis_iter(Axis(0)).take(frames) {
+            baseline += &frame;
+        }
+        baseline /= frames as f64;
     }
+    baseline
+}
+
+/// Each cell's `q`-quantile over every frame (linear interpolation between order
+/// statistics, numpy's default), NaN readings ignored; NaN for a cell that is never
+/// read, which the tare then turns into 0 ("no cell").
+fn robust_baseline(data: ArrayView3<f64>, q: f64) -> Array2<f64> {
+    let (_, r, c) = data.dim();
+    let mut values = Vec::new();
+    Array2::from_shape_fn((r, c), |(row, col)| {
+        values.clear();
+        values.extend(
+            data.slice(ndarray::s![.., row, col])
+                .iter()
+                .copied()
+                .filter(|v| !v.is_nan()),
+        );
+        quantile(&mut values, q)
+    })
+}
+
+/// The `q`-quantile of `values` (reordered in place); NaN when empty.
+fn quantile(values: &mut [f64], q: f64) -> f64 {
+    let n = values.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    values.sort_unstable_by(f64::total_cmp);
+    let pos = q.clamp(0.0, 1.0) * (n - 1) as f64;
+    let lo = pos.floor() as usize;
+    let hi = (lo + 1).min(n - 1);
+    let w = pos - lo as f64;
+    values[lo] + w * (values[hi] - values[lo])
 }
 
 #[cfg(test)]
@@ -247,11 +470,13 @@ mod tests {
             a[[t, 0, 1]] = 10.0;
         }
         let rec = Recording::from_array("x", a.view()).unwrap();
+        // 2 frames of tare and trim at 20 Hz.
         let cfg = InputConfig {
-            tare_frames: 2,
+            tare_s: 0.1,
+            trim_s: 0.1,
             ..InputConfig::default()
         };
-        let tared = rec.tare(&cfg).unwrap();
+        let tared = rec.tare(&cfg, &Sampling::PAPER).unwrap();
         assert_eq!(tared.dim(), (1, 1, 2));
         assert_eq!(tared[[0, 0, 0]], 2.0 - 0.5);
         assert_eq!(tared[[0, 0, 1]], 0.0);
@@ -261,8 +486,47 @@ mod tests {
     fn too_short_names_minimum() {
         let a = Array3::<f64>::zeros((40, 2, 2));
         let rec = Recording::from_array("short.npy", a.view()).unwrap();
-        let err = rec.tare(&InputConfig::default()).unwrap_err();
+        let err = rec
+            .tare(&InputConfig::default(), &Sampling::PAPER)
+            .unwrap_err();
         let msg = err.to_string();
         assert!(msg.contains("short.npy") && msg.contains("41"), "{msg}");
+    }
+
+    /// A recording that starts mid-press: the leading baseline tares the press away,
+    /// the robust one keeps it.
+    #[test]
+    fn robust_baseline_keeps_a_press_at_the_start() {
+        let mut a = Array3::<f64>::from_elem((100, 1, 2), 0.3);
+        for t in 0..40 {
+            a[[t, 0, 0]] = 2.3; // pressed by 2 psi for the first 2 s
+        }
+        let rec = Recording::from_array("mid-press", a.view()).unwrap();
+        let leading = rec.tare(&InputConfig::default(), &Sampling::PAPER).unwrap();
+        assert!(
+            leading[[0, 0, 0]].abs() < 1e-12,
+            "the paper's tare removes the press"
+        );
+        let robust = InputConfig {
+            baseline: Baseline::Robust,
+            ..InputConfig::default()
+        };
+        let tared = rec.tare(&robust, &Sampling::PAPER).unwrap();
+        assert_eq!(tared.dim(), (60, 1, 2));
+        // Frames 20..40 of the recording are the first 20 after the trim.
+        assert!((tared[[0, 0, 0]] - 2.0).abs() < 1e-12);
+        assert!((tared[[19, 0, 0]] - 2.0).abs() < 1e-12);
+        assert!(tared[[20, 0, 0]].abs() < 1e-12);
+        assert!(tared
+            .slice(ndarray::s![.., 0, 1])
+            .iter()
+            .all(|v| v.abs() < 1e-12));
+    }
+
+    #[test]
+    fn quantile_interpolates_like_numpy() {
+        // numpy.quantile([4, 1, 3, 2], 0.1) = 1.3
+        assert!((quantile(&mut [4.0, 1.0, 3.0, 2.0], 0.1) - 1.3).abs() < 1e-12);
+        assert!(quantile(&mut [], 0.1).is_nan());
     }
 }

@@ -146,3 +146,115 @@ fn bank_packs_slots_in_order_and_refuses_bad_input() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("junk.touch"));
     assert!(!out_path.exists());
 }
+
+/// A stimulus with one header field changed (and the CRC re-sealed).
+fn with_header(
+    bytes: &[u8],
+    edit: impl FnOnce(&mut touch_protocol::stimulus::Header<'_>),
+) -> Vec<u8> {
+    let s = touch_protocol::Stimulus::decode(bytes).unwrap();
+    let mut h = *s.header();
+    edit(&mut h);
+    let keyframes: Vec<_> = s.keyframes().collect();
+    touch_protocol::stimulus::encode(h, &keyframes).unwrap()
+}
+
+#[test]
+fn bank_refuses_a_stimulus_for_another_layout_or_channel_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = stimulus_file(dir.path(), "love");
+    let other = dir.path().join("other.touch");
+    let bytes = std::fs::read(&a).unwrap();
+    std::fs::write(&other, with_header(&bytes, |h| h.layout_id = 4242)).unwrap();
+    let out_path = dir.path().join("sleeve.bank");
+    let out = touchc(&[
+        "bank",
+        a.to_str().unwrap(),
+        other.to_str().unwrap(),
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    let target = touch_protocol::SLEEVE_LAYOUT_ID;
+    assert!(
+        err.contains("other.touch")
+            && err.contains("layout 4242")
+            && err.contains(&format!("layout {target} (paper-2x4)")),
+        "{err}"
+    );
+    assert!(!out_path.exists());
+
+    // Four channels instead of eight: the header's first byte, re-sealed.
+    let mut four = bytes.clone();
+    four[10] = 4;
+    let n = four.len();
+    let crc = touch_protocol::container::crc32(&four[..n - 4]);
+    four[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    let narrow = dir.path().join("narrow.touch");
+    std::fs::write(&narrow, four).unwrap();
+    let out = touchc(&[
+        "bank",
+        narrow.to_str().unwrap(),
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("narrow.touch: has 4 channels, but the bank's sleeve has 8"),
+        "{err}"
+    );
+    assert!(!out_path.exists());
+}
+
+#[test]
+fn bank_refuses_too_many_slots_and_too_many_bytes_with_the_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = stimulus_file(dir.path(), "love");
+    let out_path = dir.path().join("sleeve.bank");
+    let a = a.to_str().unwrap();
+    let mut args = vec!["bank"];
+    args.extend(std::iter::repeat_n(a, 33));
+    args.extend(["-o", out_path.to_str().unwrap()]);
+    let out = touchc(&args);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("33 stimuli, but a bank holds at most 32 slots"),
+        "{err}"
+    );
+    assert!(!out_path.exists());
+
+    // 12 s of keyframes that jump every 1 ms on every channel: 17 bytes each, about
+    // 200 KB a stimulus, so two do not fit the 256 KB region.
+    let frames: Vec<[i16; 8]> = (0..12_000i64)
+        .map(|k| [((k * 7919) % 40_001 - 20_000) as i16; 8])
+        .collect();
+    let big = touch_protocol::stimulus::encode(
+        touch_protocol::stimulus::Header {
+            keyframe_period_ms: 1,
+            quant_shift: 5,
+            ..*touch_protocol::Stimulus::decode(&std::fs::read(a).unwrap())
+                .unwrap()
+                .header()
+        },
+        &frames,
+    )
+    .unwrap();
+    let big_path = dir.path().join("big.touch");
+    std::fs::write(&big_path, &big).unwrap();
+    let big_path = big_path.to_str().unwrap();
+    let out = touchc(&["bank", big_path, big_path, "-o", out_path.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    let total = 10 + 2 + 16 + 2 * big.len() + 4;
+    assert!(
+        err.contains(&format!(
+            "bank image of {total} bytes does not fit the sleeve's 262144-byte bank flash region"
+        )),
+        "{} bytes each: {err}",
+        big.len()
+    );
+    assert!(!out_path.exists());
+}

@@ -21,6 +21,12 @@ pub const MAGIC: [u8; 4] = *b"TCHB";
 pub const VERSION: u16 = 1;
 /// Most slots a bank holds.
 pub const MAX_SLOTS: u16 = 32;
+/// Bytes of the sleeve's bank flash region (sectors 10-11 of the STM32F405RG, the
+/// `BANK` region of `memory.x`; a firmware test keeps the two in step). A bank must
+/// fit in it.
+pub const REGION_LEN: usize = 256 * 1024;
+/// Flash address of the bank region (`BANK` in `memory.x`).
+pub const REGION_ADDR: usize = 0x080C_0000;
 
 const INDEX_ENTRY_LEN: usize = 8;
 
@@ -38,6 +44,12 @@ impl<'a> Bank<'a> {
     /// own length field says where it ends.
     pub fn decode(bytes: &'a [u8]) -> Result<Self, Error> {
         let c = container::open(bytes, MAGIC, VERSION)?;
+        if c.bytes.len() > REGION_LEN {
+            return Err(Error::BankTooLarge {
+                bytes: c.bytes.len() as u32,
+                limit: REGION_LEN as u32,
+            });
+        }
         let payload = c.payload;
         if payload.len() < 2 {
             return Err(Error::InvalidField("count"));
@@ -98,13 +110,16 @@ impl<'a> Bank<'a> {
     }
 
     /// The stimulus in `slot`, borrowed from the bank.
+    ///
+    /// O(header): [`Bank::decode`] validated every stimulus, so this reads the
+    /// header again and trusts the rest (the bytes are borrowed, so unchanged).
     pub fn slot(&self, slot: usize) -> Result<Stimulus<'a>, Error> {
         let slot16 = u16::try_from(slot).unwrap_or(u16::MAX);
         if slot16 >= self.count {
             return Err(Error::NoSuchSlot(slot16));
         }
         let (offset, len) = self.entry(slot16);
-        Stimulus::decode(&self.bytes[offset..offset + len])
+        Stimulus::revalidated(&self.bytes[offset..offset + len])
     }
 
     /// All stimuli in slot order.
@@ -128,10 +143,19 @@ impl<'a> Bank<'a> {
 /// assert_eq!(bank::Bank::decode(&image)?.len(), 2);
 /// # Ok::<(), touch_protocol::Error>(())
 /// ```
+///
+/// Refuses more than [`MAX_SLOTS`] stimuli and an image larger than [`REGION_LEN`],
+/// with the numbers.
 #[cfg(any(test, feature = "std"))]
 pub fn encode(stimuli: &[&[u8]]) -> Result<Vec<u8>, Error> {
+    if stimuli.len() > usize::from(MAX_SLOTS) {
+        return Err(Error::TooManySlots {
+            count: u32::try_from(stimuli.len()).unwrap_or(u32::MAX),
+            max: MAX_SLOTS,
+        });
+    }
     let count = u16::try_from(stimuli.len()).map_err(|_| Error::TooLarge)?;
-    if count == 0 || count > MAX_SLOTS {
+    if count == 0 {
         return Err(Error::InvalidField("count"));
     }
     let mut payload = Vec::new();
@@ -150,5 +174,12 @@ pub fn encode(stimuli: &[&[u8]]) -> Result<Vec<u8>, Error> {
     for bytes in exact {
         payload.extend_from_slice(bytes);
     }
-    container::seal(MAGIC, VERSION, &payload)
+    let image = container::seal(MAGIC, VERSION, &payload)?;
+    if image.len() > REGION_LEN {
+        return Err(Error::BankTooLarge {
+            bytes: u32::try_from(image.len()).unwrap_or(u32::MAX),
+            limit: REGION_LEN as u32,
+        });
+    }
+    Ok(image)
 }

@@ -26,6 +26,11 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     CRC32.checksum(bytes)
 }
 
+/// [`crc32`] at compile time.
+pub(crate) const fn crc32_const(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
 /// A verified container: the whole byte range and its payload.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Container<'a> {
@@ -101,9 +106,28 @@ pub(crate) fn open<'a>(
     })
 }
 
-/// Wraps `payload` in a container with the given magic and version.
+/// The framing of bytes that [`open`] already accepted (inside a validated bank):
+/// length only, no CRC. Still never indexes out of bounds.
+pub(crate) fn open_unchecked(bytes: &[u8]) -> Result<Container<'_>, Error> {
+    let min = PREFIX_LEN + CRC_LEN;
+    let len = if bytes.len() >= min {
+        le_u32(bytes, 6) as usize
+    } else {
+        0
+    };
+    if len < min || len > bytes.len() {
+        return Err(Error::BadLength(len as u32));
+    }
+    Ok(Container {
+        bytes: &bytes[..len],
+        payload: &bytes[PREFIX_LEN..len - CRC_LEN],
+    })
+}
+
+/// Wraps `payload` in a container with the given magic and version (also for tests
+/// and fuzzers that craft payloads an encoder would not write).
 #[cfg(any(test, feature = "std"))]
-pub(crate) fn seal(magic: [u8; 4], version: u16, payload: &[u8]) -> Result<Vec<u8>, Error> {
+pub fn seal(magic: [u8; 4], version: u16, payload: &[u8]) -> Result<Vec<u8>, Error> {
     let len = u32::try_from(PREFIX_LEN + payload.len() + CRC_LEN).map_err(|_| Error::TooLarge)?;
     let mut out = Vec::with_capacity(len as usize);
     out.extend_from_slice(&magic);

@@ -56,6 +56,27 @@ pub enum Error {
     NoSuchSlot(u16),
     /// Too many keyframes, slots or bytes for the format's fields.
     TooLarge,
+    /// The stimulus was compiled for another actuator layout than the target's.
+    WrongLayout {
+        /// The stimulus's `layout_id`.
+        found: u16,
+        /// The target's (the bank's, the firmware's).
+        expected: u16,
+    },
+    /// More slots than a bank holds.
+    TooManySlots {
+        /// Slots asked for.
+        count: u32,
+        /// [`crate::bank::MAX_SLOTS`].
+        max: u16,
+    },
+    /// The bank image does not fit the sleeve's bank flash region.
+    BankTooLarge {
+        /// Bytes of the image.
+        bytes: u32,
+        /// [`crate::bank::REGION_LEN`].
+        limit: u32,
+    },
 }
 
 impl fmt::Display for Error {
@@ -89,6 +110,17 @@ impl fmt::Display for Error {
             Error::BadIndex(slot) => write!(f, "bank index entry {slot} points outside the bank"),
             Error::NoSuchSlot(slot) => write!(f, "bank has no slot {slot}"),
             Error::TooLarge => write!(f, "too large for the format"),
+            Error::WrongLayout { found, expected } => write!(
+                f,
+                "compiled for layout {found}, but the target is layout {expected}"
+            ),
+            Error::TooManySlots { count, max } => {
+                write!(f, "{count} slots, but a bank holds at most {max}")
+            }
+            Error::BankTooLarge { bytes, limit } => write!(
+                f,
+                "bank image of {bytes} bytes does not fit the sleeve's {limit}-byte bank flash region"
+            ),
         }
     }
 }

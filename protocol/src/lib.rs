@@ -4,6 +4,7 @@
 //! - [`stimulus`]: one haptic pattern, keyframed, with its safety limits.
 //! - [`bank`]: several stimuli, one per button slot, as one flash image.
 //! - [`player`]: turns a stimulus into eight 12-bit output codes per 1 kHz tick.
+//! - [`thermal`]: the coils' heat, which the device keeps across plays.
 //!
 //! Both files are framed the same way (magic, version, length, CRC-32; see
 //! [`container`]) and `SPEC.md` describes every byte. The crate is `no_std` and
@@ -17,15 +18,27 @@ mod error;
 mod limits;
 pub mod player;
 pub mod stimulus;
+pub mod thermal;
 
 pub use bank::Bank;
 pub use error::Error;
 pub use limits::Limits;
 pub use player::{DeviceConfig, OutputSink, Player, Status, Tick};
 pub use stimulus::Stimulus;
+pub use thermal::Thermal;
 
 /// Output channels: 2 rows x 4 columns of actuators, `channel = row * 4 + column`.
 pub const CHANNELS: usize = 8;
 
 /// The code for 0 A on a 12-bit output (mid-scale).
 pub const IDLE_CODE: u16 = 2048;
+
+/// The `layout_id` a stimulus carries for the layout whose `id` is `id`: the low 16
+/// bits of its CRC-32 (one definition for the compiler, `touchc bank` and the firmware).
+pub const fn layout_id(id: &str) -> u16 {
+    container::crc32_const(id.as_bytes()) as u16
+}
+
+/// The `layout_id` of the sleeve this firmware drives: the paper's 2 x 4 layout
+/// (`host/layouts/paper.toml`, id `paper-2x4`).
+pub const SLEEVE_LAYOUT_ID: u16 = layout_id("paper-2x4");

@@ -9,8 +9,12 @@
 //! 2. convert to microamperes and apply the ramp-in envelope (0 A to the signal
 //!    over `ramp_ms`);
 //! 3. enforce the limits, the stricter of the stimulus's and the device's: clamp to
-//!    the peak, clamp the change since the last tick to the slew bound, and account
-//!    the thermal I^2 t budget. While playing, any limit hit is a [`Fault`]: the
+//!    the peak, clamp the change since the last tick to the slew bound (less one
+//!    output step, so the step still fits after rounding to a code), and account
+//!    the thermal I^2 t budget in the device's [`Thermal`] state. Once the heat
+//!    leaves too little budget for one more tick and a ramp down, the next tick
+//!    is not played: the player ramps down from the last one instead, so the heat
+//!    never passes the budget. While playing, any limit hit is a [`Fault`]: the
 //!    player reports it once and ramps every channel from where it is to 0 A;
 //! 4. convert to a DAC/PWM code, 2048 = 0 A, 0 and 4095 = -/+ device full scale.
 //!
@@ -19,6 +23,7 @@
 //! reports [`Status::Finished`] and emits [`IDLE_CODE`] forever.
 
 use crate::stimulus::Keyframes;
+use crate::thermal::{budget_ma2ms, continuous_ma2, Thermal};
 use crate::{Limits, Stimulus, CHANNELS, IDLE_CODE};
 
 /// Largest output code (12-bit converters).
@@ -53,7 +58,7 @@ pub enum LimitKind {
     Peak,
     /// The current changed faster than the slew limit.
     Slew,
-    /// The thermal I^2 t budget ran out.
+    /// The thermal I^2 t budget would not carry another tick and the ramp down.
     Thermal,
 }
 
@@ -105,8 +110,10 @@ enum Mode {
 
 /// Plays one stimulus, one [`Player::tick`] per millisecond.
 ///
-/// A plain struct without allocation (about 200 bytes), so the firmware can keep it
-/// in a static and step it from an interrupt.
+/// A plain struct without allocation (about 250 bytes), so the firmware can keep it
+/// in a static and step it from an interrupt. It carries the device's [`Thermal`]
+/// state while it plays: [`Player::new`] starts from a cold coil,
+/// [`Player::with_thermal`] from the device's, and [`Player::thermal`] hands it back.
 #[derive(Debug, Clone)]
 pub struct Player<'a> {
     keyframes: Keyframes<'a>,
@@ -122,46 +129,77 @@ pub struct Player<'a> {
     /// Q15 -> uA multiplier: the stimulus full scale in uA.
     full_scale_ua: i64,
     peak_ua: i32,
+    /// The slew bound less one output step (see [`slew_bound_ua`]).
     slew_ua: i32,
-    continuous_ma2: u32,
-    budget_ma2ms: u64,
+    /// The bucket's leak per tick, mA^2.
+    cool_ma2: u64,
+    /// Heat above which no further signal tick is played: the budget less the most
+    /// one tick and a ramp down can add (see [`trip_ma2ms`]).
+    trip_ma2ms: u64,
+    /// The first channel whose heat passed `trip_ma2ms` (its next signal tick
+    /// becomes a thermal fault).
+    hot: Option<u8>,
+    /// Half an output step plus one, uA: a code stands for at most this much more
+    /// current than the value it was rounded from.
+    half_step_ua: u32,
     /// uA -> code offset multiplier, 2048 * 2^32 / device full scale in uA.
     code_mul: i64,
-    heat: [u64; CHANNELS],
+    thermal: Thermal,
     out: [i32; CHANNELS],
     mode: Mode,
     fault: Option<Fault>,
 }
 
 impl<'a> Player<'a> {
-    /// Prepares to play `stimulus` on `device`; the first [`Player::tick`] starts the ramp in.
+    /// Prepares to play `stimulus` on `device` from a cold coil; the first
+    /// [`Player::tick`] starts the ramp in.
     pub fn new(stimulus: &Stimulus<'a>, device: &DeviceConfig) -> Self {
+        Player::with_thermal(stimulus, device, Thermal::COLD)
+    }
+
+    /// Prepares to play `stimulus` on `device` whose coils hold `thermal`'s heat.
+    ///
+    /// Whether the device should start at all is [`Thermal::check_start`]'s call;
+    /// whatever the heat, the player itself never lets it pass the budget.
+    pub fn with_thermal(stimulus: &Stimulus<'a>, device: &DeviceConfig, thermal: Thermal) -> Self {
         let h = stimulus.header();
         let limits = h.limits.min(device.limits);
         let mut keyframes = stimulus.keyframes();
         let first = widen(keyframes.next().unwrap_or([0; CHANNELS]));
         let second = keyframes.next().map(widen).unwrap_or(first);
         let device_ua = i64::from(device.full_scale_ma.max(1)) * 1000;
+        // One output step, rounded up: device full scale / 2048.
+        let step_ua = ((device_ua + 2047) / 2048) as u32;
+        let ramp_ms = u32::from(h.ramp_ms.max(1));
+        let peak_ua = i32::from(limits.peak_ma) * 1000;
+        let slew_ua = slew_bound_ua(limits.slew_ma_per_ms, step_ua);
+        let half_step_ua = step_ua / 2 + 1;
         let mut player = Player {
             keyframes,
             a: first,
             b: second,
             period: u32::from(h.keyframe_period_ms.max(1)),
             phase: 0,
-            ramp_ms: u32::from(h.ramp_ms.max(1)),
+            ramp_ms,
             t: 0,
             duration_ms: h.duration_ms,
             full_scale_ua: i64::from(h.full_scale_ma) * 1000,
-            peak_ua: i32::from(limits.peak_ma) * 1000,
-            slew_ua: i32::from(limits.slew_ma_per_ms) * 1000,
-            continuous_ma2: u32::from(limits.continuous_ma) * u32::from(limits.continuous_ma),
-            budget_ma2ms: u64::from(limits.i2t_budget_ma2s) * 1000,
+            peak_ua,
+            slew_ua,
+            cool_ma2: continuous_ma2(&limits),
+            trip_ma2ms: trip_ma2ms(&limits, peak_ua, slew_ua, ramp_ms, half_step_ua),
+            hot: None,
+            half_step_ua,
             code_mul: (2048i64 << 32) / device_ua,
-            heat: [0; CHANNELS],
+            thermal,
             out: [0; CHANNELS],
             mode: Mode::Signal,
             fault: None,
         };
+        let (channel, heat) = thermal.hottest();
+        if heat > player.trip_ma2ms {
+            player.hot = Some(channel);
+        }
         if player.slew_ua == 0 || player.peak_ua == 0 {
             // Nothing may move: finish at once rather than pretend to play.
             player.mode = Mode::Done;
@@ -189,6 +227,12 @@ impl<'a> Player<'a> {
         self.fault
     }
 
+    /// The coils' heat after the last tick (the device takes it back when the player
+    /// is done, and keeps cooling it).
+    pub fn thermal(&self) -> Thermal {
+        self.thermal
+    }
+
     /// The outputs of the last tick, microamperes.
     pub fn output_ua(&self) -> [i32; CHANNELS] {
         self.out
@@ -206,7 +250,10 @@ impl<'a> Player<'a> {
         let status = match self.mode {
             Mode::Signal => self.signal_tick(),
             Mode::RampDown { from, step } => self.ramp_tick(from, step),
-            Mode::Done => Status::Finished,
+            Mode::Done => {
+                self.cool();
+                Status::Finished
+            }
         };
         Tick {
             codes: self.codes(),
@@ -215,9 +262,21 @@ impl<'a> Player<'a> {
     }
 
     fn signal_tick(&mut self) -> Status {
+        if let Some(channel) = self.hot {
+            // Too hot for another tick: one more at any current, then a ramp down,
+            // could pass the budget; a ramp down from the last tick's outputs cannot.
+            let f = Fault {
+                kind: LimitKind::Thermal,
+                channel,
+            };
+            self.fault.get_or_insert(f);
+            self.ramp_tick(self.out, 0);
+            return Status::Fault(f);
+        }
         // Ramp-in envelope, Q16: (t + 1) / ramp, reaching 1 after `ramp_ms` ticks.
-        let env = if self.t + 1 < self.ramp_ms {
-            ((self.t + 1) << 16) / self.ramp_ms
+        let t1 = self.t.saturating_add(1);
+        let env = if t1 < self.ramp_ms {
+            (t1 << 16) / self.ramp_ms
         } else {
             1 << 16
         };
@@ -228,8 +287,9 @@ impl<'a> Player<'a> {
             let q = a + (b - a) * self.phase as i32 / self.period as i32;
             let ua = ((i64::from(q) * self.full_scale_ua) >> 15) as i32;
             let target = ((i64::from(ua) * i64::from(env)) >> 16) as i32;
-            let (value, hit) = self.limit(c, target);
+            let (value, hit) = self.clamp(c, target);
             self.out[c] = value;
+            self.heat(c, value);
             if fault.is_none() {
                 fault = hit.map(|kind| Fault {
                     kind,
@@ -258,7 +318,7 @@ impl<'a> Player<'a> {
             };
             return;
         }
-        self.t += 1;
+        self.t = self.t.saturating_add(1);
         self.phase += 1;
         if self.phase == self.period {
             self.phase = 0;
@@ -271,15 +331,16 @@ impl<'a> Player<'a> {
     }
 
     fn ramp_tick(&mut self, from: [i32; CHANNELS], step: u32) -> Status {
-        let step = step + 1;
+        let step = step.saturating_add(1);
         let left = self.ramp_ms.saturating_sub(step);
         let env = (left << 16) / self.ramp_ms;
         let mut all_zero = true;
         for (c, &from) in from.iter().enumerate() {
             let target = ((i64::from(from) * i64::from(env)) >> 16) as i32;
             // Limits still bound every output; hits while ramping down are not faults.
-            let (value, _) = self.limit(c, target);
+            let (value, _) = self.clamp(c, target);
             self.out[c] = value;
+            self.heat(c, value);
             all_zero &= value == 0;
         }
         if left == 0 && all_zero {
@@ -291,8 +352,8 @@ impl<'a> Player<'a> {
         }
     }
 
-    /// Applies peak, slew and thermal limits to channel `c`'s target.
-    fn limit(&mut self, c: usize, target: i32) -> (i32, Option<LimitKind>) {
+    /// Applies the peak and slew limits to channel `c`'s target.
+    fn clamp(&self, c: usize, target: i32) -> (i32, Option<LimitKind>) {
         let mut hit = None;
         let mut v = target;
         if v > self.peak_ua || v < -self.peak_ua {
@@ -304,13 +365,25 @@ impl<'a> Player<'a> {
             v = v.clamp(prev - self.slew_ua, prev + self.slew_ua);
             hit = hit.or(Some(LimitKind::Slew));
         }
-        let ma = (v / 1000).unsigned_abs();
-        let heat = self.heat[c] + u64::from(ma * ma);
-        self.heat[c] = heat.saturating_sub(u64::from(self.continuous_ma2));
-        if self.heat[c] > self.budget_ma2ms {
-            hit = hit.or(Some(LimitKind::Thermal));
-        }
         (v, hit)
+    }
+
+    /// Accounts one tick at `ua` on channel `c`: the current the code stands for,
+    /// rounded up to a whole mA, squared; notes the first channel too hot to play on.
+    #[inline(always)]
+    fn heat(&mut self, c: usize, ua: i32) {
+        let ma = accounted_ma(ua.unsigned_abs(), self.half_step_ua);
+        let h = self.thermal.add(c, ma * ma, self.cool_ma2);
+        if h > self.trip_ma2ms && self.hot.is_none() {
+            self.hot = Some(c as u8);
+        }
+    }
+
+    /// One tick at 0 A.
+    fn cool(&mut self) {
+        for h in &mut self.thermal.heat {
+            *h = h.saturating_sub(self.cool_ma2);
+        }
     }
 
     fn codes(&self) -> [u16; CHANNELS] {
@@ -333,6 +406,42 @@ impl Iterator for Player<'_> {
         }
         Some(self.tick())
     }
+}
+
+/// The current the code for `ua_abs` stands for, rounded up to a whole mA.
+// `(x + 999) / 1000` is one multiply and shift on the Cortex-M4; `div_ceil` adds a
+// remainder test that cost 50 instructions in the worst tick.
+#[allow(clippy::manual_div_ceil)]
+#[inline(always)]
+fn accounted_ma(ua_abs: u32, half_step_ua: u32) -> u64 {
+    u64::from((ua_abs + half_step_ua + 999) / 1000)
+}
+
+/// The slew bound the player enforces, uA per tick: the limit less one output step.
+///
+/// Two values `d` apart round to codes at most `d / step + 1` apart, so values kept
+/// `slew - step` apart give code steps below `slew / step`: the limit holds on the
+/// codes, not only on the values they were rounded from (a full-scale step of
+/// 50 mA/ms would otherwise round to 103 codes, 50.3 mA).
+pub fn slew_bound_ua(slew_ma_per_ms: u16, step_ua: u32) -> i32 {
+    (i32::from(slew_ma_per_ms) * 1000 - step_ua as i32).max(0)
+}
+
+/// Heat above which the player plays no further signal tick, mA^2 ms: the budget
+/// less the most that one more tick and then a ramp down can add.
+///
+/// A ramp down from `|f| <= peak` never leaves `[-|f|, |f|]` and ends within
+/// `ramp_ms + ceil(peak / slew)` ticks, so with the tick before it, it adds at most
+/// `ramp_ms + ceil(peak / slew) + 1` times `acc(peak)^2`, where `acc` is the
+/// accounted (rounded-up) current; the threshold keeps one tick more as margin. A
+/// tick is played only when the heat before it is at most this, so a ramp down from
+/// any played tick stays within the budget.
+fn trip_ma2ms(limits: &Limits, peak_ua: i32, slew_ua: i32, ramp_ms: u32, half_step_ua: u32) -> u64 {
+    let peak = peak_ua.unsigned_abs();
+    let acc = accounted_ma(peak, half_step_ua);
+    let descent = u64::from(peak.div_ceil(slew_ua.unsigned_abs().max(1)));
+    let ramp_down = acc * acc * (u64::from(ramp_ms) + descent + 2);
+    budget_ma2ms(limits).saturating_sub(ramp_down)
 }
 
 fn widen(k: [i16; CHANNELS]) -> [i32; CHANNELS] {

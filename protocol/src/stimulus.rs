@@ -45,6 +45,16 @@ pub const MAX_KEYFRAME_PERIOD_MS: u16 = 1000;
 pub const HEADER_MAX_LEN: usize = 40 + MAX_NAME_LEN;
 /// Largest full scale, mA: keeps the player's fixed-point products inside 32 bits.
 pub const MAX_FULL_SCALE_MA: u16 = 10_000;
+/// Longest keyframed signal, ms: 24 hours.
+///
+/// Far beyond any recording the compiler can hold (it keeps the whole pressure movie
+/// in memory: a day at the sleeve's 20 Hz is 14.5 GB of f64 cells), so no real
+/// stimulus meets it, while every time the player and the host tools count stays
+/// far inside 32 bits (a day is 2^26.4 ms) and the host's per-tick outputs
+/// stay countable. Decoding is O(bytes) whatever the duration (see [`Stimulus::decode`]).
+pub const MAX_DURATION_MS: u32 = 24 * 60 * 60 * 1000;
+/// Most keyframes: a day at the shortest period, 1 ms (`duration = (count - 1) * period`).
+pub const MAX_KEYFRAMES: u32 = MAX_DURATION_MS + 1;
 
 /// Everything about a stimulus but its keyframes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -86,11 +96,11 @@ impl Header<'_> {
         if self.keyframe_period_ms == 0 || self.keyframe_period_ms > MAX_KEYFRAME_PERIOD_MS {
             return bad("keyframe_period_ms");
         }
-        if self.keyframe_count == 0 {
+        if self.keyframe_count == 0 || self.keyframe_count > MAX_KEYFRAMES {
             return bad("keyframe_count");
         }
         let span = u64::from(self.keyframe_count - 1) * u64::from(self.keyframe_period_ms);
-        if span != u64::from(self.duration_ms) {
+        if span != u64::from(self.duration_ms) || self.duration_ms > MAX_DURATION_MS {
             return bad("duration_ms");
         }
         if self.ramp_ms == 0 {
@@ -132,24 +142,44 @@ pub struct Stimulus<'a> {
 
 impl<'a> Stimulus<'a> {
     /// Decodes and fully validates a stimulus. `bytes` may extend past its end.
+    ///
+    /// The work is O(bytes), whatever the keyframe count: a run record is checked
+    /// in one step (each channel moves along a line, so its ends bound it), and
+    /// every other record is at least one byte.
     pub fn decode(bytes: &'a [u8]) -> Result<Self, Error> {
-        let Container { bytes, payload } = container::open(bytes, MAGIC, VERSION)?;
-        let (header, body) =
-            postcard::take_from_bytes::<Header<'a>>(payload).map_err(|_| Error::BadHeader)?;
-        header.validate()?;
-        let stimulus = Stimulus {
-            header,
-            body,
-            bytes,
-        };
+        let stimulus = Stimulus::parse(bytes, true)?;
         let mut cursor = stimulus.keyframes();
-        for _ in 0..header.keyframe_count {
-            cursor.try_next()?;
+        while cursor.remaining > 0 {
+            cursor.skip_record()?;
         }
         if !cursor.rest.is_empty() {
             return Err(Error::TrailingBytes);
         }
         Ok(stimulus)
+    }
+
+    /// The container and the header; with `check_crc` false, for bytes that a
+    /// [`Stimulus::decode`] (or a bank's) already validated.
+    fn parse(bytes: &'a [u8], check_crc: bool) -> Result<Self, Error> {
+        let Container { bytes, payload } = if check_crc {
+            container::open(bytes, MAGIC, VERSION)?
+        } else {
+            container::open_unchecked(bytes)?
+        };
+        let (header, body) =
+            postcard::take_from_bytes::<Header<'a>>(payload).map_err(|_| Error::BadHeader)?;
+        header.validate()?;
+        Ok(Stimulus {
+            header,
+            body,
+            bytes,
+        })
+    }
+
+    /// The view of a stimulus inside a bank that [`crate::Bank::decode`] validated:
+    /// the header only, O(header) instead of O(bytes).
+    pub(crate) fn revalidated(bytes: &'a [u8]) -> Result<Self, Error> {
+        Stimulus::parse(bytes, false)
     }
 
     /// The header.
@@ -165,6 +195,19 @@ impl<'a> Stimulus<'a> {
     /// Length of the keyframed signal, ms (playback adds one ramp, see [`Header::playback_ms`]).
     pub fn duration_ms(&self) -> u32 {
         self.header.duration_ms
+    }
+
+    /// Refuses a stimulus compiled for another layout than `layout_id` (the channel
+    /// count is the format's, checked by [`Stimulus::decode`]).
+    pub fn check_layout(&self, layout_id: u16) -> Result<(), Error> {
+        if self.header.layout_id == layout_id {
+            Ok(())
+        } else {
+            Err(Error::WrongLayout {
+                found: self.header.layout_id,
+                expected: layout_id,
+            })
+        }
     }
 
     /// The limits the stimulus was compiled for.
@@ -223,30 +266,57 @@ impl Keyframes<'_> {
     ///
     /// On a [`Stimulus`] this cannot fail: decoding validated every keyframe.
     pub fn try_next(&mut self) -> Result<[i16; CHANNELS], Error> {
-        let mask = if self.idle_left > 0 {
+        if self.idle_left > 0 {
             self.idle_left -= 1;
-            0
+            self.follow(1)?;
         } else {
-            let (&mask, rest) = self.rest.split_first().ok_or(Error::BadKeyframes)?;
-            self.rest = rest;
-            if mask == 0 {
-                // A run of keyframes that all follow their prediction.
-                if self.after_run {
-                    return Err(Error::KeyframeOutOfRange);
-                }
-                let (run, rest) =
-                    postcard::take_from_bytes::<u32>(self.rest).map_err(|_| Error::BadKeyframes)?;
-                self.rest = rest;
-                if run == 0 || run > self.remaining {
-                    return Err(Error::BadKeyframes);
-                }
-                self.idle_left = run - 1;
+            self.record()?;
+        }
+        self.remaining = self.remaining.saturating_sub(1);
+        let mut out = [0i16; CHANNELS];
+        for (o, &s) in out.iter_mut().zip(&self.stored) {
+            // In range by the checks in `follow` and `record`: |s << shift| fits i16.
+            *o = (s << self.shift) as i16;
+        }
+        Ok(out)
+    }
+
+    /// Validates the next record whole: one keyframe, or a whole run in one step.
+    fn skip_record(&mut self) -> Result<(), Error> {
+        if self.idle_left == 0 {
+            self.record()?;
+            self.remaining -= 1;
+        }
+        let n = self.idle_left;
+        if n > 0 {
+            self.idle_left = 0;
+            self.follow(n)?;
+            self.remaining -= n;
+        }
+        Ok(())
+    }
+
+    /// Reads one record and applies its first keyframe (a run leaves `idle_left`).
+    fn record(&mut self) -> Result<(), Error> {
+        let (&mask, rest) = self.rest.split_first().ok_or(Error::BadKeyframes)?;
+        self.rest = rest;
+        if mask == 0 {
+            // A run of keyframes that all follow their prediction.
+            if self.after_run {
+                return Err(Error::KeyframeOutOfRange);
             }
-            self.after_run = mask == 0;
-            mask
-        };
-        let lo = i32::from(i16::MIN) >> self.shift;
-        let hi = i32::from(i16::MAX) >> self.shift;
+            let (run, rest) =
+                postcard::take_from_bytes::<u32>(self.rest).map_err(|_| Error::BadKeyframes)?;
+            self.rest = rest;
+            if run == 0 || run > self.remaining {
+                return Err(Error::BadKeyframes);
+            }
+            self.after_run = true;
+            self.idle_left = run - 1;
+            return self.follow(1);
+        }
+        self.after_run = false;
+        let (lo, hi) = self.range();
         for c in 0..CHANNELS {
             // In range: stored values are within i16, so the prediction fits in i32.
             let mut next = 2 * self.stored[c] - self.before[c];
@@ -267,13 +337,33 @@ impl Keyframes<'_> {
             self.before[c] = self.stored[c];
             self.stored[c] = next;
         }
-        self.remaining = self.remaining.saturating_sub(1);
-        let mut out = [0i16; CHANNELS];
-        for (o, &s) in out.iter_mut().zip(&self.stored) {
-            // In range by the check above: |s << shift| fits i16.
-            *o = (s << self.shift) as i16;
+        Ok(())
+    }
+
+    /// `n >= 1` keyframes in which every channel follows its prediction: each moves
+    /// `n` steps along its line. The line is monotone, so checking where it ends
+    /// checks every keyframe on the way.
+    fn follow(&mut self, n: u32) -> Result<(), Error> {
+        let (lo, hi) = self.range();
+        for c in 0..CHANNELS {
+            let step = self.stored[c] - self.before[c];
+            let last = i64::from(self.stored[c]) + i64::from(n) * i64::from(step);
+            if last < i64::from(lo) || last > i64::from(hi) {
+                return Err(Error::KeyframeOutOfRange);
+            }
+            // In range: `last` is, and so is the value before it on the line.
+            self.stored[c] = last as i32;
+            self.before[c] = last as i32 - step;
         }
-        Ok(out)
+        Ok(())
+    }
+
+    /// Stored values allowed at this quantisation.
+    fn range(&self) -> (i32, i32) {
+        (
+            i32::from(i16::MIN) >> self.shift,
+            i32::from(i16::MAX) >> self.shift,
+        )
     }
 
     /// Keyframes not yet decoded.

@@ -12,6 +12,7 @@ mod crc32;
 mod scenario;
 
 use core::cell::RefCell;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m::interrupt::Mutex;
 use cortex_m::peripheral::syst::SystClkSource;
@@ -23,6 +24,7 @@ use sleeve_firmware::button::{Buttons, Mode};
 use sleeve_firmware::control::Controller;
 use sleeve_firmware::engine::{Engine, Watchdog};
 use sleeve_firmware::output::{device_config, pwm_compare, Frame, PWM_PERIOD};
+use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
 use touch_protocol::player::{DeviceConfig, Player, Status};
 use touch_protocol::{Bank, OutputSink, CHANNELS};
 
@@ -34,8 +36,17 @@ include!(concat!(env!("OUT_DIR"), "/expected.rs"));
 static BANK: [u8; include_bytes!(concat!(env!("OUT_DIR"), "/bank.bin")).len()] =
     *include_bytes!(concat!(env!("OUT_DIR"), "/bank.bin"));
 
-const BANK_ADDR: usize = 0x080C_0000;
-const BANK_LEN: usize = 256 * 1024;
+/// The boot check's worst case, a full region of two-byte records (in code flash).
+static DENSE: [u8; include_bytes!(concat!(env!("OUT_DIR"), "/dense.bin")).len()] =
+    *include_bytes!(concat!(env!("OUT_DIR"), "/dense.bin"));
+
+/// The bound the boot check must stay under, instructions: the boot watchdog's
+/// 1 s timeout (`src/hw/tick.rs`) is 168 M cycles, which leaves 3 cycles per
+/// instruction (flash wait states, taken branches).
+const BOOT_CHECK_BOUND_INSNS: u64 = 56_000_000;
+
+/// SysTick wraps while no job runs (for spans longer than one tick).
+static WRAPS: AtomicU32 = AtomicU32::new(0);
 
 /// SysTick counts at the 168 MHz core clock: 168,000 counts per 1 kHz tick.
 const RELOAD: u32 = 168_000 - 1;
@@ -113,7 +124,7 @@ static STATE: Mutex<RefCell<Option<State>>> = Mutex::new(RefCell::new(None));
 
 fn bank_region() -> &'static [u8] {
     // SAFETY: internal flash, mapped for the life of the program, never written.
-    unsafe { core::slice::from_raw_parts(BANK_ADDR as *const u8, BANK_LEN) }
+    unsafe { core::slice::from_raw_parts(REGION_ADDR as *const u8, REGION_LEN) }
 }
 
 #[entry]
@@ -124,7 +135,7 @@ fn main() -> ! {
         Ok(bank) => bank,
         Err(_) => fail("bank in flash refused"),
     };
-    if BANK.as_ptr() as usize != BANK_ADDR || bank.len() != EXPECTED.len() {
+    if BANK.as_ptr() as usize != REGION_ADDR || bank.len() != EXPECTED.len() {
         fail("bank not at 0x080C0000 or wrong slot count");
     }
     // The firmware's boot check, on the target: refuses an erased region and a
@@ -157,6 +168,18 @@ fn main() -> ! {
     let nop_insns = elapsed(start, end) * 1000 / COUNTS_PER_INSN_X1000;
     hprintln!("calibration: 1000 nops measure {} instructions", nop_insns);
     let mut ok = boot_ok && (1000..1010).contains(&nop_insns);
+
+    // The boot check's bound: a full region of the densest records.
+    let (dense_ok, dense_insns) = span_insns(&mut cp.SYST, || check_bank(&DENSE).is_ok());
+    let bound_ok = dense_ok && dense_insns < BOOT_CHECK_BOUND_INSNS;
+    ok &= bound_ok;
+    hprintln!(
+        "boot check of a full {}-byte region of dense records: {} instructions (bound {}): {}",
+        DENSE.len(),
+        dense_insns,
+        BOOT_CHECK_BOUND_INSNS,
+        if bound_ok { "ok" } else { "FAILED" }
+    );
     let mut worst_insns = 0;
     for (slot, &(ticks, crc, faulted)) in EXPECTED.iter().enumerate() {
         let stim = bank.slot(slot).unwrap_or_else(|_| fail("slot refused"));
@@ -233,7 +256,10 @@ fn main() -> ! {
 fn SysTick() {
     cortex_m::interrupt::free(|cs| {
         let mut cell = STATE.borrow(cs).borrow_mut();
-        let Some(s) = cell.as_mut() else { return };
+        let Some(s) = cell.as_mut() else {
+            WRAPS.fetch_add(1, Ordering::Relaxed);
+            return;
+        };
         if s.done {
             return;
         }
@@ -286,6 +312,23 @@ fn run(syst: &mut SYST, state: State) -> State {
             return s.unwrap_or_else(|| fail("state lost"));
         }
     }
+}
+
+/// Runs `f` with SysTick counting wraps; returns its result and the instructions spent.
+fn span_insns<T>(syst: &mut SYST, f: impl FnOnce() -> T) -> (T, u64) {
+    WRAPS.store(0, Ordering::Relaxed);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+    let start = SYST::get_current();
+    let r = f();
+    let end = SYST::get_current();
+    let wraps = WRAPS.load(Ordering::Relaxed);
+    syst.disable_interrupt();
+    syst.disable_counter();
+    // Counting down: each wrap adds a whole period.
+    let counts = u64::from(wraps) * u64::from(RELOAD + 1) + u64::from(start) - u64::from(end);
+    (r, counts * 1000 / u64::from(COUNTS_PER_INSN_X1000))
 }
 
 /// SysTick counts spent between two reads of the down-counter (at most one wrap).

@@ -13,15 +13,11 @@ use embassy_time::{with_timeout, Duration, Timer};
 use sleeve_firmware::boot::{bank_source, check_bank, BootError};
 use sleeve_firmware::button::{boot_events, Buttons, EdgeMailbox, DEBOUNCE_TICKS};
 use sleeve_firmware::control::{Controller, Report};
-use sleeve_firmware::engine::Engine;
+use sleeve_firmware::engine::{Engine, Watchdog};
 use sleeve_firmware::output::device_config;
+use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
 
 use board::BUTTONS;
-
-/// The bank region of `memory.x`: sectors 10-11.
-const BANK_ADDR: usize = 0x080C_0000;
-/// Length of the bank region.
-const BANK_LEN: usize = 256 * 1024;
 
 /// A default bank, linked into the BANK region (feature `default-bank`).
 #[cfg(feature = "default-bank")]
@@ -38,7 +34,7 @@ static EMOJI_BANK: &[u8] = include_bytes!("../../../examples/emoji/emoji.bank");
 fn bank_region() -> &'static [u8] {
     // SAFETY: the region is internal flash, mapped and readable for the life of the
     // program, and nothing writes it while the firmware runs.
-    unsafe { core::slice::from_raw_parts(BANK_ADDR as *const u8, BANK_LEN) }
+    unsafe { core::slice::from_raw_parts(REGION_ADDR as *const u8, REGION_LEN) }
 }
 
 /// Boots: outputs at 0 A, bank check, then the 1 kHz tick and the button tasks.
@@ -59,6 +55,9 @@ pub async fn run(spawner: Spawner) -> ! {
     }
     Timer::after_millis(1).await;
 
+    // The watchdog before anything that depends on flash contents: the boot check's
+    // work is bounded (see `boot::check_bank`), and the boot timeout is above it.
+    let mut dog = tick::Iwdg::start(iwdg);
     let source = bank_source(bank_region(), EMOJI_BANK);
     if core::ptr::eq(source, EMOJI_BANK) {
         info!("bank region erased: playing the built-in emoji bank");
@@ -67,48 +66,64 @@ pub async fn run(spawner: Spawner) -> ! {
         Ok(bank) => bank,
         Err(e) => {
             error!("bank refused, nothing plays: {}", e);
-            blink_forever(&mut led, e).await
+            blink_forever(&mut led, &mut dog, e).await
         }
     };
-    info!("bank: {} slots", bank.len());
-    for (i, s) in bank.stimuli().enumerate() {
-        info!("  slot {}: {} ({} ms)", i, s.name(), s.duration_ms());
-    }
-
+    dog.feed();
     let controller = Controller::new(bank, device_config());
+    info!("bank: {} slots", controller.slots());
+    for i in 0..controller.slots() {
+        match controller.slot(i) {
+            Ok(s) => info!("  slot {}: {} ({} ms)", i, s.name(), s.duration_ms()),
+            Err(e) => error!("  slot {}: refused, never played: {}", i, e),
+        }
+    }
+    dog.tighten();
     let mut engine = Engine::new(
         outputs,
-        tick::Iwdg::start(iwdg),
+        dog,
         Buttons::<BUTTONS>::new(board::BUTTON_MODE),
         controller,
     );
     // Let the button tasks post what happened while the bank was checked.
     Timer::after_millis(1).await;
+    let mut at_boot = heapless::Vec::<Report, BUTTONS>::new();
     for event in boot_events(board::BUTTON_MODE, &tick::EDGES) {
         if let Some(report) = engine.inject(event) {
-            info!("press during boot:");
-            show(report, &mut led);
+            let _ = at_boot.push(report);
         }
     }
     tick::start(engine, tim7);
     info!("ready: press to play slot 0, hold to select the next");
+    // What presses during boot did, shown like any other report (the tick runs, so
+    // the watchdog is fed while an LED pattern plays).
+    for report in at_boot {
+        info!("press during boot:");
+        show(report, &mut led).await;
+    }
 
     loop {
-        show(tick::REPORTS.receive().await, &mut led);
+        show(tick::REPORTS.receive().await, &mut led).await;
     }
 }
 
 /// Logs a report and shows it on the LED (on while a slot plays). Every report goes
 /// through here, those of presses during boot included, so the LED never misses one.
-fn show(report: Report, led: &mut Output<'static>) {
+async fn show(report: Report, led: &mut Output<'static>) {
     match report {
         Report::Fault(..) => warn!("limit hit, ramping to 0 A: {}", report),
-        Report::BadSlot(_) => error!("{}", report),
+        Report::BadSlot(slot, e) => error!("slot {}: refused, never played: {}", slot, e),
+        Report::TooHot(slot, hot) => warn!(
+            "slot {}: coil {} at {} per mille of its I2t budget, start refused; playable again after {} ms idle",
+            slot, hot.channel, hot.permille, hot.cooldown_ms
+        ),
         _ => info!("{}", report),
     }
     match report {
         Report::Started(_) => led.set_high(),
         Report::Finished(_) => led.set_low(),
+        Report::TooHot(..) => flicker(led, 5, 60).await,
+        Report::BadSlot(..) => flicker(led, 2, 400).await,
         _ => {}
     }
 }
@@ -146,16 +161,34 @@ async fn button_task(mut button: ExtiInput<'static, Async>, mailbox: &'static Ed
     }
 }
 
-/// The refused-bank LED code: `blinks` short flashes, a pause, forever.
-async fn blink_forever(led: &mut Output<'static>, e: BootError) -> ! {
+/// A refused start: `n` flashes of `ms` on and `ms` off, then the LED off, as
+/// nothing plays. A hot coil is five quick flashes (60 ms), a slot for another
+/// layout two long ones (400 ms); both differ from the boot codes' steady rhythm.
+async fn flicker(led: &mut Output<'static>, n: u8, ms: u64) {
+    for _ in 0..n {
+        led.set_high();
+        Timer::after_millis(ms).await;
+        led.set_low();
+        Timer::after_millis(ms).await;
+    }
+}
+
+/// The refused-bank LED code: `blinks` short flashes, a pause, forever, feeding
+/// the boot watchdog at least every 250 ms (the outputs stay at 0 A).
+async fn blink_forever(led: &mut Output<'static>, dog: &mut tick::Iwdg, e: BootError) -> ! {
     loop {
         for _ in 0..e.blinks() {
             led.set_high();
             Timer::after_millis(150).await;
+            dog.feed();
             led.set_low();
             Timer::after_millis(250).await;
+            dog.feed();
         }
-        Timer::after_millis(1200).await;
+        for _ in 0..6 {
+            Timer::after_millis(200).await;
+            dog.feed();
+        }
     }
 }
 
@@ -171,9 +204,23 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     }
 }
 
-/// On a hard fault: the same as a panic.
+/// On a hard fault (and the bus, memory and usage faults, which escalate to it while
+/// they are disabled, as here): every channel to 0 A, then wait for the watchdog.
 #[cortex_m_rt::exception]
 unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    cortex_m::interrupt::disable();
+    outputs::force_idle();
+    loop {
+        cortex_m::asm::nop();
+    }
+}
+
+/// Every other exception and interrupt without a handler of its own (NMI, an
+/// unexpected IRQ): every channel to 0 A, then wait for the watchdog, instead of
+/// spinning with the outputs frozen at their last value.
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(_irqn: i16) {
+    cortex_m::interrupt::disable();
     outputs::force_idle();
     loop {
         cortex_m::asm::nop();

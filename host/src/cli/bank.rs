@@ -1,9 +1,15 @@
 //! `touchc bank A.touch B.touch ... -o sleeve.bank`: one slot per stimulus, in order.
+//!
+//! The bank is for one sleeve: every stimulus must have been compiled for its layout
+//! (`--layout`, default the paper's 2 x 4 sleeve that the firmware drives) and its
+//! eight channels, and the image must fit the firmware's bank flash region. Each
+//! refusal names the file and gives both values.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::Context;
-use touch_protocol::{bank, Stimulus};
+use anyhow::{bail, Context};
+use touch_protocol::{bank, container, layout_id, Error, Stimulus, CHANNELS};
+use touchc::layout::Layout;
 use touchc::output::write_atomic;
 
 /// Arguments of `touchc bank`.
@@ -15,16 +21,32 @@ pub struct Args {
     /// The bank image to write.
     #[arg(short, long)]
     output: PathBuf,
+    /// The layout TOML of the sleeve the bank is for (default: the paper's 2 x 4
+    /// sleeve, the one the firmware drives); every stimulus must be compiled for it.
+    #[arg(long)]
+    layout: Option<PathBuf>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let layout = match &args.layout {
+        Some(path) => Layout::load(path)?,
+        None => Layout::paper(),
+    };
+    let target = layout_id(layout.id());
+    if args.stimuli.len() > usize::from(bank::MAX_SLOTS) {
+        bail!(
+            "{}: {} stimuli, but a bank holds at most {} slots",
+            args.output.display(),
+            args.stimuli.len(),
+            bank::MAX_SLOTS
+        );
+    }
     let files = args
         .stimuli
         .iter()
         .map(|path| {
             let bytes = super::read_input(path)?;
-            Stimulus::decode(&bytes)
-                .with_context(|| format!("{}: not a valid stimulus", path.display()))?;
+            check_fits(&bytes, path, target, layout.id())?;
             Ok(bytes)
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
@@ -33,10 +55,32 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot build the bank", args.output.display()))?;
     write_atomic(&args.output, &image)?;
     eprintln!(
-        "touchc: wrote {} ({} slots, {} bytes)",
+        "touchc: wrote {} ({} slots, {} of {} bytes of the bank region)",
         args.output.display(),
         slices.len(),
-        image.len()
+        image.len(),
+        bank::REGION_LEN
     );
     Ok(())
+}
+
+/// Checks that `bytes` is a stimulus for the target sleeve: valid, eight channels,
+/// compiled for layout `target` (the layout file's id is `target_name`).
+fn check_fits(bytes: &[u8], path: &Path, target: u16, target_name: &str) -> anyhow::Result<()> {
+    let name = path.display();
+    match Stimulus::decode(bytes) {
+        Ok(s) => s.check_layout(target).map_err(|_| {
+            anyhow::anyhow!(
+                "{name}: compiled for layout {}, but the bank is for layout {target} ({target_name}); \
+                 compile it with that layout",
+                s.header().layout_id
+            )
+        }),
+        Err(Error::InvalidField("channels")) => {
+            // The channel count is the header's first byte, after the framing.
+            let found = bytes.get(container::PREFIX_LEN).copied().unwrap_or(0);
+            bail!("{name}: has {found} channels, but the bank's sleeve has {CHANNELS}")
+        }
+        Err(e) => Err(e).with_context(|| format!("{name}: not a valid stimulus")),
+    }
 }

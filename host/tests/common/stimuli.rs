@@ -14,7 +14,7 @@ pub fn stimulus(name: &str, keyframes: &[[f64; 8]]) -> Vec<u8> {
         ramp_ms: 10,
         full_scale_ma: 1000,
         quant_shift: 5,
-        layout_id: 1,
+        layout_id: touch_protocol::SLEEVE_LAYOUT_ID,
         limits: Limits::SLEEVE,
         name,
     };

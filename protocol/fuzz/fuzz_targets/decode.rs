@@ -5,36 +5,36 @@
 use libfuzzer_sys::fuzz_target;
 use touch_protocol::{Bank, DeviceConfig, Player, Stimulus};
 
+/// Ticks played before a stop: stimuli may last a day, an execution may not.
+const PLAY_TICKS: u64 = 100_000;
+
 fn play(s: &Stimulus<'_>) {
     let mut p = Player::new(s, &DeviceConfig::default());
-    // Signal, ramp, and a slew-limited tail of at most peak / slew ticks.
-    let bound = u64::from(s.header().playback_ms()) + 1 + 2_000;
+    // Signal (or a stop after PLAY_TICKS), ramp, and a slew-limited tail of at most
+    // peak / slew ticks.
+    let bound = u64::from(s.header().playback_ms()).min(PLAY_TICKS) + 1 + 2_000 + u64::from(s.header().ramp_ms);
     let mut n = 0u64;
     while !p.is_done() {
+        if n == PLAY_TICKS {
+            p.stop();
+        }
         p.tick();
         n += 1;
         assert!(n <= bound, "player did not finish");
     }
 }
 
+
 /// Frames `payload` with a valid prefix and CRC, so the fuzzer reaches the header
 /// and body parsers instead of stopping at the checksum.
-fn sealed(magic: &[u8; 4], payload: &[u8]) -> Vec<u8> {
-    let len = (10 + payload.len() + 4) as u32;
-    let mut out = Vec::with_capacity(len as usize);
-    out.extend_from_slice(magic);
-    out.extend_from_slice(&1u16.to_le_bytes());
-    out.extend_from_slice(&len.to_le_bytes());
-    out.extend_from_slice(payload);
-    let crc = touch_protocol::container::crc32(&out);
-    out.extend_from_slice(&crc.to_le_bytes());
-    out
+fn sealed(magic: [u8; 4], payload: &[u8]) -> Vec<u8> {
+    touch_protocol::container::seal(magic, 1, payload).expect("fuzz inputs are small")
 }
 
 fuzz_target!(|data: &[u8]| {
     check(data);
-    check(&sealed(b"TCHS", data));
-    check(&sealed(b"TCHB", data));
+    check(&sealed(touch_protocol::stimulus::MAGIC, data));
+    check(&sealed(touch_protocol::bank::MAGIC, data));
 });
 
 fn check(data: &[u8]) {

@@ -1,0 +1,240 @@
+//! Coverage: how much of the recorded touch the tracked contacts explain.
+//!
+//! A compile can succeed and still convey little: if tracking loses a fast stroke or a
+//! brief pat, the actuators render nothing for it and nobody is told. Coverage makes
+//! that loss a number:
+//!
+//! > the share of touch pressure (the sum over cells above the touch threshold, over
+//! > all frames) that lies within [`DEFAULT_RADIUS_CELLS`] cells of a tracked contact
+//! > in the same frame.
+//!
+//! It is measured on the tared recording in sensor cells, independent of the
+//! upsampling factor, so presets and sensors compare on one scale. The same mask of
+//! unexplained cells lets a picture show the touch that no contact explains.
+
+use ndarray::{Array3, ArrayView3, Axis};
+use serde::{Deserialize, Serialize};
+
+use crate::trajectory::Trajectory;
+
+/// The radius of the coverage definition, in sensor cells.
+pub const DEFAULT_RADIUS_CELLS: f64 = 2.0;
+
+/// One tracked contact in one frame, in sensor-cell coordinates of the tared recording
+/// (cell `(r, c)` has its centre at `(r, c)`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactPoint {
+    /// Frame index after the tare and trim.
+    pub frame: usize,
+    /// Row, in cells (fractional).
+    pub row: f64,
+    /// Column, in cells (fractional).
+    pub col: f64,
+}
+
+/// The contact points of `trajectories`, whose rows and columns are pixels of a grid
+/// upsampled `upsample` times (pixel `p` covers cell `p / upsample`; its centre lies at
+/// cell coordinate `(p + 0.5) / upsample - 0.5`).
+pub fn contact_points(trajectories: &[Trajectory], upsample: usize) -> Vec<ContactPoint> {
+    let k = upsample.max(1) as f64;
+    let to_cell = |p: usize| (p as f64 + 0.5) / k - 0.5;
+    trajectories
+        .iter()
+        .flat_map(|t| {
+            t.frames
+                .iter()
+                .zip(&t.rows)
+                .zip(&t.cols)
+                .map(move |((&frame, &r), &c)| ContactPoint {
+                    frame,
+                    row: to_cell(r),
+                    col: to_cell(c),
+                })
+        })
+        .collect()
+}
+
+/// Touch pressure, and the part of it that tracked contacts explain.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Coverage {
+    /// Sum of the readings above the touch threshold, over all cells and frames, psi.
+    pub touch_psi: f64,
+    /// The part of `touch_psi` within the radius of a contact in the same frame, psi.
+    pub explained_psi: f64,
+    /// Readings above the touch threshold.
+    pub touch_cells: usize,
+    /// Of those, the ones no contact explains.
+    pub unexplained_cells: usize,
+}
+
+impl Coverage {
+    /// `explained_psi / touch_psi`; 1 when there is no touch (nothing to miss).
+    pub fn ratio(&self) -> f64 {
+        if self.touch_psi > 0.0 {
+            self.explained_psi / self.touch_psi
+        } else {
+            1.0
+        }
+    }
+}
+
+/// Which readings count as touch and whether a contact explains them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cell {
+    /// At or below the touch threshold (or no cell).
+    Quiet,
+    /// Touch within the radius of a contact in the same frame.
+    Explained,
+    /// Touch that no contact explains.
+    Unexplained,
+}
+
+/// Classifies every reading of `tared` (`[T, R, C]`, psi, NaN = no cell) against the
+/// contact `points`: touch is a reading above `threshold_psi`; it is explained when a
+/// point of the same frame lies within `radius_cells` (Euclidean, in cells) of the
+/// cell's centre.
+pub fn classify(
+    tared: ArrayView3<f64>,
+    threshold_psi: f64,
+    points: &[ContactPoint],
+    radius_cells: f64,
+) -> Array3<Cell> {
+    let (t, rows, cols) = tared.dim();
+    let mut by_frame: Vec<Vec<(f64, f64)>> = vec![Vec::new(); t];
+    for p in points.iter().filter(|p| p.frame < t) {
+        by_frame[p.frame].push((p.row, p.col));
+    }
+    let r2 = radius_cells * radius_cells;
+    let mut out = Array3::from_elem((t, rows, cols), Cell::Quiet);
+    for (f, (frame, mut cells)) in tared
+        .axis_iter(Axis(0))
+        .zip(out.axis_iter_mut(Axis(0)))
+        .enumerate()
+    {
+        let near = &by_frame[f];
+        for ((r, c), &v) in frame.indexed_iter() {
+            // NaN compares false: "no cell" is never touch.
+            if v > threshold_psi {
+                let hit = near.iter().any(|&(pr, pc)| {
+                    let (dr, dc) = (pr - r as f64, pc - c as f64);
+                    dr * dr + dc * dc <= r2
+                });
+                cells[[r, c]] = if hit {
+                    Cell::Explained
+                } else {
+                    Cell::Unexplained
+                };
+            }
+        }
+    }
+    out
+}
+
+/// The coverage of `tared` by the contact `points` (see the module docs).
+pub fn measure(
+    tared: ArrayView3<f64>,
+    threshold_psi: f64,
+    points: &[ContactPoint],
+    radius_cells: f64,
+) -> Coverage {
+    let cells = classify(tared, threshold_psi, points, radius_cells);
+    let mut cov = Coverage::default();
+    for (&v, &cell) in tared.iter().zip(cells.iter()) {
+        match cell {
+            Cell::Quiet => {}
+            Cell::Explained => {
+                cov.touch_psi += v;
+                cov.explained_psi += v;
+                cov.touch_cells += 1;
+            }
+            Cell::Unexplained => {
+                cov.touch_psi += v;
+                cov.touch_cells += 1;
+                cov.unexplained_cells += 1;
+            }
+        }
+    }
+    cov
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray::Array3;
+
+    fn traj(frames: &[usize], rows: &[usize], cols: &[usize]) -> Trajectory {
+        Trajectory {
+            frames: frames.to_vec(),
+            rows: rows.to_vec(),
+            cols: cols.to_vec(),
+            costs: vec![-1.0; frames.len()],
+            values: vec![1.0; frames.len()],
+        }
+    }
+
+    #[test]
+    fn pixel_centres_map_to_cell_centres() {
+        // x7: pixel 3 is the centre of cell 0, pixel 10 of cell 1.
+        let pts = contact_points(&[traj(&[4, 5], &[3, 10], &[52, 0])], 7);
+        assert_eq!(pts[0].frame, 4);
+        assert!((pts[0].row - 0.0).abs() < 1e-12);
+        assert!((pts[1].row - 1.0).abs() < 1e-12);
+        assert!((pts[0].col - 7.0).abs() < 1e-12);
+        // Pixel 0 lies 3/7 of a cell before the first centre.
+        assert!((pts[1].col + 3.0 / 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn counts_pressure_within_the_radius_in_the_same_frame_only() {
+        let mut rec = Array3::<f64>::zeros((2, 1, 10));
+        // Frame 0: touch at columns 0 (1 psi) and 5 (3 psi); frame 1: column 0 (2 psi).
+        rec[[0, 0, 0]] = 1.0;
+        rec[[0, 0, 5]] = 3.0;
+        rec[[1, 0, 0]] = 2.0;
+        rec[[1, 0, 9]] = 0.05; // below the threshold: not touch
+        let pts = [ContactPoint {
+            frame: 0,
+            row: 0.0,
+            col: 2.0,
+        }];
+        let cov = measure(rec.view(), 0.08, &pts, 2.0);
+        assert_eq!(cov.touch_cells, 3);
+        assert_eq!(cov.unexplained_cells, 2);
+        assert!((cov.touch_psi - 6.0).abs() < 1e-12);
+        // Only frame 0's column 0 is within 2 cells of the contact.
+        assert!((cov.explained_psi - 1.0).abs() < 1e-12);
+        assert!((cov.ratio() - 1.0 / 6.0).abs() < 1e-12);
+        // The radius is inclusive and Euclidean.
+        let diag = [ContactPoint {
+            frame: 1,
+            row: 0.0,
+            col: 2.0,
+        }];
+        assert_eq!(measure(rec.view(), 0.08, &diag, 2.0).explained_psi, 2.0);
+        assert_eq!(measure(rec.view(), 0.08, &diag, 1.999).explained_psi, 0.0);
+    }
+
+    #[test]
+    fn no_touch_is_full_coverage_and_nan_is_never_touch() {
+        let rec = Array3::from_elem((3, 2, 2), f64::NAN);
+        let cov = measure(rec.view(), 0.08, &[], 2.0);
+        assert_eq!(cov.touch_cells, 0);
+        assert_eq!(cov.ratio(), 1.0);
+    }
+
+    #[test]
+    fn classify_marks_what_no_contact_explains() {
+        let mut rec = Array3::<f64>::zeros((1, 1, 6));
+        rec[[0, 0, 0]] = 1.0;
+        rec[[0, 0, 5]] = 1.0;
+        let pts = [ContactPoint {
+            frame: 0,
+            row: 0.0,
+            col: 0.0,
+        }];
+        let cells = classify(rec.view(), 0.08, &pts, 2.0);
+        assert_eq!(cells[[0, 0, 0]], Cell::Explained);
+        assert_eq!(cells[[0, 0, 1]], Cell::Quiet);
+        assert_eq!(cells[[0, 0, 5]], Cell::Unexplained);
+    }
+}
