@@ -9,6 +9,8 @@
 # 2. host: fmt check, clippy -D warnings, tests of the firmware logic
 # 3. target: clippy -D warnings (all feature sets), release build, flash/RAM use
 # 4. QEMU: the player on the F405 checked against the host, instructions per tick
+# 5. twin: the release ELF (with a linked bank) booted on emulated peripherals
+#    (unicorn from PyPI in a venv under target/, see twin/README.md)
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -25,6 +27,14 @@ install_tools() {
     fi
     if ! rustup component list --installed | grep -q '^llvm-tools'; then
         rustup component add llvm-tools || echo "llvm-tools unavailable: sizes from readelf"
+    fi
+    if ! python3 -c 'import ensurepip, venv' 2>/dev/null; then
+        if [ "$(id -u)" != 0 ]; then
+            echo "python3 venv support missing and not root: install it (apt-get install python3-venv)" >&2
+            exit 1
+        fi
+        DEBIAN_FRONTEND=noninteractive apt-get install -y python3-venv ||
+            { apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y python3-venv; }
     fi
     if command -v qemu-system-arm >/dev/null; then
         return
@@ -134,6 +144,9 @@ if [ "$addr" != 080c0000 ] || [ "$((16#$size))" != "$(stat -c %s "$bank")" ]; th
     exit 1
 fi
 echo "default bank: $((16#$size)) bytes at 0x$addr"
+
+step "twin: the release ELF on emulated STM32F405 peripherals"
+TWIN_ELF="$elf" TWIN_LINKED_BANK="$bank" bash "$here/twin/run.sh"
 # Leave the plain build in place for `cargo run --profile firmware`.
 cargo build --profile "$profile" --locked
 echo "firmware checks passed"

@@ -29,6 +29,19 @@ impl BootError {
     }
 }
 
+/// The bank to boot from: the flash region, or `builtin` when the region is erased
+/// (its first 16 bytes all 0xFF: nothing was flashed there). Anything else in the
+/// region, a corrupt bank included, is the region's: it is checked and refused, never
+/// silently replaced by the built-in bank.
+pub fn bank_source<'a>(region: &'a [u8], builtin: &'a [u8]) -> &'a [u8] {
+    let head = region.get(..16).unwrap_or(region);
+    if head.iter().all(|&b| b == 0xFF) {
+        builtin
+    } else {
+        region
+    }
+}
+
 /// Checks the bank region (the whole flash region; the bank says its own length).
 ///
 /// Never panics, whatever the bytes: a refused bank leaves every output at 0 A.
@@ -100,6 +113,25 @@ mod tests {
         assert!(check_bank(&zeros).is_err());
         assert_ne!(e.blinks(), e2.blinks());
         assert_ne!(e.blinks(), BootError::Empty.blinks());
+    }
+
+    #[test]
+    fn erased_region_boots_the_builtin_bank_and_a_flashed_one_wins() {
+        let builtin = bank(&[constant_stimulus("b", 200, 100)]);
+        let flashed = region_with(&bank(&[
+            constant_stimulus("f", 300, 100),
+            constant_stimulus("g", 300, 100),
+        ]));
+        let erased = vec![0xFF; 4096];
+        assert_eq!(check_bank(bank_source(&erased, &builtin)).unwrap().len(), 1);
+        assert_eq!(
+            check_bank(bank_source(&flashed, &builtin)).unwrap().len(),
+            2
+        );
+        let mut corrupt = flashed.clone();
+        corrupt[40] ^= 1;
+        let e = check_bank(bank_source(&corrupt, &builtin)).unwrap_err();
+        assert!(matches!(e, BootError::Corrupt(_)), "{e:?}");
     }
 
     /// `memory.x` and the protocol's bank region agree (address and length).

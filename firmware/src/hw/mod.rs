@@ -10,7 +10,7 @@ use embassy_stm32::exti::ExtiInput;
 use embassy_stm32::gpio::Output;
 use embassy_stm32::mode::Async;
 use embassy_time::{with_timeout, Duration, Timer};
-use sleeve_firmware::boot::{check_bank, BootError};
+use sleeve_firmware::boot::{bank_source, check_bank, BootError};
 use sleeve_firmware::button::{boot_events, Buttons, EdgeMailbox, DEBOUNCE_TICKS};
 use sleeve_firmware::control::{Controller, Report};
 use sleeve_firmware::engine::{Engine, Watchdog};
@@ -25,6 +25,10 @@ use board::BUTTONS;
 #[unsafe(link_section = ".bank")]
 static DEFAULT_BANK: [u8; include_bytes!(env!("SLEEVE_DEFAULT_BANK_PATH")).len()] =
     *include_bytes!(env!("SLEEVE_DEFAULT_BANK_PATH"));
+
+/// The built-in emoji bank (`examples/emoji/`), in the code region: played when the
+/// bank region is erased, so a freshly flashed sleeve plays on the first press.
+static EMOJI_BANK: &[u8] = include_bytes!("../../../examples/emoji/emoji.bank");
 
 /// The whole bank region of flash.
 fn bank_region() -> &'static [u8] {
@@ -54,7 +58,11 @@ pub async fn run(spawner: Spawner) -> ! {
     // The watchdog before anything that depends on flash contents: the boot check's
     // work is bounded (see `boot::check_bank`), and the boot timeout is above it.
     let mut dog = tick::Iwdg::start(iwdg);
-    let bank = match check_bank(bank_region()) {
+    let source = bank_source(bank_region(), EMOJI_BANK);
+    if core::ptr::eq(source, EMOJI_BANK) {
+        info!("bank region erased: playing the built-in emoji bank");
+    }
+    let bank = match check_bank(source) {
         Ok(bank) => bank,
         Err(e) => {
             error!("bank refused, nothing plays: {}", e);
@@ -79,32 +87,44 @@ pub async fn run(spawner: Spawner) -> ! {
     );
     // Let the button tasks post what happened while the bank was checked.
     Timer::after_millis(1).await;
+    let mut at_boot = heapless::Vec::<Report, BUTTONS>::new();
     for event in boot_events(board::BUTTON_MODE, &tick::EDGES) {
         if let Some(report) = engine.inject(event) {
-            info!("press during boot: {}", report);
+            let _ = at_boot.push(report);
         }
     }
     tick::start(engine, tim7);
     info!("ready: press to play slot 0, hold to select the next");
+    // What presses during boot did, shown like any other report (the tick runs, so
+    // the watchdog is fed while an LED pattern plays).
+    for report in at_boot {
+        info!("press during boot:");
+        show(report, &mut led).await;
+    }
 
     loop {
-        let report = tick::REPORTS.receive().await;
-        match report {
-            Report::Fault(..) => warn!("limit hit, ramping to 0 A: {}", report),
-            Report::BadSlot(slot, e) => error!("slot {}: refused, never played: {}", slot, e),
-            Report::TooHot(slot, hot) => warn!(
-                "slot {}: coil {} at {} per mille of its I2t budget, start refused; playable again after {} ms idle",
-                slot, hot.channel, hot.permille, hot.cooldown_ms
-            ),
-            _ => info!("{}", report),
-        }
-        match report {
-            Report::Started(_) => led.set_high(),
-            Report::Finished(_) => led.set_low(),
-            Report::TooHot(..) => flicker(&mut led, 5, 60).await,
-            Report::BadSlot(..) => flicker(&mut led, 2, 400).await,
-            _ => {}
-        }
+        show(tick::REPORTS.receive().await, &mut led).await;
+    }
+}
+
+/// Logs a report and shows it on the LED (on while a slot plays). Every report goes
+/// through here, those of presses during boot included, so the LED never misses one.
+async fn show(report: Report, led: &mut Output<'static>) {
+    match report {
+        Report::Fault(..) => warn!("limit hit, ramping to 0 A: {}", report),
+        Report::BadSlot(slot, e) => error!("slot {}: refused, never played: {}", slot, e),
+        Report::TooHot(slot, hot) => warn!(
+            "slot {}: coil {} at {} per mille of its I2t budget, start refused; playable again after {} ms idle",
+            slot, hot.channel, hot.permille, hot.cooldown_ms
+        ),
+        _ => info!("{}", report),
+    }
+    match report {
+        Report::Started(_) => led.set_high(),
+        Report::Finished(_) => led.set_low(),
+        Report::TooHot(..) => flicker(led, 5, 60).await,
+        Report::BadSlot(..) => flicker(led, 2, 400).await,
+        _ => {}
     }
 }
 

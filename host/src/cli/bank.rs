@@ -15,7 +15,7 @@ use touchc::output::write_atomic;
 /// Arguments of `touchc bank`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Stimuli, one per slot, in slot order (button 1 plays the first).
+    /// Stimuli, one per slot, in slot order: slot 0 first (button 0, or the first short press).
     #[arg(required = true)]
     stimuli: Vec<PathBuf>,
     /// The bank image to write.

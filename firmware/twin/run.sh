@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The firmware twin: boots the release ELF on emulated STM32F405 peripherals and
+# checks what it writes (see README.md). Re-runnable; needs python3 with venv and
+# network access to PyPI on the first run only.
+#
+#   bash firmware/twin/run.sh                    # builds the release ELF if missing
+#   TWIN_ELF=path/to/elf bash firmware/twin/run.sh [unittest args, e.g. test_twin.Fault]
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$(cd "$here/../.." && pwd)"
+venv="$root/target/twin-venv"
+
+if ! "$venv/bin/python" -c 'import unicorn, sys; sys.exit(unicorn.__version__ != "2.1.3")' 2>/dev/null; then
+    rm -rf "$venv"
+    python3 -m venv "$venv"
+    "$venv/bin/pip" install --quiet --disable-pip-version-check -r "$here/requirements.txt"
+fi
+
+elf="${TWIN_ELF:-$root/target/thumbv7em-none-eabihf/firmware/sleeve-firmware}"
+if [ ! -f "$elf" ]; then
+    (cd "$root/firmware" && cargo build --profile firmware --locked)
+fi
+# The host player's codes, from the protocol crate built for this machine.
+(cd "$root" && cargo build --quiet --locked -p sleeve-firmware --example twin_codes)
+
+cd "$here"
+TWIN_ELF="$elf" TWIN_CODES="$root/target/debug/examples/twin_codes" \
+    "$venv/bin/python" -W error::ResourceWarning -m unittest "${@:-test_twin}"

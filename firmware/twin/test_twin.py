@@ -1,0 +1,357 @@
+"""The release firmware on the twin: what the binary really writes to the chip.
+
+Run by `firmware/twin/run.sh` (which builds what it needs). Every expected code comes
+from the host player (`twin_codes`, the protocol crate's player compiled for x86),
+never from this harness.
+"""
+
+import os
+import subprocess
+import unittest
+from pathlib import Path
+
+import twin
+
+ROOT = Path(__file__).resolve().parents[2]
+ELF = Path(os.environ.get("TWIN_ELF", ROOT / "target/thumbv7em-none-eabihf/firmware/sleeve-firmware"))
+CODES = Path(os.environ.get("TWIN_CODES", ROOT / "target/debug/examples/twin_codes"))
+EMOJI = ROOT / "examples/emoji/emoji.bank"
+SCRATCH = Path(os.environ.get("TWIN_SCRATCH", ROOT / "target/twin"))
+IDLE = (2048,) * 8
+PWM_PINS = ["PA6", "PA7", "PB0", "PB1", "PB6", "PB7", "PB8", "PB9"]
+MS = twin.T_HZ // 1000
+SHORT, LONG = 0.08, 0.8  # press lengths, s (a long press is held 600 ms)
+
+
+def expected(bank, slot, stop_after=None):
+    """The host player's (codes, status) per tick for `slot` of the bank file."""
+    args = [str(CODES), "play", str(bank), str(slot)] + ([str(stop_after)] if stop_after is not None else [])
+    out = subprocess.run(args, check=True, capture_output=True, text=True).stdout
+    rows = [line.split() for line in out.splitlines()]
+    return [tuple(int(c) for c in r[:8]) for r in rows], [r[8] for r in rows]
+
+
+def codes(board):
+    """The compare values the firmware wrote, one frame per TIM7 interrupt."""
+    return [f[1] for f in board.frames]
+
+
+def first_frame_after(board, t_s):
+    t = round(t_s * twin.T_HZ)
+    return next(i for i, f in enumerate(board.frames) if f[0] >= t)
+
+
+def find(frames, seq, lo, hi):
+    """Offset in [lo, hi) where `seq` appears whole in `frames`, else None."""
+    for o in range(max(lo, 0), hi):
+        if frames[o:o + len(seq)] == seq:
+            return o
+    return None
+
+
+def boot(bank=None, erase=False, **kw):
+    b = twin.Board(ELF, **kw)
+    if bank is not None:
+        b.set_bank(Path(bank).read_bytes())
+    elif erase:
+        b.set_bank(b"")
+    return b
+
+
+def led_groups(board, since_s):
+    """LED on-pulses after `since_s`, grouped by pauses longer than 0.5 s: [[ms on, ...], ...]."""
+    edges = [(t, lv) for t, lv in board.led if t >= since_s * twin.T_HZ]
+    pulses, on = [], None
+    for t, lv in edges:
+        if lv:
+            on = t
+        elif on is not None:
+            pulses.append((on, t))
+            on = None
+    groups, last = [], None
+    for a, z in pulses:
+        if last is None or a - last > 500 * MS:
+            groups.append([])
+        groups[-1].append(round((z - a) / MS))
+        last = z
+    return groups
+
+
+def assert_ramps_to_rest(case, frames):
+    """Every channel moves only toward 0 A, within the slew limit, and ends there."""
+    for a, z in zip(frames, frames[1:]):
+        for c in range(8):
+            case.assertLessEqual(abs(z[c] - 2048), abs(a[c] - 2048), f"channel {c}: {a[c]} -> {z[c]}")
+            case.assertLessEqual(abs(z[c] - a[c]), 103, "50 mA/ms at 1 A full scale")
+    case.assertEqual(frames[-1], IDLE)
+    case.assertLessEqual(len(frames), 25, "at rest within 25 ms (1 A at 50 mA/ms, plus the ramp)")
+
+
+class Played:
+    """A board that was pressed: where each playback starts, checked against the host."""
+
+    def __init__(self, board, bank):
+        self.board, self.bank = board, bank
+
+    def check_slot(self, case, slot, release_s, stop_after=None):
+        """The frames after the press released at `release_s` are the host's, tick for tick."""
+        want, status = expected(self.bank, slot, stop_after)
+        frames = codes(self.board)
+        i = first_frame_after(self.board, release_s)
+        # Debouncing (20 ticks) and one tick to compute the first frame.
+        o = find(frames, want, i, i + 40)
+        case.assertIsNotNone(o, f"slot {slot}: host codes not found after the press at {release_s} s")
+        return o, want, status
+
+
+class BootAndPlay(unittest.TestCase):
+    """The emoji bank flashed; a short press plays a slot, a long press selects the next."""
+
+    @classmethod
+    def setUpClass(cls):
+        b = cls.board = boot(EMOJI)
+        b.run(0.3)
+        cls.presses = []
+        t = 0.3
+        for slot in range(6):
+            want, _ = expected(EMOJI, slot)
+            b.press(t, SHORT)
+            cls.presses.append((slot, t, t + SHORT))
+            t += SHORT + len(want) / 1000 + 0.2
+            b.press(t, LONG)
+            t += LONG + 0.2
+        b.run(t - b.now())
+
+    def test_clock_tree_is_168_mhz_with_84_mhz_timers(self):
+        rcc = self.board.rcc
+        self.assertEqual(rcc.sysclk(), 168_000_000)
+        self.assertEqual(rcc.apb1_timer_clk(), 84_000_000)
+        self.assertEqual(self.board.flash.read(0) & 0xF, 5, "FLASH_ACR latency for 168 MHz at 3.3 V (RM0090 table 10)")
+
+    def test_outputs_are_at_0a_before_the_pins_switch_to_the_timers(self):
+        switched = {}
+        for t, pin, mode, af, timers in self.board.pin_modes:
+            if pin in PWM_PINS and mode == 2 and pin not in switched:
+                switched[pin] = (t, af, timers)
+        self.assertEqual(sorted(switched), sorted(PWM_PINS), "every PWM pin switched to its timer")
+        for pin, (t, af, timers) in switched.items():
+            self.assertEqual(af, 2, f"{pin}: AF2 (TIM3/TIM4) when switched")
+            for name, (running, ccr, active) in timers.items():
+                self.assertTrue(running, f"{pin} switched before {name} ran")
+                self.assertEqual(ccr, (2048,) * 4, f"{pin} switched with {name} compare not at mid-scale")
+                self.assertEqual(active, (2048,) * 4, f"{pin} switched with {name} active compare not at mid-scale")
+
+    def test_timers_make_the_documented_carrier_with_preload_started_together(self):
+        b = self.board
+        t3, t4 = b.timers["TIM3"], b.timers["TIM4"]
+        for t in (t3, t4):
+            self.assertEqual((t.psc_a, t.arr_a), (0, 4095), t.name)
+            self.assertTrue(t.cr1 & 0x80, f"{t.name}: ARPE")
+            for k in range(4):
+                ccmr = t.ccmr[k // 2] >> (8 * (k % 2))
+                self.assertEqual(ccmr >> 4 & 7, 6, f"{t.name} CH{k + 1}: PWM mode 1")
+                self.assertTrue(ccmr >> 3 & 1, f"{t.name} CH{k + 1}: compare preload")
+                self.assertTrue(t.ccer >> (4 * k) & 1, f"{t.name} CH{k + 1}: output enabled")
+        carrier = b.rcc.apb1_timer_clk() / (t3.psc_a + 1) / (t3.arr_a + 1)
+        self.assertAlmostEqual(carrier, 20507.8, places=1)
+        self.assertEqual(t3.started_at, t4.started_at, "TIM3 and TIM4 started in the same cycle")
+        self.assertEqual(t4.smcr & 0x77, 0x26, "TIM4 in trigger mode on ITR2 (TIM3)")
+        self.assertEqual(t3.cnt_now(), t4.cnt_now())
+
+    def test_pins_are_as_in_the_pin_table(self):
+        b = self.board
+        for pin in PWM_PINS:
+            self.assertEqual(b.pin(pin)[:2], (2, 2), pin)
+        self.assertEqual(b.pin("PA0"), (0, 0, 2), "button: input, pull-down")
+        self.assertEqual(b.syscfg.read(0x08) & 0xF, 0, "EXTI0 routed to port A")
+        self.assertEqual(b.pin("PC12")[0], 1, "status LED: output")
+
+    def test_watchdog_is_started_and_fed_every_tick(self):
+        dog = self.board.iwdg
+        self.assertIsNotNone(dog.started_at)
+        self.assertAlmostEqual(dog.timeout_units() / MS, 50, delta=1)
+        tick_start = self.board.timers["TIM7"].started_at
+        gaps = [(b - a) / MS for a, b in zip(dog.feeds, dog.feeds[1:]) if a >= tick_start]
+        self.assertGreater(len(gaps), 40_000)
+        self.assertLessEqual(max(gaps), 1.01, "fed at least once per 1 ms tick")
+        self.assertEqual(self.board.resets, [])
+
+    def test_outputs_stay_at_0a_until_the_first_press(self):
+        press = round(self.presses[0][1] * twin.T_HZ)
+        for t, periph, off, v in self.board.log:
+            if t < press and periph in ("TIM3", "TIM4") and 0x34 <= off <= 0x40:
+                self.assertEqual(v, 2048, f"{periph} compare {off:#x} written {v} at {t / MS:.3f} ms")
+        before = [f for f in self.board.frames if f[0] < press]
+        self.assertGreater(len(before), 250)
+        self.assertTrue(all(f[1] == IDLE and f[2] == IDLE for f in before))
+
+    def test_each_slot_plays_the_host_codes_and_a_long_press_selects_the_next(self):
+        played = Played(self.board, EMOJI)
+        frames = codes(self.board)
+        for slot, _, release in self.presses:
+            o, want, status = played.check_slot(self, slot, release)
+            self.assertEqual(status[-1], "E")
+            # Between playbacks (and through the long press) everything rests at 0 A.
+            nxt = [p for p in self.presses if p[0] == slot + 1]
+            end = first_frame_after(self.board, nxt[0][1]) if nxt else len(frames)
+            self.assertTrue(all(f == IDLE for f in frames[o + len(want):end]), f"slot {slot}: not at rest after")
+
+    def test_led_is_on_while_a_slot_plays(self):
+        groups = led_groups(self.board, 0.25)
+        self.assertEqual(len(groups), 6, groups)
+        for (slot, _, _), g in zip(self.presses, groups):
+            want, _ = expected(EMOJI, slot)
+            self.assertEqual(len(g), 1)
+            self.assertAlmostEqual(g[0], len(want), delta=3)
+
+
+class StopRamps(unittest.TestCase):
+    def test_a_press_during_playback_ramps_to_0a(self):
+        b = boot(EMOJI)
+        b.press(0.2, SHORT)
+        b.press(1.5, SHORT)
+        b.run(2.5)
+        frames = codes(b)
+        full, _ = expected(EMOJI, 0)
+        start = find(frames, full[:1000], first_frame_after(b, 0.28), first_frame_after(b, 0.28) + 40)
+        self.assertIsNotNone(start)
+        stop_tick = first_frame_after(b, 1.5 + SHORT) - start
+        for k in range(stop_tick, stop_tick + 40):
+            want, status = expected(EMOJI, 0, k)
+            if frames[start:start + len(want)] == want:
+                break
+        else:
+            self.fail("no stop tick makes the host's ramp")
+        self.assertEqual(status[-1], "E")
+        self.assertNotEqual(want[k - 1], IDLE, "it was playing when stopped")
+        assert_ramps_to_rest(self, frames[start + k - 1:start + len(want)])
+        self.assertTrue(all(f == IDLE for f in frames[start + len(want):]))
+        self.assertLess(len(want), len(full))
+
+
+class CorruptBank(unittest.TestCase):
+    def test_a_corrupt_bank_is_refused_with_its_led_code_and_nothing_plays(self):
+        image = bytearray(EMOJI.read_bytes())
+        image[len(image) // 2] ^= 0x10
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        bad = SCRATCH / "corrupt.bank"
+        bad.write_bytes(image)
+        b = boot(bad)
+        b.press(0.5, SHORT)
+        b.press(1.5, LONG)
+        b.press(3.0, SHORT)
+        b.run(5.0)
+        groups = led_groups(b, 0.0)
+        self.assertGreaterEqual(len(groups), 2)
+        for g in groups[:-1]:
+            self.assertEqual(g, [150] * 4, "4 blinks: CRC mismatch")
+        for t, periph, off, v in b.log:
+            if periph in ("TIM3", "TIM4") and 0x34 <= off <= 0x40:
+                self.assertEqual(v, 2048, "a compare register left mid-scale")
+        self.assertTrue(all(f[1] == IDLE for f in b.frames))
+        self.assertEqual(b.resets, [])
+
+
+class Watchdog(unittest.TestCase):
+    def test_a_stalled_tick_is_caught_by_the_watchdog(self):
+        b = boot(EMOJI)
+        b.press(0.2, SHORT)
+        b.at(1.0, lambda b: setattr(b, "tick_irq_blocked", True))
+        b.run(1.2)
+        self.assertEqual([c for _, c in b.resets], ["IWDG"])
+        reset = b.resets[0][0]
+        last_feed = max(t for t in b.all_feeds if t <= reset)
+        self.assertAlmostEqual((reset - last_feed) / MS, 50, delta=1)
+        self.assertLessEqual((reset - round(1.0 * twin.T_HZ)) / MS, 52)
+        # Playing when it stalled; after the reset the firmware boots again at 0 A.
+        stalled = [f for f in b.frames if f[0] < reset]
+        self.assertNotEqual(stalled[-1][1], IDLE)
+        after = [f for f in b.frames if f[0] > reset]
+        self.assertGreater(len(after), 50)
+        self.assertTrue(all(f[1] == IDLE for f in after))
+
+
+class BootPress(unittest.TestCase):
+    def boot_window(self):
+        """(button armed, tick started) in s, from a boot without a press."""
+        b = boot(EMOJI)
+        b.run(0.1)
+        armed = next(t for t, p, off, v in b.log if p == "EXTI" and off == 0 and v & 1)
+        return armed / twin.T_HZ, b.timers["TIM7"].started_at / twin.T_HZ
+
+    def test_a_press_during_the_bank_check_plays_and_lights_the_led(self):
+        armed, ticking = self.boot_window()
+        self.assertGreater(ticking - armed, 0.002, "a window to press in")
+        press = armed + 0.25 * (ticking - armed)
+        release = armed + 0.6 * (ticking - armed)
+        b = boot(EMOJI)
+        b.press(press, release - press)
+        b.run(9.0)
+        want, _ = expected(EMOJI, 0)
+        o = find(codes(b), want, 0, 60)
+        self.assertIsNotNone(o, "the press during boot was played")
+        start = b.frames[o][0]
+        on = [t for t, lv in b.led if lv]
+        self.assertTrue(on, "the LED never turned on")
+        self.assertLessEqual(abs(on[0] - start) / MS, 5, "the LED turns on with the playback")
+
+
+class LimitTrip(unittest.TestCase):
+    def test_a_limit_trip_ramps_to_0a(self):
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        trip = SCRATCH / "trip.bank"
+        subprocess.run([str(CODES), "limit", str(EMOJI), "3", "300", str(trip)], check=True)
+        b = boot(trip)
+        b.press(0.2, SHORT)
+        b.run(1.5)
+        o, want, status = Played(b, trip).check_slot(self, 0, 0.2 + SHORT)
+        self.assertIn("F", status, "the crafted stimulus trips its peak limit")
+        fault = status.index("F")
+        self.assertNotEqual(want[fault - 1], IDLE, "it was playing when it tripped")
+        assert_ramps_to_rest(self, codes(b)[o + fault - 1:o + len(want)])
+        self.assertTrue(all(f == IDLE for f in codes(b)[o + len(want):]))
+        self.assertFalse(b.led[-1][1], "LED off once at rest")
+
+
+class ErasedBank(unittest.TestCase):
+    def test_an_erased_bank_region_plays_the_built_in_emoji_bank(self):
+        b = boot(erase=True)
+        want, _ = expected(EMOJI, 0)
+        b.press(0.2, SHORT)
+        b.run(0.5 + len(want) / 1000)
+        Played(b, EMOJI).check_slot(self, 0, 0.2 + SHORT)
+        self.assertEqual(b.resets, [])
+
+
+class LinkedBank(unittest.TestCase):
+    def test_the_bank_linked_into_the_elf_plays(self):
+        linked = os.environ.get("TWIN_LINKED_BANK")
+        if not linked:
+            self.skipTest("TWIN_LINKED_BANK not set (ci.sh sets it for its default-bank build)")
+        b = twin.Board(ELF)  # the BANK region as the ELF fills it
+        b.press(0.2, SHORT)
+        want, _ = expected(linked, 0)
+        b.run(0.5 + len(want) / 1000)
+        Played(b, linked).check_slot(self, 0, 0.2 + SHORT)
+
+
+class Fault(unittest.TestCase):
+    def test_a_fault_leaves_every_output_at_0a(self):
+        b = boot(EMOJI)
+        b.press(0.2, SHORT)
+        b.run(1.0)
+        self.assertNotEqual(codes(b)[-1], IDLE, "playing before the fault")
+        b.fault_addr = 0x4000_1410  # the next access to TIM7_SR is a bus fault
+        b.run(0.01)
+        self.assertIn(twin.HARDFAULT, [n for _, n in b.taken])
+        for name in ("TIM3", "TIM4"):
+            self.assertEqual(tuple(b.timers[name].ccr), (2048,) * 4, f"{name} compare after the fault")
+        b.run(0.001)  # the next carrier period takes the preloaded values
+        for name in ("TIM3", "TIM4"):
+            self.assertEqual(tuple(b.timers[name].ccr_a), (2048,) * 4, f"{name} active compare")
+        b.run(0.1)
+        self.assertEqual([c for _, c in b.resets], ["IWDG"], "the watchdog resets the faulted chip")
+
+
+if __name__ == "__main__":
+    unittest.main()
