@@ -36,7 +36,8 @@ pub struct ContactResult {
     pub id: usize,
     /// Its gesture.
     pub gesture: String,
-    /// Frames it presses above the touch threshold inside the tared recording.
+    /// Frames it presses above the touch threshold (including frames the tare or trim
+    /// dropped, which no trajectory can follow).
     pub life: usize,
     /// Most of those frames one trajectory follows it in.
     pub followed: usize,
@@ -52,7 +53,7 @@ impl ContactResult {
 /// The four figures of a tracking result against the truth (see the module docs).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Evaluation {
-    /// Per true contact with a life inside the recording.
+    /// Per true contact that presses above the touch threshold in some frame.
     pub contacts: Vec<ContactResult>,
     /// Trajectories tracked.
     pub trajectories: usize,
@@ -122,15 +123,17 @@ pub fn evaluate(
     let dist2 = |p: &ContactPoint, q: &TruthPoint| (p.row - q.row).powi(2) + (p.col - q.col).powi(2);
     let follow2 = FOLLOW_CELLS * FOLLOW_CELLS;
 
-    // Life of each contact, and how long each trajectory follows it.
-    let life: Vec<Vec<usize>> = truth
+    // Life of each contact in tared frames, and how long each trajectory follows it.
+    // Frames the tare and trim dropped count as life too (never followed): touch at the
+    // start or end of a recording is touch lost.
+    let life: Vec<Vec<i64>> = truth
         .contacts
         .iter()
         .map(|c| {
             c.points
                 .iter()
                 .filter(|p| p.pressure_psi > threshold_psi)
-                .filter_map(|p| p.frame.checked_sub(offset).filter(|&f| f < frames))
+                .map(|p| p.frame as i64 - offset as i64)
                 .collect()
         })
         .collect();
@@ -150,7 +153,7 @@ pub fn evaluate(
                 .map(|track| {
                     track
                         .iter()
-                        .filter(|p| life.contains(&p.frame))
+                        .filter(|p| life.contains(&(p.frame as i64)))
                         .filter(|p| at(p.frame).is_some_and(|q| dist2(p, q) <= follow2))
                         .count()
                 })
@@ -323,14 +326,14 @@ mod tests {
     #[test]
     fn the_offset_maps_truth_frames_onto_the_tared_frames() {
         let t = truth();
-        // The tare dropped 3 frames: truth frame 5 is tared frame 2; A's life inside is
-        // frames 3 and 4 (tared 0 and 1).
+        // The tare dropped 3 frames: truth frame 5 is tared frame 2; of A's life only
+        // frames 3 and 4 (tared 0 and 1) remain to follow.
         let rec = tared(&t);
         let cut = rec.slice(ndarray::s![3.., .., ..]);
         let b = traj(&[(2, 1, 15), (3, 1, 16), (4, 1, 17)]);
         let e = evaluate(&t, 3, cut, 0.08, &[b], 1);
         assert_eq!(e.contacts.len(), 2);
-        assert_eq!((e.contacts[0].life, e.contacts[1].life), (2, 5));
+        assert_eq!((e.contacts[0].life, e.contacts[1].life), (5, 5));
         assert_eq!(e.recalled(), 1);
         // Pressure below the touch threshold is no life.
         let mut faint = truth();

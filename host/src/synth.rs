@@ -173,8 +173,8 @@ pub struct SynthSpec {
     pub sensor: Sensor,
     /// Speeds, durations and spacing of the gestures.
     pub tuning: Tuning,
-    /// Chance per frame, while a contact presses fully, that it drops below the touch
-    /// threshold for one or two frames (sensor flicker; 0 = none).
+    /// Dropouts per second while a contact presses fully: it reads almost nothing for
+    /// 19-37 ms (one or two frames at 54 Hz; sensor flicker; 0 = none).
     pub flicker: f64,
     /// Start the recording in the middle of the first contact (no quiet frames before).
     pub begin_mid_touch: bool,
@@ -213,6 +213,10 @@ impl SynthSpec {
 const PAUSE_S: f64 = 0.5;
 /// Amplitude factor of a flickering frame: a 1 psi contact reads 0.03 psi.
 const FLICKER_FACTOR: f64 = 0.03;
+/// Shortest and longest dropout of a flickering contact, seconds.
+const FLICKER_S: (f64, f64) = (0.019, 0.037);
+/// Least time between two dropouts of one contact, seconds.
+const FLICKER_SPACING_S: f64 = 0.1;
 /// A contact's radius is where it falls to this share of its peak.
 const RADIUS_LEVEL: f64 = 0.1;
 
@@ -506,12 +510,13 @@ fn gesture(
                     let hz = hz.unwrap_or(3.0);
                     let amp = amp.unwrap_or(2.0 * fr.pitch_mm) / fr.pitch_mm;
                     let cy = fr.rows / 2.0;
+                    // A fingertip the size of a stroke's.
                     let mut c = blob(
                         kind,
                         t0,
                         1.5,
                         rng.range(0.8, 1.2),
-                        (1.0, 1.0),
+                        (0.9, 0.8),
                         Box::new(move |u| {
                             let phase = 2.0 * std::f64::consts::PI * hz * 1.5 * u;
                             (sx * x, cy + amp * phase.sin())
@@ -711,29 +716,35 @@ pub fn generate_with_truth(spec: &SynthSpec) -> (Array3<f64>, Truth) {
 }
 
 /// Per contact and frame: true where the contact flickers (reads almost nothing).
-/// Dropouts of one or two frames start only where the contact presses fully.
+///
+/// Dropouts arrive at `spec.flicker` per second while the contact presses fully, last
+/// [`FLICKER_S`] (one or two frames at 54 Hz, as measured on real captures) and are at
+/// least [`FLICKER_SPACING_S`] apart; a frame flickers when its time falls inside one.
+/// So a 20 Hz recording of the same touch sees fewer, single-frame dropouts.
 fn flicker_frames(contacts: &[Contact], frames: usize, rate: f64, spec: &SynthSpec) -> Vec<Vec<bool>> {
     let mut dim = vec![vec![false; frames]; contacts.len()];
-    if spec.flicker <= 0.0 {
+    if !(spec.flicker > 0.0) {
         return dim;
     }
     let mut rng = Rng(spec.seed ^ 0xF11C_4E42_D0D0_5EED);
     for (k, c) in contacts.iter().enumerate() {
-        let mut f = 0;
-        while f < frames {
-            let full = |f: usize| c.envelope(f as f64 / rate) >= 0.999;
-            if full(f) && rng.uniform() < spec.flicker {
-                let len = if rng.uniform() < 0.5 { 1 } else { 2 };
-                // Keep a full frame after the dropout, so it is a flicker, not a lift-off.
-                if (f..f + len + 1).all(|g| g < frames && full(g)) {
-                    for g in f..f + len {
-                        dim[k][g] = true;
-                    }
-                    f += len + 1;
-                    continue;
+        let full = |t: f64| c.envelope(t) >= 0.999;
+        let mut t = c.start;
+        loop {
+            t += -(1.0 - rng.uniform()).ln() / spec.flicker;
+            let d = rng.range(FLICKER_S.0, FLICKER_S.1);
+            if t + d + FLICKER_SPACING_S / 2.0 > c.start + c.length {
+                break;
+            }
+            // Only while pressing fully, with full pressure on both sides.
+            if full(t - 1.0 / rate) && full(t + d + 1.0 / rate) {
+                let first = (t * rate).ceil() as usize;
+                let last = ((t + d) * rate).floor() as usize;
+                for f in first..=last.min(frames.saturating_sub(1)) {
+                    dim[k][f] = true;
                 }
             }
-            f += 1;
+            t += d + FLICKER_SPACING_S;
         }
     }
     dim
@@ -911,7 +922,7 @@ mod tests {
     #[test]
     fn flicker_drops_a_pressing_contact_for_one_or_two_frames() {
         let spec = SynthSpec {
-            flicker: 0.2,
+            flicker: 5.0,
             ..tuned(Sensor::Grid10, &[Gesture::Palm], Tuning::default())
         };
         let (_, truth) = generate_with_truth(&spec);

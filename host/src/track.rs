@@ -13,6 +13,7 @@
 //! (so the strongest trajectory usually comes first).
 
 use ndarray::Array3;
+use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, TrackConfig};
 use crate::detect::{local_maxima, score, Detections};
@@ -88,8 +89,35 @@ pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, TrackError> {
     })
 }
 
+/// Links across missing frames: a contact that reads below detection for a frame or two
+/// (sensor flicker) stays one trajectory instead of breaking into pieces.
+///
+/// A detection in frame `t` also links from detections of frames `t - g` for
+/// `g = 2 ..= max_missing + 1`, within `g` times the one-frame gate radius (the contact
+/// may keep moving while unseen), at the one-frame link cost of the scaled gate plus
+/// `cost_per_missing` per frame skipped. A flow that can take the frames in between
+/// keeps them: skipping a strong detection forgoes its negative cost.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bridge {
+    /// Most frames a link may skip.
+    pub max_missing: usize,
+    /// Cost added per frame skipped.
+    pub cost_per_missing: f64,
+}
+
 /// Builds the flow graph of `detections`, solves it and extracts the trajectories.
 pub fn link(detections: &Detections, cfg: &TrackConfig) -> Result<Vec<Trajectory>, FlowError> {
+    link_bridged(detections, cfg, None)
+}
+
+/// [`link`], with links across up to `bridge.max_missing` missing frames (see [`Bridge`]).
+/// Without a bridge the graph, and so every result, is [`link`]'s.
+pub fn link_bridged(
+    detections: &Detections,
+    cfg: &TrackConfig,
+    bridge: Option<&Bridge>,
+) -> Result<Vec<Trajectory>, FlowError> {
     let n = detections.all.len();
     let (source, sink) = (0, 2 * n + 1);
     let mut g = FlowGraph::new(2 * n + 2);
@@ -133,6 +161,26 @@ pub fn link(detections: &Detections, cfg: &TrackConfig) -> Result<Vec<Trajectory
                     let cost = -(-d2 / cfg.link_gate_px2).ln_1p();
                     g.add_edge(2 * (prev_first + j) + 2, entry, cost)?;
                     edge_detection.push(None);
+                }
+            }
+            let Some(b) = bridge else { continue };
+            for gap in 2..=(b.max_missing + 1).min(t) {
+                let gate = cfg.link_gate_px2 * (gap * gap) as f64;
+                let (radius, first_back) = (gate.sqrt(), detections.frame_start[t - gap]);
+                let back = detections.in_frame(t - gap);
+                let lo = back.partition_point(|p| (p.row as f64) < d.row as f64 - radius);
+                for (j, p) in back.iter().enumerate().skip(lo) {
+                    let dr = p.row as f64 - d.row as f64;
+                    if dr > radius {
+                        break;
+                    }
+                    let dc = p.col as f64 - d.col as f64;
+                    let d2 = dr * dr + dc * dc;
+                    if d2 < gate {
+                        let cost = -(-d2 / gate).ln_1p() + b.cost_per_missing * (gap - 1) as f64;
+                        g.add_edge(2 * (first_back + j) + 2, entry, cost)?;
+                        edge_detection.push(None);
+                    }
                 }
             }
         }
