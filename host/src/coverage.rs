@@ -138,6 +138,11 @@ pub fn measure(
     radius_cells: f64,
 ) -> Coverage {
     let cells = classify(tared, threshold_psi, points, radius_cells);
+    measure_classified(tared, &cells)
+}
+
+/// The coverage of `tared` given its readings classified by [`classify`].
+pub fn measure_classified(tared: ArrayView3<f64>, cells: &Array3<Cell>) -> Coverage {
     let mut cov = Coverage::default();
     for (&v, &cell) in tared.iter().zip(cells.iter()) {
         match cell {
@@ -200,7 +205,7 @@ impl Misses {
             out.push((
                 self.brief,
                 format!(
-                    "{}% of the missed touch is in touches shorter than {} frames ({:.0} ms),                      the least a trajectory needs to pay its entry and exit costs:                      try --preset touch, or lower --entry-cost and --exit-cost",
+                    "{}% of the missed touch is in touches shorter than {} frames ({:.0} ms), the least a trajectory needs to pay its entry and exit costs: try --preset touch, or lower --entry-cost and --exit-cost",
                     pct(self.brief),
                     t.min_frames,
                     1000.0 * t.min_frames as f64 / t.rate_hz
@@ -211,17 +216,17 @@ impl Misses {
             let fast = self.speed_p90_mm_s > t.gate_mm_s;
             let why = if fast {
                 format!(
-                    "the touch moves at up to {:.2} m/s (90th percentile), the link gate                      follows {:.2} m/s: try --preset touch, or a wider link gate",
+                    "the touch moves at up to {:.2} m/s (90th percentile), the link gate follows {:.2} m/s: try --preset touch, or a wider link gate",
                     self.speed_p90_mm_s / 1000.0,
                     t.gate_mm_s / 1000.0
                 )
             } else if self.dropouts > 0 {
                 format!(
-                    "the touch drops out for one or two frames {} times (flicker) and the                      pieces are too short to track: try --preset touch (links across                      missing frames)",
+                    "the touch drops out for one or two frames {} times (flicker) and the pieces are too short to track: try --preset touch (links across missing frames)",
                     self.dropouts
                 )
             } else {
-                "its detections are too weak to start a trajectory: try --preset touch,                  or lower --entry-cost and --exit-cost"
+                "its detections are too weak to start a trajectory: try --preset touch, or lower --entry-cost and --exit-cost"
                     .to_string()
             };
             out.push((
@@ -236,7 +241,7 @@ impl Misses {
             out.push((
                 self.beside,
                 format!(
-                    "{}% of the missed touch lies more than {DEFAULT_RADIUS_CELLS} cells from                      the contact tracked in its frame: a large contact (a flat hand) or a                      second one; try --preset touch (contact splitting)",
+                    "{}% of the missed touch lies more than {DEFAULT_RADIUS_CELLS} cells from the contact tracked in its frame: a large contact (a flat hand) or a second one; try --preset touch (contact splitting)",
                     pct(self.beside)
                 ),
             ));
@@ -321,9 +326,9 @@ pub fn explain(
     let mut speeds: Vec<f64> = centroid
         .windows(2)
         .filter_map(|w| match (w[0], w[1]) {
-            (Some(a), Some(b)) => Some(
-                ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt() * t.cell_mm * t.rate_hz,
-            ),
+            (Some(a), Some(b)) => {
+                Some(((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt() * t.cell_mm * t.rate_hz)
+            }
             _ => None,
         })
         .collect();

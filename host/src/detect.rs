@@ -255,7 +255,9 @@ pub fn lattice_points(
         out.extend(
             cells
                 .iter()
-                .filter(|&&(i, v)| v >= top && (i / cols) % spacing == 0 && (i % cols) % spacing == 0)
+                .filter(|&&(i, v)| {
+                    v >= top && (i / cols) % spacing == 0 && (i % cols) % spacing == 0
+                })
                 .map(|&(i, v)| (centre(i / cols), centre(i % cols), v)),
         );
     }
@@ -288,7 +290,10 @@ pub fn frame_points(
 ) -> Vec<(usize, usize, f64)> {
     let maxima = local_maxima(frame, cfg.min_value_psi);
     match split {
-        Some(s) => with_lattice(maxima, lattice_points(frame, upsample, s, cfg.min_value_psi)),
+        Some(s) => with_lattice(
+            maxima,
+            lattice_points(frame, upsample, s, cfg.min_value_psi),
+        ),
         None => maxima,
     }
 }

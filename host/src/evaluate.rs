@@ -120,7 +120,8 @@ pub fn evaluate(
         .iter()
         .map(|t| coverage::contact_points(std::slice::from_ref(t), upsample))
         .collect();
-    let dist2 = |p: &ContactPoint, q: &TruthPoint| (p.row - q.row).powi(2) + (p.col - q.col).powi(2);
+    let dist2 =
+        |p: &ContactPoint, q: &TruthPoint| (p.row - q.row).powi(2) + (p.col - q.col).powi(2);
     let follow2 = FOLLOW_CELLS * FOLLOW_CELLS;
 
     // Life of each contact in tared frames, and how long each trajectory follows it.
@@ -231,7 +232,9 @@ mod tests {
     /// per frame over frames 0-4, B at row 1 moving right over frames 5-9 from column 10.
     fn truth() -> Truth {
         let a = (0..5).map(|f| point(f, 1.0, f as f64, 1.0)).collect();
-        let b = (5..10).map(|f| point(f, 1.0, 10.0 + f as f64, 1.0)).collect();
+        let b = (5..10)
+            .map(|f| point(f, 1.0, 10.0 + f as f64, 1.0))
+            .collect();
         Truth {
             sensor: Sensor::Sleeve,
             rate_hz: 20.0,
@@ -306,7 +309,9 @@ mod tests {
     #[test]
     fn one_trajectory_across_two_contacts_is_a_merge() {
         let t = truth();
-        let both: Vec<_> = (0..10).map(|f| (f, 1, if f < 5 { f } else { 10 + f })).collect();
+        let both: Vec<_> = (0..10)
+            .map(|f| (f, 1, if f < 5 { f } else { 10 + f }))
+            .collect();
         let e = evaluate(&t, 0, tared(&t).view(), 0.08, &[traj(&both)], 1);
         assert_eq!(e.merges, 1);
         assert_eq!(e.recall(), 1.0);

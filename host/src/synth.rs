@@ -376,8 +376,8 @@ fn gesture(
 ) -> (Vec<Contact>, f64) {
     let mut contacts = Vec::new();
     let (sx, sy) = (fr.sx, fr.sy);
-    let blob = |gesture, start, length, peak_psi, sigma, path: Box<dyn Fn(f64) -> (f64, f64)>| {
-        Contact {
+    let blob =
+        |gesture, start, length, peak_psi, sigma, path: Box<dyn Fn(f64) -> (f64, f64)>| Contact {
             gesture,
             start,
             length,
@@ -386,8 +386,7 @@ fn gesture(
             profile: Profile::Gaussian,
             ramp_s: None,
             path,
-        }
-    };
+        };
     let length = match kind {
         Gesture::Stroke => {
             let row = rng.range(2.5, 5.5);
@@ -721,7 +720,12 @@ pub fn generate_with_truth(spec: &SynthSpec) -> (Array3<f64>, Truth) {
 /// [`FLICKER_S`] (one or two frames at 54 Hz, as measured on real captures) and are at
 /// least [`FLICKER_SPACING_S`] apart; a frame flickers when its time falls inside one.
 /// So a 20 Hz recording of the same touch sees fewer, single-frame dropouts.
-fn flicker_frames(contacts: &[Contact], frames: usize, rate: f64, spec: &SynthSpec) -> Vec<Vec<bool>> {
+fn flicker_frames(
+    contacts: &[Contact],
+    frames: usize,
+    rate: f64,
+    spec: &SynthSpec,
+) -> Vec<Vec<bool>> {
     let mut dim = vec![vec![false; frames]; contacts.len()];
     if !(spec.flicker > 0.0) {
         return dim;
@@ -871,7 +875,10 @@ mod tests {
                 let (a, b) = (pts[0], pts[pts.len() - 1]);
                 let dist = ((b.x_mm - a.x_mm).powi(2) + (b.y_mm - a.y_mm).powi(2)).sqrt();
                 let speed = dist / (b.t_s - a.t_s) / 1000.0;
-                assert!((speed - v).abs() < 0.25 * v, "{sensor:?}: {speed} m/s for {v}");
+                assert!(
+                    (speed - v).abs() < 0.25 * v,
+                    "{sensor:?}: {speed} m/s for {v}"
+                );
                 // The recording carries the contact where the truth says.
                 let p = pts[pts.len() / 2];
                 let (r, c) = (p.row.round() as usize, p.col.round() as usize);
@@ -926,16 +933,26 @@ mod tests {
             ..tuned(Sensor::Grid10, &[Gesture::Palm], Tuning::default())
         };
         let (_, truth) = generate_with_truth(&spec);
-        let p: Vec<f64> = truth.contacts[0].points.iter().map(|p| p.pressure_psi).collect();
+        let p: Vec<f64> = truth.contacts[0]
+            .points
+            .iter()
+            .map(|p| p.pressure_psi)
+            .collect();
         // Within the plateau (the ramps at both ends rise and fall through 0.08 psi).
         let full = |i: &usize| p[*i] > 0.3;
-        let (a, b) = ((0..p.len()).find(full).unwrap(), (0..p.len()).rfind(full).unwrap());
+        let (a, b) = (
+            (0..p.len()).find(full).unwrap(),
+            (0..p.len()).rfind(full).unwrap(),
+        );
         let low: Vec<usize> = (a..b).filter(|&i| p[i] < 0.08).collect();
         assert!(!low.is_empty(), "{p:?}");
         for i in low {
             // Each dropout is bounded by full pressure within two frames on each side.
             assert!(p[i.saturating_sub(2)..i].iter().any(|&v| v > 0.3), "{p:?}");
-            assert!(p[i + 1..(i + 3).min(p.len())].iter().any(|&v| v > 0.3), "{p:?}");
+            assert!(
+                p[i + 1..(i + 3).min(p.len())].iter().any(|&v| v > 0.3),
+                "{p:?}"
+            );
         }
     }
 }

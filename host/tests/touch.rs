@@ -34,7 +34,10 @@ fn cases(sensor: Sensor) -> Vec<Case> {
             stroke_speed_mps: Some(v),
             ..Tuning::default()
         };
-        add(format!("stroke {v} m/s"), spec(sensor, &[Gesture::Stroke], t));
+        add(
+            format!("stroke {v} m/s"),
+            spec(sensor, &[Gesture::Stroke], t),
+        );
     }
     for ms in [50.0, 100.0] {
         let t = Tuning {
@@ -43,20 +46,29 @@ fn cases(sensor: Sensor) -> Vec<Case> {
         };
         add(format!("taps {ms} ms"), spec(sensor, &[Gesture::Tap], t));
     }
-    add("palm".into(), spec(sensor, &[Gesture::Palm], Tuning::default()));
+    add(
+        "palm".into(),
+        spec(sensor, &[Gesture::Palm], Tuning::default()),
+    );
     for hz in [2.0, 4.0] {
         let t = Tuning {
             shake_hz: Some(hz),
             shake_amplitude_mm: Some(40.0),
             ..Tuning::default()
         };
-        add(format!("shake {hz} Hz 40 mm"), spec(sensor, &[Gesture::Shake], t));
+        add(
+            format!("shake {hz} Hz 40 mm"),
+            spec(sensor, &[Gesture::Shake], t),
+        );
     }
     let t = Tuning {
         gap_s: Some(0.15),
         ..Tuning::default()
     };
-    add("strokes 150 ms apart".into(), spec(sensor, &[Gesture::Strokes], t));
+    add(
+        "strokes 150 ms apart".into(),
+        spec(sensor, &[Gesture::Strokes], t),
+    );
     add(
         "begins mid-touch (palm, stroke)".into(),
         SynthSpec {
@@ -75,10 +87,17 @@ fn cases(sensor: Sensor) -> Vec<Case> {
         "flicker (strokes, palm)".into(),
         SynthSpec {
             flicker: 5.0,
-            ..spec(sensor, &[Gesture::Strokes, Gesture::Palm], Tuning::default())
+            ..spec(
+                sensor,
+                &[Gesture::Strokes, Gesture::Palm],
+                Tuning::default(),
+            )
         },
     );
-    add("noise only".into(), spec(sensor, &[Gesture::Rest], Tuning::default()));
+    add(
+        "noise only".into(),
+        spec(sensor, &[Gesture::Rest], Tuning::default()),
+    );
     out
 }
 
@@ -121,7 +140,12 @@ fn measure() {
     for sensor in [Sensor::Sleeve, Sensor::Grid10] {
         for case in cases(sensor) {
             let (e, _) = run(&case, &at_rate(Config::default(), sensor));
-            eprintln!("{:7} {:32} paper: {}", sensor.name(), case.name, e.summary());
+            eprintln!(
+                "{:7} {:32} paper: {}",
+                sensor.name(),
+                case.name,
+                e.summary()
+            );
         }
     }
 }
@@ -187,16 +211,52 @@ fn explore() {
         spacing_cells: 2,
     };
     let variants: Vec<(&str, f64, f64, f64, Trial)> = vec![
-        ("gate2 e1.5", 2.0, 1.5, 0.03, Trial { split: None, bridge_s: None, bridge_cost: 0.5 }),
-        ("gate2 e1.5 split", 2.0, 1.5, 0.03, Trial { split: Some(split), bridge_s: None, bridge_cost: 0.5 }),
-        ("gate2 e1.5 split bridge", 2.0, 1.5, 0.03, Trial { split: Some(split), bridge_s: Some(0.06), bridge_cost: 0.5 }),
+        (
+            "gate2 e1.5",
+            2.0,
+            1.5,
+            0.03,
+            Trial {
+                split: None,
+                bridge_s: None,
+                bridge_cost: 0.5,
+            },
+        ),
+        (
+            "gate2 e1.5 split",
+            2.0,
+            1.5,
+            0.03,
+            Trial {
+                split: Some(split),
+                bridge_s: None,
+                bridge_cost: 0.5,
+            },
+        ),
+        (
+            "gate2 e1.5 split bridge",
+            2.0,
+            1.5,
+            0.03,
+            Trial {
+                split: Some(split),
+                bridge_s: Some(0.06),
+                bridge_cost: 0.5,
+            },
+        ),
     ];
     for sensor in [Sensor::Sleeve, Sensor::Grid10] {
         for case in cases(sensor) {
             for (name, v, e, m, trial) in &variants {
                 let cfg = candidate(sensor, *v, *e, *m);
                 let ev = track_trial(&case, &cfg, trial);
-                eprintln!("{:7} {:32} {:24} {}", sensor.name(), case.name, name, ev.summary());
+                eprintln!(
+                    "{:7} {:32} {:24} {}",
+                    sensor.name(),
+                    case.name,
+                    name,
+                    ev.summary()
+                );
             }
         }
     }
@@ -224,15 +284,26 @@ fn ceiling() {
                         .collect();
                     touchc::trajectory::Trajectory {
                         frames: pts.iter().map(|p| p.frame - off).collect(),
-                        rows: pts.iter().map(|p| ((p.row + 0.5) * k - 0.5).round().max(0.0) as usize).collect(),
-                        cols: pts.iter().map(|p| ((p.col + 0.5) * k - 0.5).round().max(0.0) as usize).collect(),
+                        rows: pts
+                            .iter()
+                            .map(|p| ((p.row + 0.5) * k - 0.5).round().max(0.0) as usize)
+                            .collect(),
+                        cols: pts
+                            .iter()
+                            .map(|p| ((p.col + 0.5) * k - 0.5).round().max(0.0) as usize)
+                            .collect(),
                         costs: vec![-1.0; pts.len()],
                         values: vec![1.0; pts.len()],
                     }
                 })
                 .collect();
             let e = evaluate(&truth, off, tared.view(), 0.08, &trajs, 7);
-            eprintln!("{:7} {:32} truth: {}", sensor.name(), case.name, e.summary());
+            eprintln!(
+                "{:7} {:32} truth: {}",
+                sensor.name(),
+                case.name,
+                e.summary()
+            );
         }
     }
 }
