@@ -93,30 +93,49 @@ pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, TrackError> {
 /// (sensor flicker) stays one trajectory instead of breaking into pieces.
 ///
 /// A detection in frame `t` also links from detections of frames `t - g` for
-/// `g = 2 ..= max_missing + 1`, within `g` times the one-frame gate radius (the contact
-/// may keep moving while unseen), at the one-frame link cost of the scaled gate plus
-/// `cost_per_missing` per frame skipped. A flow that can take the frames in between
-/// keeps them: skipping a strong detection forgoes its negative cost.
+/// `g = 2 ..= m + 1`, where `m` frames last at most `max_missing_s`, within `g` times the
+/// one-frame gate radius (the contact may keep moving while unseen), at the one-frame
+/// link cost of the scaled gate plus `cost_per_missing` per frame skipped. A flow that
+/// can take the frames in between keeps them: skipping a strong detection forgoes its
+/// negative cost. 60 ms bridges one frame at 20 Hz and three at 54 Hz (real flicker
+/// lasts one or two frames at 54 Hz); a lift of 150 ms between two strokes never.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Bridge {
-    /// Most frames a link may skip.
-    pub max_missing: usize,
+    /// Longest time a contact may go unseen, seconds.
+    pub max_missing_s: f64,
     /// Cost added per frame skipped.
     pub cost_per_missing: f64,
 }
 
 /// Builds the flow graph of `detections`, solves it and extracts the trajectories.
 pub fn link(detections: &Detections, cfg: &TrackConfig) -> Result<Vec<Trajectory>, FlowError> {
-    link_bridged(detections, cfg, None)
+    link_bridged(detections, cfg, 0, 0.0)
 }
 
-/// [`link`], with links across up to `bridge.max_missing` missing frames (see [`Bridge`]).
-/// Without a bridge the graph, and so every result, is [`link`]'s.
+impl Bridge {
+    /// The most frames a link may skip at `rate_hz`.
+    pub fn missing_frames(&self, rate_hz: f64) -> usize {
+        let m = (self.max_missing_s * rate_hz + 1e-9).floor();
+        if m.is_finite() && m > 0.0 {
+            (m as usize).min(MAX_MISSING_FRAMES)
+        } else {
+            0
+        }
+    }
+}
+
+/// However fast the sensor, a link skips at most this many frames (graph size).
+pub const MAX_MISSING_FRAMES: usize = 16;
+
+/// [`link`], with links across up to `missing` missing frames at `cost_per_missing`
+/// each (see [`Bridge`]). With `missing = 0` the graph, and so every result, is
+/// [`link`]'s.
 pub fn link_bridged(
     detections: &Detections,
     cfg: &TrackConfig,
-    bridge: Option<&Bridge>,
+    missing: usize,
+    cost_per_missing: f64,
 ) -> Result<Vec<Trajectory>, FlowError> {
     let n = detections.all.len();
     let (source, sink) = (0, 2 * n + 1);
@@ -163,8 +182,7 @@ pub fn link_bridged(
                     edge_detection.push(None);
                 }
             }
-            let Some(b) = bridge else { continue };
-            for gap in 2..=(b.max_missing + 1).min(t) {
+            for gap in 2..=(missing + 1).min(t) {
                 let gate = cfg.link_gate_px2 * (gap * gap) as f64;
                 let (radius, first_back) = (gate.sqrt(), detections.frame_start[t - gap]);
                 let back = detections.in_frame(t - gap);
@@ -177,7 +195,7 @@ pub fn link_bridged(
                     let dc = p.col as f64 - d.col as f64;
                     let d2 = dr * dr + dc * dc;
                     if d2 < gate {
-                        let cost = -(-d2 / gate).ln_1p() + b.cost_per_missing * (gap - 1) as f64;
+                        let cost = -(-d2 / gate).ln_1p() + cost_per_missing * (gap - 1) as f64;
                         g.add_edge(2 * (first_back + j) + 2, entry, cost)?;
                         edge_detection.push(None);
                     }
