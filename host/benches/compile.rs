@@ -29,6 +29,7 @@ fn long_recording() -> Recording {
         mask: Mask::Cells142,
         noise_psi: 0.004,
         quiet_frames: 30,
+        ..SynthSpec::default()
     });
     Recording::from_array("combination_698", data.view()).expect("valid synthetic data")
 }

@@ -222,7 +222,10 @@ pub fn lattice_points(
     let mut stack = Vec::new();
     let spacing = split.spacing_cells.max(1);
     for start in 0..rows * cols {
-        if label[start] != usize::MAX || !(value(start / cols, start % cols) > min_value) {
+        if label[start] != usize::MAX
+            || value(start / cols, start % cols).partial_cmp(&min_value)
+                != Some(std::cmp::Ordering::Greater)
+        {
             continue;
         }
         // Flood-fill one contact, remembering its cells and peak.

@@ -727,7 +727,7 @@ fn flicker_frames(
     spec: &SynthSpec,
 ) -> Vec<Vec<bool>> {
     let mut dim = vec![vec![false; frames]; contacts.len()];
-    if !(spec.flicker > 0.0) {
+    if spec.flicker.is_nan() || spec.flicker <= 0.0 {
         return dim;
     }
     let mut rng = Rng(spec.seed ^ 0xF11C_4E42_D0D0_5EED);
@@ -744,8 +744,9 @@ fn flicker_frames(
             if full(t - 1.0 / rate) && full(t + d + 1.0 / rate) {
                 let first = (t * rate).ceil() as usize;
                 let last = ((t + d) * rate).floor() as usize;
-                for f in first..=last.min(frames.saturating_sub(1)) {
-                    dim[k][f] = true;
+                let last = last.min(frames.saturating_sub(1));
+                if first <= last {
+                    dim[k][first..=last].fill(true);
                 }
             }
             t += d + FLICKER_SPACING_S;

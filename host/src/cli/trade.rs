@@ -95,7 +95,10 @@ fn cells(r: &TradeRow) -> Vec<String> {
     out.push(format!("{:.1}", r.tracks_agree_pct));
     out.push(r.bytes.to_string());
     out.push(format!("{:.2}", r.coverage));
-    out.push(r.recall.map_or_else(|| "-".to_string(), |v| format!("{v:.2}")));
+    out.push(
+        r.recall
+            .map_or_else(|| "-".to_string(), |v| format!("{v:.2}")),
+    );
     out
 }
 
