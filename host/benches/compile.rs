@@ -62,6 +62,7 @@ fn bench(c: &mut Criterion) {
     // Stage by stage, on the inputs the paper preset's compile hands each stage.
     let opts = CompileOptions::default();
     let cfg = &opts.config;
+    let paper = touchc::config::Sampling::PAPER;
     let compiled = compile(&rec, &opts).expect("compiles");
     let (tracked, placement, signals) = (
         compiled.tracked.as_ref().expect("touch"),
@@ -69,16 +70,16 @@ fn bench(c: &mut Criterion) {
         compiled.signals.as_ref().expect("touch"),
     );
     let crop = compiled.report.crop.clone().expect("cropped");
-    let tared = rec.tare(&cfg.input).expect("long enough");
+    let tared = rec.tare(&cfg.input, &paper).expect("long enough");
     let (frames, rows, cols) = tared.dim();
     c.bench_function("stage/tare", |b| {
-        b.iter(|| rec.tare(black_box(&cfg.input)).expect("tare"))
+        b.iter(|| rec.tare(black_box(&cfg.input), &paper).expect("tare"))
     });
     for (cores, pool) in &pools {
         c.bench_function(&format!("stage/preprocess (whole)/{cores}"), |b| {
             b.iter(|| {
                 pool.install(|| {
-                    preprocess::preprocess(black_box(tared.view()), &cfg.preprocess, 25.4)
+                    preprocess::preprocess(black_box(tared.view()), &cfg.preprocess, &paper)
                         .expect("blur")
                 })
             })
@@ -88,7 +89,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| detect::detect(black_box(&tracked.blurred), &cfg.detect))
     });
     c.bench_function("stage/track (crop)", |b| {
-        b.iter(|| track::link(black_box(&tracked.detections), &cfg.track).expect("link"))
+        b.iter(|| track::link(black_box(&tracked.detections), &cfg.track, &paper).expect("link"))
     });
     for preset in Preset::ALL {
         let p = Config::preset(preset);
@@ -126,12 +127,8 @@ fn bench(c: &mut Criterion) {
     });
     c.bench_function("stage/condition", |b| {
         b.iter(|| {
-            condition::condition(
-                black_box(&signals.psi),
-                &cfg.signal,
-                cfg.input.frame_rate_hz,
-            )
-            .expect("condition")
+            condition::condition(black_box(&signals.psi), &cfg.signal, paper.rate_hz)
+                .expect("condition")
         })
     });
     let layout = Layout::paper();

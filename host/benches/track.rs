@@ -16,6 +16,7 @@ use touchc::track::{link, track};
 
 fn stages(c: &mut Criterion) {
     let cfg = Config::default();
+    let paper = touchc::config::Sampling::PAPER;
     let data = common::moving_blobs(705, 4, 42);
     let mut bytes = Vec::new();
     data.write_npy(&mut bytes).expect("in-memory npy");
@@ -24,10 +25,10 @@ fn stages(c: &mut Criterion) {
     std::fs::write(&path, &bytes).expect("write npy");
 
     let rec = Recording::load(&path).expect("load");
-    let tared = rec.tare(&cfg.input).expect("tare");
-    let blurred = preprocess(tared.view(), &cfg.preprocess, cfg.input.cell_mm).expect("blur");
+    let tared = rec.tare(&cfg.input, &paper).expect("tare");
+    let blurred = preprocess(tared.view(), &cfg.preprocess, &paper).expect("blur");
     let dets = detect(&blurred, &cfg.detect);
-    let trajs = link(&dets, &cfg.track).expect("link");
+    let trajs = link(&dets, &cfg.track, &paper).expect("link");
     eprintln!(
         "bench recording: {} detections, {} trajectories",
         dets.all.len(),
@@ -38,16 +39,16 @@ fn stages(c: &mut Criterion) {
         b.iter(|| Recording::load(black_box(&path)).expect("load"))
     });
     c.bench_function("tare", |b| {
-        b.iter(|| rec.tare(black_box(&cfg.input)).expect("tare"))
+        b.iter(|| rec.tare(black_box(&cfg.input), &paper).expect("tare"))
     });
     c.bench_function("blur", |b| {
-        b.iter(|| preprocess(black_box(tared.view()), &cfg.preprocess, 25.4).expect("blur"))
+        b.iter(|| preprocess(black_box(tared.view()), &cfg.preprocess, &paper).expect("blur"))
     });
     c.bench_function("detect", |b| {
         b.iter(|| detect(black_box(&blurred), &cfg.detect))
     });
     c.bench_function("flow", |b| {
-        b.iter(|| link(black_box(&dets), &cfg.track).expect("link"))
+        b.iter(|| link(black_box(&dets), &cfg.track, &paper).expect("link"))
     });
     c.bench_function("total (load + track)", |b| {
         b.iter(|| {

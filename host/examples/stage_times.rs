@@ -52,6 +52,7 @@ fn main() -> anyhow::Result<()> {
         }
     };
     let reps = 20;
+    let paper = touchc::config::Sampling::PAPER;
     let mut t_track = 0.0;
     let (mut t_load, mut t_tare, mut t_blur, mut t_detect, mut t_flow) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let mut summary = String::new();
@@ -59,13 +60,13 @@ fn main() -> anyhow::Result<()> {
         let t0 = Instant::now();
         let rec = Recording::load(&path)?;
         let t1 = Instant::now();
-        let tared = rec.tare(&cfg.input)?;
+        let tared = rec.tare(&cfg.input, &paper)?;
         let t2 = Instant::now();
-        let blurred = preprocess(tared.view(), &cfg.preprocess, cfg.input.cell_mm)?;
+        let blurred = preprocess(tared.view(), &cfg.preprocess, &paper)?;
         let t3 = Instant::now();
         let dets = detect(&blurred, &cfg.detect);
         let t4 = Instant::now();
-        let trajs = link(&dets, &cfg.track)?;
+        let trajs = link(&dets, &cfg.track, &paper)?;
         let t5 = Instant::now();
         let t6 = Instant::now();
         let rec2 = Recording::load(&path)?;

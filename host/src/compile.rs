@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use crate::condition::{self, ConditionError, LimitViolation};
 use crate::config::Config;
+use crate::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
 use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
 use crate::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
 use crate::layout::Layout;
@@ -33,8 +34,9 @@ pub struct CompileOptions {
     pub fit: bool,
     /// Crop time and space to the active scene before the heavy stages.
     pub crop: bool,
-    /// Fidelity bounds and choices of the keyframe encoding.
-    pub keyframes: KeyframeOptions,
+    /// The recording's rate and pitch from the command line (over the file's, over the
+    /// config's `input.rate_hz` / `input.pitch_mm`).
+    pub metadata: MetadataOverrides,
     /// The stimulus name written into the file (at most 32 bytes).
     pub name: String,
 }
@@ -47,7 +49,7 @@ impl Default for CompileOptions {
             limits: Limits::SLEEVE,
             fit: false,
             crop: true,
-            keyframes: KeyframeOptions::default(),
+            metadata: MetadataOverrides::default(),
             name: String::from("touch"),
         }
     }
@@ -57,6 +59,9 @@ impl Default for CompileOptions {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum CompileError {
+    /// A knob is out of its range (names the knob, the value and the range).
+    #[error("config: {0}")]
+    Config(#[from] ConfigError),
     /// The recording is unusable (the message names the file).
     #[error(transparent)]
     Recording(#[from] RecordingError),
@@ -128,6 +133,9 @@ pub struct Report {
     pub misses: Option<Misses>,
     /// Things the user should know.
     pub warnings: Vec<String>,
+    /// The recording's rate and pitch as used, each with its source (cli, file,
+    /// default).
+    pub metadata: Metadata,
     /// Every algorithm parameter this compile used (preset and overrides applied), so
     /// the report says how to reproduce it.
     pub config: Config,
@@ -205,8 +213,14 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     let mut clock = Clock::new();
     let mut warnings = Vec::new();
 
+    // Every knob, in the units of this recording, before any work.
+    let metadata = Metadata::resolve(&opts.metadata, rec, cfg);
+    let sampling = Sampling::new(&metadata, cfg);
+    let (_, rows, cols) = rec.dim();
+    cfg.validate_for(&sampling, (rows, cols))?;
+
     // Stage 0: tare and trim, and the paper's "no touch" filter.
-    let tared = rec.tare(&cfg.input)?;
+    let tared = rec.tare(&cfg.input, &sampling)?;
     let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
     clock.stage("tare");
     if touched <= cfg.input.min_touch_readings {
@@ -215,17 +229,18 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
             cfg.input.touch_threshold_psi, cfg.input.min_touch_readings
         ));
         let signal = vec![[0.0; CHANNELS]];
-        return finish(rec, opts, clock, warnings, signal, 1.0, None);
+        return finish(rec, opts, &metadata, clock, warnings, signal, 1.0, None);
     }
 
     // Stages 1-3, on the active scene only.
     let crop = if opts.crop {
-        scene::active_crop(tared.view(), &cfg.input)
+        scene::active_crop(tared.view(), cfg, &sampling)
     } else {
         Crop::whole(tared.dim())
     };
-    let (tracked, crop) = scene::track_cropped(tared.view(), &crop, cfg, &mut |s| clock.stage(s))?;
-    let covered = measure_coverage(tared.view(), &tracked, cfg, &mut warnings);
+    let (tracked, crop) =
+        scene::track_cropped(tared.view(), &crop, cfg, &sampling, &mut |s| clock.stage(s))?;
+    let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
     clock.stage("coverage");
 
     // Stage 4.
@@ -260,7 +275,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     clock.stage("signals");
 
     // Stage 6.
-    let conditioned = condition::condition(&signals.psi, &cfg.signal, cfg.input.frame_rate_hz)?;
+    let conditioned = condition::condition(&signals.psi, &cfg.signal, sampling.rate_hz)?;
     let mut signal = conditioned.output;
     let limits = condition::Limits::from(opts.limits);
     let fit_scale = if opts.fit {
@@ -284,7 +299,16 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
         crop,
         covered,
     };
-    finish(rec, opts, clock, warnings, signal, fit_scale, Some(scene))
+    finish(
+        rec,
+        opts,
+        &metadata,
+        clock,
+        warnings,
+        signal,
+        fit_scale,
+        Some(scene),
+    )
 }
 
 /// What stages 1-5 made of a recording with touch.
@@ -305,13 +329,14 @@ fn measure_coverage(
     tared: ndarray::ArrayView3<f64>,
     tracked: &TrackOutput,
     cfg: &Config,
+    sampling: &Sampling,
     warnings: &mut Vec<String>,
 ) -> (Coverage, Misses) {
-    let points = coverage::contact_points(&tracked.trajectories, cfg.preprocess.upsample);
+    let points = coverage::contact_points(&tracked.trajectories, sampling.upsample);
     let threshold = cfg.input.touch_threshold_psi;
     let cells = coverage::classify(tared, threshold, &points, DEFAULT_RADIUS_CELLS);
     let cov = coverage::measure_classified(tared, &cells);
-    let tracking = tracking_figures(cfg);
+    let tracking = tracking_figures(cfg, sampling);
     let misses = coverage::explain(tared, &cells, &points, &tracking);
     if cov.ratio() < COVERAGE_WARNING {
         let mut w = format!(
@@ -330,9 +355,7 @@ fn measure_coverage(
 }
 
 /// What the config's tracking can follow, in the units of [`Tracking`].
-fn tracking_figures(cfg: &Config) -> Tracking {
-    let rate = cfg.input.frame_rate_hz;
-    let pitch_px = cfg.input.cell_mm / cfg.preprocess.upsample.max(1) as f64;
+fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
     let strongest = -crate::detect::detection_cost(1e6, &cfg.detect);
     let pay = cfg.track.entry_cost + cfg.track.exit_cost;
     let min_frames = if strongest > 0.0 {
@@ -341,17 +364,19 @@ fn tracking_figures(cfg: &Config) -> Tracking {
         usize::MAX
     };
     Tracking {
-        rate_hz: rate,
-        cell_mm: cfg.input.cell_mm,
-        gate_mm_s: cfg.track.link_gate_px2.max(0.0).sqrt() * pitch_px * rate,
+        rate_hz: sampling.rate_hz,
+        cell_mm: sampling.pitch_mm,
+        gate_mm_s: cfg.track.max_speed_mm_s,
         min_frames,
     }
 }
 
 /// Stage 7 and the report; `scene` is `None` for a recording without touch.
+#[allow(clippy::too_many_arguments)]
 fn finish(
     rec: &Recording,
     opts: &CompileOptions,
+    metadata: &Metadata,
     mut clock: Clock,
     warnings: Vec<String>,
     signal: Vec<[f64; CHANNELS]>,
@@ -375,7 +400,11 @@ fn finish(
         layout_id: layout_tag(&opts.layout),
         limits: opts.limits,
     };
-    let encoded = keyframes::encode(&signal, fields, &opts.keyframes)?;
+    let encoded = keyframes::encode(
+        &signal,
+        fields,
+        &KeyframeOptions::new(&opts.config.keyframes),
+    )?;
     clock.stage("keyframes");
     let duration_s = (signal.len().saturating_sub(1)) as f64 / 1000.0;
     let bytes = encoded.bytes.len();
@@ -412,6 +441,7 @@ fn finish(
         coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
         misses: covered.map(|c| c.1),
         warnings,
+        metadata: *metadata,
         config: opts.config.clone(),
         layout: opts.layout.id().to_string(),
     };

@@ -1,14 +1,34 @@
 //! Every parameter of the mapping algorithm, in one typed config.
 //!
-//! [`Config::default`] is the `paper` preset: the values of the paper and of the
-//! authors' published code (see `docs/algorithm.md`). Stages read their own
-//! section and never hard-code a parameter. [`Config::preset`] gives the other points of
-//! the speed/accuracy trade ([`Preset`]); `touchc trade` measures them.
+//! [`Config::default`] is the `touch` preset: the paper's algorithm with the tracking
+//! that real recordings need (fast strokes, brief taps, flat hands, flicker, touch at
+//! the start). [`Preset::Paper`] is the values of the paper and of the authors'
+//! published code (see `docs/algorithm.md`); every section's own `Default` is the
+//! paper's. Stages read their own section and never hard-code a parameter.
+//! [`Config::preset`] gives the other points of the trade ([`Preset`]); `touchc trade`
+//! measures them.
+//!
+//! Every knob is physical and carries its unit in its name (`blur_sigma_mm`,
+//! `max_speed_mm_s`, `tare_s`, ...): the same config means the same thing for any sensor
+//! rate, cell pitch and upsampling factor. Pixels and frames are derived in one place,
+//! [`Sampling`], from the recording's rate and pitch ([`Metadata`]) and the upsampling
+//! factor. [`Config::validate`] checks every knob against a documented range before any
+//! stage runs.
 
 use serde::{Deserialize, Serialize};
 
-/// All stage parameters. `Config::default()` reproduces the paper.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub use crate::detect::Split;
+pub use crate::track::Bridge;
+
+mod sampling;
+mod validate;
+
+pub use sampling::{Metadata, MetadataOverrides, Sampling, Source, Sourced};
+pub use validate::ConfigError;
+
+/// All stage parameters. `Config::default()` is the `touch` preset;
+/// `Config::preset(Preset::Paper)` reproduces the paper.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Config {
     /// Stage 0: loading and tare.
@@ -21,25 +41,46 @@ pub struct Config {
     pub track: TrackConfig,
     /// Stage 4: transform search and subset choice.
     pub placement: PlacementConfig,
+    /// The active scene's crop before the heavy stages.
+    pub crop: CropConfig,
     /// Stages 5 and 6: per-actuator signals and conditioning.
     pub signal: SignalConfig,
+    /// Stage 7: the keyframe encoding's fidelity bounds and candidates.
+    pub keyframes: KeyframeConfig,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config::preset(Preset::Touch)
+    }
 }
 
 /// A named point of the speed/accuracy trade (`touchc compile --preset`).
 ///
 /// `touchc trade` measures each one against `exact` (see `docs/trade.md`). Every preset
-/// keeps the signal model (stages 5-6) of the paper: they differ only in how finely the
-/// touch is sampled in space and how thoroughly the placement is searched, so that the
-/// differences they make are the ones the table reports.
+/// keeps the signal model (stages 5-6) of the paper; `fast` and `exact` differ from
+/// `paper` only in how finely the touch is sampled in space and how thoroughly the
+/// placement is searched, `touch` only in which touch is tracked.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
-    /// The published parameters and transform grid: what the paper's participants felt,
-    /// and the reference vectors' results bit for bit. The default.
+    /// Real touch, the default: the paper's algorithm, with tracking that keeps what
+    /// real recordings hold. Contacts up to 2 m/s link (strokes to 1.5 m/s, 4 Hz shakes
+    /// of +-40 mm); entry and exit cost 1.5 each, so one strong frame is a trajectory (a
+    /// 50 ms tap at 20 Hz); links bridge up to 60 ms unseen (sensor flicker); a flat
+    /// contact is also tracked on a 2-cell lattice of its top (a palm renders on the
+    /// actuators it covers); each cell's zero is a low quantile of the whole recording
+    /// and nothing is trimmed (a recording may begin or end mid-touch).
+    ///
+    /// Gives up: the published results (more, shorter trajectories; a palm is several
+    /// contacts), and some time in tracking and placement (`docs/trade.md`, measured).
     #[default]
+    Touch,
+    /// The published parameters and transform grid: what the paper's participants felt,
+    /// and the reference vectors' results bit for bit.
     Paper,
-    /// Upsampling x4 instead of x7 (blur sigma and link gate scaled so that they keep
-    /// their size in mm) and a coarse-to-fine placement search (every second grid point,
+    /// Upsampling x4 instead of x7 (blur sigma and link gate keep their physical size,
+    /// being in mm and mm/s) and a coarse-to-fine placement search (every second grid point,
     /// then the full grid around the 32 best, then a local search).
     ///
     /// Gives up: detections sit on a 6.35 mm instead of a 3.63 mm pixel grid, so
@@ -62,11 +103,12 @@ pub enum Preset {
 
 impl Preset {
     /// Every preset, fastest first (the order of `touchc trade`'s table).
-    pub const ALL: [Preset; 3] = [Preset::Fast, Preset::Paper, Preset::Exact];
+    pub const ALL: [Preset; 4] = [Preset::Fast, Preset::Paper, Preset::Touch, Preset::Exact];
 
     /// The preset's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
+            Preset::Touch => "touch",
             Preset::Paper => "paper",
             Preset::Fast => "fast",
             Preset::Exact => "exact",
@@ -80,17 +122,53 @@ impl Config {
     /// # Example
     /// ```
     /// use touchc::config::{Config, Preset};
-    /// assert_eq!(Config::preset(Preset::Paper), Config::default());
+    /// assert_eq!(Config::preset(Preset::Touch), Config::default());
+    /// let paper = Config::preset(Preset::Paper);
     /// let fast = Config::preset(Preset::Fast);
     /// assert_eq!(fast.preprocess.upsample, 4);
-    /// // The blur keeps its width in mm: 3 px of 25.4/7 mm = 12/7 px of 25.4/4 mm.
-    /// assert!((fast.preprocess.blur_sigma * 25.4 / 4.0 - 3.0 * 25.4 / 7.0).abs() < 1e-12);
+    /// // The blur keeps its width in mm (3 px of 25.4/7 mm), so x4 makes it 12/7 px.
+    /// assert_eq!(fast.preprocess.blur_sigma_mm, paper.preprocess.blur_sigma_mm);
     /// ```
     pub fn preset(preset: Preset) -> Config {
-        let paper = Config::default();
+        let paper = Config {
+            input: InputConfig::default(),
+            preprocess: PreprocessConfig::default(),
+            detect: DetectConfig::default(),
+            track: TrackConfig::default(),
+            placement: PlacementConfig::default(),
+            crop: CropConfig::default(),
+            signal: SignalConfig::default(),
+            keyframes: KeyframeConfig::default(),
+        };
         match preset {
             Preset::Paper => paper,
-            Preset::Fast => paper.resampled(4).with_placement(PlacementConfig {
+            Preset::Touch => Config {
+                input: InputConfig {
+                    baseline: Baseline::Robust,
+                    trim_s: 0.0,
+                    ..paper.input
+                },
+                detect: DetectConfig {
+                    split: Some(Split {
+                        min_cells: 8,
+                        level: 0.5,
+                        spacing_cells: 2,
+                    }),
+                    ..paper.detect
+                },
+                track: TrackConfig {
+                    entry_cost: 1.5,
+                    exit_cost: 1.5,
+                    max_speed_mm_s: 2000.0,
+                    bridge: Some(Bridge {
+                        max_missing_s: 0.06,
+                        cost_per_missing: 0.5,
+                    }),
+                    ..paper.track
+                },
+                ..paper
+            },
+            Preset::Fast => paper.upsampled(4).with_placement(PlacementConfig {
                 coarse_to_fine: Some(CoarseToFine {
                     stride: 2,
                     keep: 32,
@@ -105,14 +183,10 @@ impl Config {
         }
     }
 
-    /// This config with upsampling `k`, and the pixel-sized parameters (blur sigma, link
-    /// gate) rescaled so that they keep their physical size.
-    pub fn resampled(mut self, k: usize) -> Config {
-        let old = self.preprocess.upsample as f64;
-        let ratio = k as f64 / old;
+    /// This config with upsampling `k`. Every other knob is physical, so the blur and
+    /// the link gate keep their size in mm; only their pixel values change.
+    pub fn upsampled(mut self, k: usize) -> Config {
         self.preprocess.upsample = k;
-        self.preprocess.blur_sigma *= ratio;
-        self.track.link_gate_px2 *= ratio * ratio;
         self
     }
 
@@ -126,12 +200,22 @@ impl Config {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct InputConfig {
-    /// Sensor frame rate in Hz.
-    pub frame_rate_hz: f64,
-    /// Frames averaged per cell for the tare, and dropped at both ends (`B`).
-    pub tare_frames: usize,
-    /// Sensor cell pitch in mm (one inch on the published sleeve).
-    pub cell_mm: f64,
+    /// Sensor frame rate in Hz when neither `--rate` nor the file gives one (the
+    /// published sleeve: 20 Hz).
+    pub rate_hz: f64,
+    /// Sensor cell pitch in mm when neither `--pitch-mm` nor the file gives one (the
+    /// published sleeve: one inch).
+    pub pitch_mm: f64,
+    /// How the per-cell zero is found (paper: the mean of the leading `tare_s`).
+    pub baseline: Baseline,
+    /// Leading window averaged per cell by the `leading` baseline, seconds (paper 1 s =
+    /// 20 frames at 20 Hz).
+    pub tare_s: f64,
+    /// Dropped at each end of the recording after the tare, seconds (paper 1 s).
+    pub trim_s: f64,
+    /// The `robust` baseline: each cell's zero is this quantile of its readings over the
+    /// whole recording (0.1: a cell may be pressed for up to 90 % of the recording).
+    pub baseline_quantile: f64,
     /// A recording with at most this many readings above `touch_threshold_psi` is "no touch".
     pub min_touch_readings: usize,
     /// Pressure above which a reading counts as touch, in psi.
@@ -141,11 +225,49 @@ pub struct InputConfig {
 impl Default for InputConfig {
     fn default() -> Self {
         Self {
-            frame_rate_hz: 20.0,
-            tare_frames: 20,
-            cell_mm: 25.4,
+            rate_hz: 20.0,
+            pitch_mm: 25.4,
+            baseline: Baseline::Leading,
+            tare_s: 1.0,
+            trim_s: 1.0,
+            baseline_quantile: 0.1,
             min_touch_readings: 5,
             touch_threshold_psi: 0.08,
+        }
+    }
+}
+
+/// Where each cell's zero comes from (`input.baseline`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Baseline {
+    /// The mean of the first `tare_s` seconds (the paper): needs a quiet start; touch
+    /// in that window is subtracted from the whole recording.
+    #[default]
+    Leading,
+    /// A low quantile (`baseline_quantile`) of each cell over the whole recording: a
+    /// recording may begin or end mid-touch, as long as each cell is at rest for a
+    /// larger share of the recording than the quantile.
+    Robust,
+}
+
+/// The crop of the active scene (see [`crate::scene`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CropConfig {
+    /// Quiet time kept on each side of the active window, seconds (paper 0.5 s = 10
+    /// frames at 20 Hz).
+    pub time_margin_s: f64,
+    /// Quiet space kept on each side of the active cells, mm (paper 76.2 mm = 3 cells:
+    /// the blur reaches 4 sigma, under two cells, and a link about one cell).
+    pub space_margin_mm: f64,
+}
+
+impl Default for CropConfig {
+    fn default() -> Self {
+        Self {
+            time_margin_s: 0.5,
+            space_margin_mm: 3.0 * 25.4,
         }
     }
 }
@@ -156,17 +278,20 @@ impl Default for InputConfig {
 pub struct PreprocessConfig {
     /// Nearest-neighbour upsampling factor `k` (each cell becomes k x k pixels).
     pub upsample: usize,
-    /// Gaussian blur sigma, in upsampled pixels.
-    pub blur_sigma: f64,
+    /// Gaussian blur sigma, mm (paper: 3 pixels of 25.4/7 mm = 10.886 mm).
+    pub blur_sigma_mm: f64,
     /// Kernel half-width in sigmas (scipy's `truncate`).
     pub blur_truncate: f64,
 }
+
+/// The paper's pixel: a one-inch cell upsampled x7, mm.
+const PAPER_PIXEL_MM: f64 = 25.4 / 7.0;
 
 impl Default for PreprocessConfig {
     fn default() -> Self {
         Self {
             upsample: 7,
-            blur_sigma: 3.0,
+            blur_sigma_mm: 3.0 * PAPER_PIXEL_MM,
             blur_truncate: 4.0,
         }
     }
@@ -182,6 +307,8 @@ pub struct DetectConfig {
     pub sigma_k: f64,
     /// `m`, the ceiling of the detection probability.
     pub max_probability: f64,
+    /// Also detect flat contacts on a lattice of their top (`touch`; the paper: none).
+    pub split: Option<Split>,
 }
 
 impl Default for DetectConfig {
@@ -190,6 +317,7 @@ impl Default for DetectConfig {
             min_value_psi: 1e-5,
             sigma_k: 1.25,
             max_probability: 0.98,
+            split: None,
         }
     }
 }
@@ -202,10 +330,13 @@ pub struct TrackConfig {
     pub entry_cost: f64,
     /// Cost of the detection -> sink edge (`-ln P_exit`).
     pub exit_cost: f64,
-    /// Links join detections in consecutive frames closer than this squared pixel distance.
-    pub link_gate_px2: f64,
+    /// Links join detections in consecutive frames that moved less than this speed,
+    /// mm/s (paper: 50 squared pixels per frame, sqrt(50) x 25.4/7 mm x 20 Hz = 513 mm/s).
+    pub max_speed_mm_s: f64,
     /// At most this many units of flow (trajectories).
     pub max_trajectories: usize,
+    /// Links across frames where a contact is unseen (`touch`; the paper: none).
+    pub bridge: Option<Bridge>,
 }
 
 impl Default for TrackConfig {
@@ -213,11 +344,16 @@ impl Default for TrackConfig {
         Self {
             entry_cost: 8.0,
             exit_cost: 8.0,
-            link_gate_px2: 50.0,
+            max_speed_mm_s: PAPER_MAX_SPEED_MM_S,
             max_trajectories: 200,
+            bridge: None,
         }
     }
 }
+
+/// The paper's link gate, `d^2 < 50` pixels^2 per frame at 20 Hz on 25.4/7 mm pixels, as
+/// a speed. [`Sampling::gate_px2`] turns it back into exactly 50.
+const PAPER_MAX_SPEED_MM_S: f64 = 7.071_067_811_865_475_5 * PAPER_PIXEL_MM * 20.0;
 
 /// Stage 4 parameters: the transform grid of the published code.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -294,6 +430,39 @@ impl Default for SignalConfig {
             pre_dent_a: -0.9,
             peak_a: 1.0,
             ramp_s: 0.5,
+        }
+    }
+}
+
+/// Stage 7 parameters: how faithful the keyframes must be, and what to try.
+///
+/// The signal is band-limited by the low-pass, so the file holds keyframes the player
+/// interpolates; every candidate period and quantisation is played through the real
+/// player and compared with the compiler's f64 signal (see [`crate::keyframes`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct KeyframeConfig {
+    /// Largest RMS difference between the player's output and the f64 signal, as a
+    /// fraction of the full scale (over all channels and ticks).
+    pub max_rms_error_fs: f64,
+    /// Largest difference at any tick and channel, fraction of the full scale.
+    pub max_abs_error_fs: f64,
+    /// Player ramp in and out, ms.
+    pub ramp_ms: u16,
+    /// Keyframe periods to try, ms (the longest that meets the bounds wins).
+    pub periods_ms: Vec<u16>,
+    /// Coarsest quantisation to try (`2^shift` Q15 units per step).
+    pub max_quant_shift: u8,
+}
+
+impl Default for KeyframeConfig {
+    fn default() -> Self {
+        Self {
+            max_rms_error_fs: 0.005,
+            max_abs_error_fs: 0.02,
+            ramp_ms: 10,
+            periods_ms: vec![250, 200, 125, 100, 80, 50, 40, 25, 20, 10, 5, 2, 1],
+            max_quant_shift: 9,
         }
     }
 }

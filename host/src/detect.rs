@@ -314,6 +314,17 @@ pub fn detect(blurred: &Blurred, cfg: &DetectConfig) -> Detections {
     score(maxima, blurred.mean, blurred.std, cfg)
 }
 
+/// [`detect`], with the lattice points of flat contacts when `cfg.split` asks for them
+/// (frames upsampled `upsample` times; see [`Split`]).
+pub fn detect_with(blurred: &Blurred, cfg: &DetectConfig, upsample: usize) -> Detections {
+    let points = blurred
+        .frames
+        .outer_iter()
+        .map(|f| frame_points(f, cfg, cfg.split.as_ref(), upsample))
+        .collect();
+    score(points, blurred.mean, blurred.std, cfg)
+}
+
 /// Scores per-frame local maxima (`maxima[t]` as returned by [`local_maxima`] for frame
 /// `t`, e.g. found during the blur) against the global mean and std; same result as
 /// [`detect`] on the same frames.

@@ -8,37 +8,33 @@
 //! compared with the compiler's own f64 signal. The smallest file that meets the
 //! fidelity bounds wins.
 
+use crate::config::KeyframeConfig;
 use touch_protocol::player::{code_to_amps, LimitKind};
 use touch_protocol::{stimulus, DeviceConfig, Limits, Player, Status, Stimulus, CHANNELS};
 
 /// Bounds and fixed fields of the encoding.
 #[derive(Debug, Clone, PartialEq)]
 pub struct KeyframeOptions {
-    /// Largest RMS difference between the player's output and the f64 signal, as a
-    /// fraction of the full scale (over all channels and ticks).
-    pub max_rms_error_fs: f64,
-    /// Largest difference at any tick and channel, fraction of the full scale.
-    pub max_abs_error_fs: f64,
-    /// Current of Q15 full scale, mA (the amplifier's full scale).
+    /// Current of Q15 full scale, mA (the amplifier's full scale: a device fact, not a
+    /// knob).
     pub full_scale_ma: u16,
-    /// Player ramp in and out, ms.
-    pub ramp_ms: u16,
-    /// Keyframe periods to try, ms.
-    pub periods_ms: Vec<u16>,
-    /// Coarsest quantisation to try (`2^shift` Q15 units per step).
-    pub max_quant_shift: u8,
+    /// The fidelity bounds, ramp and candidates (the config's `keyframes` section).
+    pub encoding: KeyframeConfig,
+}
+
+impl KeyframeOptions {
+    /// The options of `encoding` at the device's full scale.
+    pub fn new(encoding: &KeyframeConfig) -> Self {
+        KeyframeOptions {
+            full_scale_ma: DeviceConfig::default().full_scale_ma,
+            encoding: encoding.clone(),
+        }
+    }
 }
 
 impl Default for KeyframeOptions {
     fn default() -> Self {
-        KeyframeOptions {
-            max_rms_error_fs: 0.005,
-            max_abs_error_fs: 0.02,
-            full_scale_ma: 1000,
-            ramp_ms: 10,
-            periods_ms: vec![250, 200, 125, 100, 80, 50, 40, 25, 20, 10, 5, 2, 1],
-            max_quant_shift: 9,
-        }
+        KeyframeOptions::new(&KeyframeConfig::default())
     }
 }
 
@@ -122,20 +118,22 @@ pub fn encode(
     let mut closest = (f64::INFINITY, f64::INFINITY);
     let mut tried = 0;
     let mut limit_hit = None;
-    let mut periods = opts.periods_ms.clone();
+    let mut periods = opts.encoding.periods_ms.clone();
     periods.sort_unstable_by(|a, b| b.cmp(a));
     for &period in &periods {
         // Interpolation error alone, in f64: a period that misses the bounds before
         // quantisation cannot meet them after it.
         let (rms, max) = interpolation_error(signal, usize::from(period.max(1)));
-        if rms / fs_a > opts.max_rms_error_fs || max / fs_a > opts.max_abs_error_fs {
+        if rms / fs_a > opts.encoding.max_rms_error_fs
+            || max / fs_a > opts.encoding.max_abs_error_fs
+        {
             closest = min_pair(closest, (rms / fs_a, max / fs_a));
             continue;
         }
         // Coarsest passing resolution for this period. The error grows with the shift,
         // so bisect: `lo` passes (-1: none known yet), `hi` fails.
         let mut passing: Option<Encoded> = None;
-        let (mut lo, mut hi) = (-1i16, i16::from(opts.max_quant_shift.min(15)) + 1);
+        let (mut lo, mut hi) = (-1i16, i16::from(opts.encoding.max_quant_shift.min(15)) + 1);
         while hi - lo > 1 {
             let probe = lo + (hi - lo) / 2;
             tried += 1;
@@ -150,8 +148,8 @@ pub fn encode(
                 Err(e) => return Err(e),
             };
             closest = min_pair(closest, (candidate.rms_error_fs, candidate.max_error_fs));
-            if candidate.rms_error_fs <= opts.max_rms_error_fs
-                && candidate.max_error_fs <= opts.max_abs_error_fs
+            if candidate.rms_error_fs <= opts.encoding.max_rms_error_fs
+                && candidate.max_error_fs <= opts.encoding.max_abs_error_fs
             {
                 lo = probe;
                 passing = Some(candidate);
@@ -230,7 +228,7 @@ fn try_encoding(
         keyframe_period_ms: period,
         keyframe_count: 0,
         duration_ms: 0,
-        ramp_ms: opts.ramp_ms,
+        ramp_ms: opts.encoding.ramp_ms,
         full_scale_ma: opts.full_scale_ma,
         quant_shift: shift,
         layout_id: fields.layout_id,
@@ -239,7 +237,10 @@ fn try_encoding(
     };
     let bytes = stimulus::encode(header, &keyframes)?;
     let stim = Stimulus::decode(&bytes)?;
-    let bounds = (opts.max_rms_error_fs, opts.max_abs_error_fs);
+    let bounds = (
+        opts.encoding.max_rms_error_fs,
+        opts.encoding.max_abs_error_fs,
+    );
     let (rms, max) = measure(
         &stim,
         signal,
@@ -374,11 +375,11 @@ mod tests {
     fn tighter_bounds_cost_more_bytes() {
         let signal = stroke(3.0);
         let loose = encode(&signal, fields(), &KeyframeOptions::default()).unwrap();
-        let tight = KeyframeOptions {
+        let tight = KeyframeOptions::new(&KeyframeConfig {
             max_rms_error_fs: 0.0005,
             max_abs_error_fs: 0.002,
             ..Default::default()
-        };
+        });
         let tight = encode(&signal, fields(), &tight).unwrap();
         assert!(tight.rms_error_fs <= 0.0005);
         assert!(tight.bytes.len() > loose.bytes.len());
@@ -395,10 +396,10 @@ mod tests {
     #[test]
     fn impossible_bounds_are_an_error() {
         let signal = stroke(1.0);
-        let opts = KeyframeOptions {
+        let opts = KeyframeOptions::new(&KeyframeConfig {
             max_abs_error_fs: 1e-9,
             ..Default::default()
-        };
+        });
         assert!(matches!(
             encode(&signal, fields(), &opts),
             Err(KeyframeError::Unfaithful { .. })

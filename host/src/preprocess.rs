@@ -12,7 +12,7 @@
 
 use ndarray::{Array2, Array3, ArrayView1, ArrayView2, ArrayView3, ArrayViewMut2, Axis};
 
-use crate::config::PreprocessConfig;
+use crate::config::{PreprocessConfig, Sampling};
 
 /// Why a preprocessing configuration cannot be used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -21,7 +21,7 @@ pub enum PreprocessError {
     /// `upsample` must be at least 1 and at most [`MAX_UPSAMPLE`].
     #[error("upsampling factor must be at least 1 and at most {MAX_UPSAMPLE}, got {0}")]
     BadUpsample(usize),
-    /// `blur_sigma` and `blur_truncate` must be finite and non-negative.
+    /// The blur's sigma and truncate must be finite and non-negative.
     #[error(
         "blur sigma and truncate must be finite and >= 0, got sigma {sigma}, truncate {truncate}"
     )]
@@ -36,6 +36,28 @@ pub enum PreprocessError {
 /// The largest upsampling factor: x32 already makes a 705-frame recording 1.3 GB of f64
 /// pixels, and detections finer than 0.8 mm mean nothing on a one-inch sensor.
 pub const MAX_UPSAMPLE: usize = 32;
+
+/// The blur in pixels: what [`BlurOperator`] builds its matrices from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Blur {
+    /// Nearest-neighbour upsampling factor `k`.
+    pub upsample: usize,
+    /// Gaussian sigma, upsampled pixels.
+    pub sigma_px: f64,
+    /// Kernel half-width in sigmas (scipy's `truncate`).
+    pub truncate: f64,
+}
+
+impl Blur {
+    /// The blur `cfg` asks for at `sampling` (its sigma in mm as pixels).
+    pub fn new(cfg: &PreprocessConfig, sampling: &Sampling) -> Self {
+        Blur {
+            upsample: sampling.upsample,
+            sigma_px: sampling.px(cfg.blur_sigma_mm),
+            truncate: cfg.blur_truncate,
+        }
+    }
+}
 
 /// The blurred movie and its global statistics: the input of detection and of the
 /// per-actuator signal stage.
@@ -128,9 +150,9 @@ impl Banded {
 
 impl BlurOperator {
     /// Builds the operator for `rows x cols` frames.
-    pub fn new(rows: usize, cols: usize, cfg: &PreprocessConfig) -> Result<Self, PreprocessError> {
+    pub fn new(rows: usize, cols: usize, cfg: &Blur) -> Result<Self, PreprocessError> {
         validate(cfg)?;
-        let kernel = gaussian_kernel(cfg.blur_sigma, cfg.blur_truncate);
+        let kernel = gaussian_kernel(cfg.sigma_px, cfg.truncate);
         let a = Banded::new(axis_operator(rows, cfg.upsample, &kernel));
         let b = Banded::new(axis_operator(cols, cfg.upsample, &kernel));
         Ok(Self { a, b, rows, cols })
@@ -185,15 +207,15 @@ impl BlurOperator {
     }
 }
 
-fn validate(cfg: &PreprocessConfig) -> Result<(), PreprocessError> {
+fn validate(cfg: &Blur) -> Result<(), PreprocessError> {
     if cfg.upsample == 0 || cfg.upsample > MAX_UPSAMPLE {
         return Err(PreprocessError::BadUpsample(cfg.upsample));
     }
     let ok = |v: f64| v.is_finite() && v >= 0.0;
-    if !ok(cfg.blur_sigma) || !ok(cfg.blur_truncate) {
+    if !ok(cfg.sigma_px) || !ok(cfg.truncate) {
         return Err(PreprocessError::BadBlur {
-            sigma: cfg.blur_sigma,
-            truncate: cfg.blur_truncate,
+            sigma: cfg.sigma_px,
+            truncate: cfg.truncate,
         });
     }
     Ok(())
@@ -201,14 +223,14 @@ fn validate(cfg: &PreprocessConfig) -> Result<(), PreprocessError> {
 
 /// Upsamples and blurs every tared frame and computes the global mean and std.
 ///
-/// `tared` must be NaN-free (see [`crate::recording::Recording::tare`]); `cell_mm` is the
-/// sensor cell pitch.
+/// `tared` must be NaN-free (see [`crate::recording::Recording::tare`]); `sampling` gives
+/// the cell pitch and upsampling factor.
 pub fn preprocess(
     tared: ArrayView3<f64>,
     cfg: &PreprocessConfig,
-    cell_mm: f64,
+    sampling: &Sampling,
 ) -> Result<Blurred, PreprocessError> {
-    preprocess_with(tared, cfg, cell_mm, |_, _| {})
+    preprocess_with(tared, cfg, sampling, |_, _| {})
 }
 
 /// [`preprocess`], calling `visit(t, frame)` on each blurred frame as soon as it is
@@ -217,11 +239,11 @@ pub fn preprocess(
 pub fn preprocess_with(
     tared: ArrayView3<f64>,
     cfg: &PreprocessConfig,
-    cell_mm: f64,
+    sampling: &Sampling,
     mut visit: impl FnMut(usize, ArrayView2<f64>),
 ) -> Result<Blurred, PreprocessError> {
     let (t, r, c) = tared.dim();
-    let op = BlurOperator::new(r, c, cfg)?;
+    let op = BlurOperator::new(r, c, &Blur::new(cfg, sampling))?;
     let (h, w) = op.out_dim();
     let mut frames = Array3::<f64>::zeros((t, h, w));
     let mut scratch = Vec::new();
@@ -242,7 +264,7 @@ pub fn preprocess_with(
         frames,
         mean,
         std,
-        pitch_mm: cell_mm / cfg.upsample as f64,
+        pitch_mm: sampling.pixel_mm(),
     })
 }
 

@@ -7,10 +7,10 @@
 
 use std::path::Path;
 
-use ndarray::{Array3, ArrayD, ArrayView3, Axis, Ix3};
+use ndarray::{Array2, Array3, ArrayD, ArrayView3, Axis, Ix3};
 use ndarray_npy::{ReadNpyError, ReadNpyExt};
 
-use crate::config::InputConfig;
+use crate::config::{Baseline, InputConfig, Sampling};
 
 /// What can be wrong with a recording file or its contents.
 #[derive(Debug, thiserror::Error)]
@@ -76,8 +76,8 @@ pub enum RecordingError {
     },
     /// Too few frames to tare and still keep one frame.
     #[error(
-        "{name}: {frames} frame(s) is too short: the tare uses {tare} frames and drops \
-         {tare} at each end, so at least {min} frames are needed"
+        "{name}: {frames} frame(s) is too short: the tare window ({tare} frames) and the \
+         trim at each end need at least {min} frames (input.tare_s, input.trim_s)"
     )]
     TooShort {
         /// The file the recording came from.
@@ -183,33 +183,43 @@ impl Recording {
         self.data.dim()
     }
 
-    /// Tare and trim: subtract each cell's mean over the first `B` frames, drop `B`
-    /// frames at both ends, and turn NaN into 0.
+    /// Tare and trim: subtract each cell's baseline, drop `trim_s` at both ends, and turn
+    /// NaN into 0. `sampling` turns the config's seconds into frames.
     ///
-    /// Follows numpy semantics: a cell that is NaN in any tare frame has a NaN mean and
-    /// is therefore 0 ("no cell") for the whole recording; a NaN reading elsewhere is 0
-    /// in that frame only.
-    pub fn tare(&self, cfg: &InputConfig) -> Result<Array3<f64>, RecordingError> {
-        let b = cfg.tare_frames;
-        let (t, r, c) = self.dim();
-        let min = b.saturating_mul(2).saturating_add(1);
+    /// The `leading` baseline (the paper) is each cell's mean over the first `tare_s`,
+    /// with numpy semantics: a cell that is NaN in any tare frame has a NaN mean and is
+    /// therefore 0 ("no cell") for the whole recording; a NaN reading elsewhere is 0 in
+    /// that frame only. The `robust` baseline is each cell's `baseline_quantile` over
+    /// the whole recording (NaN readings ignored; a cell with none is 0), so a recording
+    /// may begin or end mid-touch.
+    pub fn tare(
+        &self,
+        cfg: &InputConfig,
+        sampling: &Sampling,
+    ) -> Result<Array3<f64>, RecordingError> {
+        let tare = match cfg.baseline {
+            Baseline::Leading => sampling.frames(cfg.tare_s),
+            Baseline::Robust => 0,
+        };
+        let trim = sampling.frames(cfg.trim_s);
+        let (t, _, _) = self.dim();
+        let min = trim.saturating_mul(2).saturating_add(1).max(tare);
         if t < min {
             return Err(RecordingError::TooShort {
                 name: self.name.clone(),
                 frames: t,
-                tare: b,
+                tare,
                 min,
             });
         }
-        let mut baseline = ndarray::Array2::<f64>::zeros((r, c));
-        if b > 0 {
-            // Sequential sum over frames, as numpy reduces a non-contiguous axis.
-            for frame in self.data.axis_iter(Axis(0)).take(b) {
-                baseline += &frame;
-            }
-            baseline /= b as f64;
-        }
-        let mut out = self.data.slice(ndarray::s![b..t - b, .., ..]).to_owned();
+        let baseline = match cfg.baseline {
+            Baseline::Leading => leading_baseline(self.data.view(), tare),
+            Baseline::Robust => robust_baseline(self.data.view(), cfg.baseline_quantile),
+        };
+        let mut out = self
+            .data
+            .slice(ndarray::s![trim..t - trim, .., ..])
+            .to_owned();
         for mut frame in out.axis_iter_mut(Axis(0)) {
             frame.zip_mut_with(&baseline, |v, &m| {
                 let x = *v - m;
@@ -218,6 +228,66 @@ impl Recording {
         }
         Ok(out)
     }
+}
+
+/// The recording's own metadata. Until `.npz` input lands (helper "inputs"), a file
+/// states neither rate nor pitch, so the command line or the config decides.
+impl Recording {
+    /// The frame rate the file states (a `.npz` scalar `rate_hz`), Hz.
+    pub fn file_rate_hz(&self) -> Option<f64> {
+        None
+    }
+
+    /// The cell pitch the file states (a `.npz` scalar `pitch_mm`), mm.
+    pub fn file_pitch_mm(&self) -> Option<f64> {
+        None
+    }
+}
+
+/// Each cell's mean over the first `frames` frames (0 when `frames` is 0), summed frame
+/// by frame as numpy reduces a non-contiguous axis.
+fn leading_baseline(data: ArrayView3<f64>, frames: usize) -> Array2<f64> {
+    let (_, r, c) = data.dim();
+    let mut baseline = Array2::<f64>::zeros((r, c));
+    if frames > 0 {
+        for frame in data.axis_iter(Axis(0)).take(frames) {
+            baseline += &frame;
+        }
+        baseline /= frames as f64;
+    }
+    baseline
+}
+
+/// Each cell's `q`-quantile over every frame (linear interpolation between order
+/// statistics, numpy's default), NaN readings ignored; NaN for a cell that is never
+/// read, which the tare then turns into 0 ("no cell").
+fn robust_baseline(data: ArrayView3<f64>, q: f64) -> Array2<f64> {
+    let (_, r, c) = data.dim();
+    let mut values = Vec::new();
+    Array2::from_shape_fn((r, c), |(row, col)| {
+        values.clear();
+        values.extend(
+            data.slice(ndarray::s![.., row, col])
+                .iter()
+                .copied()
+                .filter(|v| !v.is_nan()),
+        );
+        quantile(&mut values, q)
+    })
+}
+
+/// The `q`-quantile of `values` (reordered in place); NaN when empty.
+fn quantile(values: &mut [f64], q: f64) -> f64 {
+    let n = values.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    values.sort_unstable_by(f64::total_cmp);
+    let pos = q.clamp(0.0, 1.0) * (n - 1) as f64;
+    let lo = pos.floor() as usize;
+    let hi = (lo + 1).min(n - 1);
+    let w = pos - lo as f64;
+    values[lo] + w * (values[hi] - values[lo])
 }
 
 fn npy_error(name: String, e: ReadNpyError) -> RecordingError {
@@ -247,11 +317,13 @@ mod tests {
             a[[t, 0, 1]] = 10.0;
         }
         let rec = Recording::from_array("x", a.view()).unwrap();
+        // 2 frames of tare and trim at 20 Hz.
         let cfg = InputConfig {
-            tare_frames: 2,
+            tare_s: 0.1,
+            trim_s: 0.1,
             ..InputConfig::default()
         };
-        let tared = rec.tare(&cfg).unwrap();
+        let tared = rec.tare(&cfg, &Sampling::PAPER).unwrap();
         assert_eq!(tared.dim(), (1, 1, 2));
         assert_eq!(tared[[0, 0, 0]], 2.0 - 0.5);
         assert_eq!(tared[[0, 0, 1]], 0.0);
@@ -261,8 +333,47 @@ mod tests {
     fn too_short_names_minimum() {
         let a = Array3::<f64>::zeros((40, 2, 2));
         let rec = Recording::from_array("short.npy", a.view()).unwrap();
-        let err = rec.tare(&InputConfig::default()).unwrap_err();
+        let err = rec
+            .tare(&InputConfig::default(), &Sampling::PAPER)
+            .unwrap_err();
         let msg = err.to_string();
         assert!(msg.contains("short.npy") && msg.contains("41"), "{msg}");
+    }
+
+    /// A recording that starts mid-press: the leading baseline tares the press away,
+    /// the robust one keeps it.
+    #[test]
+    fn robust_baseline_keeps_a_press_at_the_start() {
+        let mut a = Array3::<f64>::from_elem((100, 1, 2), 0.3);
+        for t in 0..40 {
+            a[[t, 0, 0]] = 2.3; // pressed by 2 psi for the first 2 s
+        }
+        let rec = Recording::from_array("mid-press", a.view()).unwrap();
+        let leading = rec.tare(&InputConfig::default(), &Sampling::PAPER).unwrap();
+        assert!(
+            leading[[0, 0, 0]].abs() < 1e-12,
+            "the paper's tare removes the press"
+        );
+        let robust = InputConfig {
+            baseline: Baseline::Robust,
+            ..InputConfig::default()
+        };
+        let tared = rec.tare(&robust, &Sampling::PAPER).unwrap();
+        assert_eq!(tared.dim(), (60, 1, 2));
+        // Frames 20..40 of the recording are the first 20 after the trim.
+        assert!((tared[[0, 0, 0]] - 2.0).abs() < 1e-12);
+        assert!((tared[[19, 0, 0]] - 2.0).abs() < 1e-12);
+        assert!(tared[[20, 0, 0]].abs() < 1e-12);
+        assert!(tared
+            .slice(ndarray::s![.., 0, 1])
+            .iter()
+            .all(|v| v.abs() < 1e-12));
+    }
+
+    #[test]
+    fn quantile_interpolates_like_numpy() {
+        // numpy.quantile([4, 1, 3, 2], 0.1) = 1.3
+        assert!((quantile(&mut [4.0, 1.0, 3.0, 2.0], 0.1) - 1.3).abs() < 1e-12);
+        assert!(quantile(&mut [], 0.1).is_nan());
     }
 }

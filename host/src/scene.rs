@@ -3,9 +3,10 @@
 //!
 //! A recording is mostly quiet: sensor noise before the hand arrives and after it
 //! leaves, and cells far from the contact. The crop keeps the frames with any reading
-//! above the touch threshold plus [`TIME_MARGIN_FRAMES`] on each side, and the cells'
-//! bounding box plus [`SPACE_MARGIN_CELLS`]. Detection, tracking and the per-actuator
-//! signals run on that window only; everything outside it is silent.
+//! above the touch threshold plus `crop.time_margin_s` on each side, and the cells'
+//! bounding box plus `crop.space_margin_mm` (both rounded up to whole frames and cells
+//! at the recording's [`Sampling`]). Detection, tracking and the per-actuator signals
+//! run on that window only; everything outside it is silent.
 //!
 //! The statistics are those of the whole recording: the blur runs on every frame (the
 //! cheap stage, a few ms for 705 frames) so that the mean and standard deviation, and
@@ -21,19 +22,13 @@ use std::ops::Range;
 use ndarray::{ArrayView3, Axis, Slice};
 use serde::Serialize;
 
-use crate::config::{Config, InputConfig};
-use crate::detect::{detect, detection_cost, Detections};
+use crate::config::{Config, Sampling};
+use crate::detect::{detect_with, detection_cost, Detections};
 use crate::placement::Placement;
 use crate::preprocess::{preprocess, Blurred};
 use crate::signals::{self, ChannelSignals, Source};
 use crate::track::{link, TrackError, TrackOutput};
 use touch_protocol::CHANNELS;
-
-/// Quiet frames kept on each side of the active window (0.5 s at 20 Hz).
-pub const TIME_MARGIN_FRAMES: usize = 10;
-/// Quiet cells kept on each side of the active bounding box: the blur reaches
-/// 4 sigma = 12 pixels (under two cells), a link 7 pixels (one cell).
-pub const SPACE_MARGIN_CELLS: usize = 3;
 
 /// The part of a tared recording the heavy stages look at, in frames and sensor cells.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -63,9 +58,9 @@ pub fn touch_readings(tared: ArrayView3<f64>, threshold_psi: f64) -> usize {
 }
 
 /// The active scene with its margins; the whole recording when nothing is active.
-pub fn active_crop(tared: ArrayView3<f64>, input: &InputConfig) -> Crop {
+pub fn active_crop(tared: ArrayView3<f64>, cfg: &Config, sampling: &Sampling) -> Crop {
     let (t, r, c) = tared.dim();
-    let thr = input.touch_threshold_psi;
+    let thr = cfg.input.touch_threshold_psi;
     let (mut f0, mut f1, mut r0, mut r1, mut c0, mut c1) = (t, 0, r, 0, c, 0);
     for ((f, row, col), &v) in tared.indexed_iter() {
         if v > thr {
@@ -80,11 +75,15 @@ pub fn active_crop(tared: ArrayView3<f64>, input: &InputConfig) -> Crop {
     if f0 >= f1 {
         return Crop::whole(tared.dim());
     }
-    let widen = |lo: usize, hi: usize, m: usize, n: usize| lo.saturating_sub(m)..(hi + m).min(n);
+    let widen = |lo: usize, hi: usize, m: usize, n: usize| {
+        lo.saturating_sub(m)..hi.saturating_add(m).min(n)
+    };
+    let time = sampling.frames_ceil(cfg.crop.time_margin_s);
+    let space = sampling.cells_ceil(cfg.crop.space_margin_mm);
     Crop {
-        frames: widen(f0, f1, TIME_MARGIN_FRAMES, t),
-        rows: widen(r0, r1, SPACE_MARGIN_CELLS, r),
-        cols: widen(c0, c1, SPACE_MARGIN_CELLS, c),
+        frames: widen(f0, f1, time, t),
+        rows: widen(r0, r1, space, r),
+        cols: widen(c0, c1, space, c),
     }
 }
 
@@ -99,24 +98,25 @@ pub fn track_cropped(
     tared: ArrayView3<f64>,
     crop: &Crop,
     cfg: &Config,
+    sampling: &Sampling,
     lap: &mut dyn FnMut(&'static str),
 ) -> Result<(TrackOutput, Crop), TrackError> {
-    let mut window = preprocess(tared, &cfg.preprocess, cfg.input.cell_mm)?;
+    let mut window = preprocess(tared, &cfg.preprocess, sampling)?;
     let crop = exact_crop(crop, &window, cfg);
     // Narrow the view to the window without copying the movie.
     window
         .frames
         .slice_axis_inplace(Axis(0), Slice::from(crop.frames.clone()));
     lap("preprocess");
-    let k = cfg.preprocess.upsample;
+    let k = sampling.upsample;
     let (rows, cols) = (
         crop.rows.start * k..crop.rows.end * k,
         crop.cols.start * k..crop.cols.end * k,
     );
-    let found = detect(&window, &cfg.detect);
+    let found = detect_with(&window, &cfg.detect, k);
     let detections = shift_and_clip(&found, crop.frames.start, tared.dim().0, &rows, &cols);
     lap("detect");
-    let trajectories = link(&detections, &cfg.track)?;
+    let trajectories = link(&detections, &cfg.track, sampling)?;
     lap("track");
     let tracked = TrackOutput {
         blurred: window,

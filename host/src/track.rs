@@ -15,8 +15,8 @@
 use ndarray::Array3;
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Config, TrackConfig};
-use crate::detect::{local_maxima, score, Detections};
+use crate::config::{Config, Metadata, MetadataOverrides, Sampling, TrackConfig};
+use crate::detect::{frame_points, score, Detections};
 use crate::flow::{min_cost_flow, FlowError, FlowGraph};
 use crate::preprocess::{preprocess_with, Blurred, PreprocessError};
 use crate::recording::{Recording, RecordingError};
@@ -35,6 +35,9 @@ pub enum TrackError {
     /// The tracking parameters produced an unsolvable graph (e.g. a NaN entry cost).
     #[error("tracking config: {0}")]
     Flow(#[from] FlowError),
+    /// A knob is out of its range (names the knob, the value and the range).
+    #[error("config: {0}")]
+    Config(#[from] crate::config::ConfigError),
 }
 
 /// Everything later stages need from tracking.
@@ -71,17 +74,36 @@ impl TrackOutput {
     }
 }
 
-/// Stages 0-3: tare, upsample and blur, detect, track.
+/// Stages 0-3: tare, upsample and blur, detect, track, at the rate and pitch of the file
+/// or the config (see [`track_with`]).
 pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, TrackError> {
-    let tared = rec.tare(&cfg.input)?;
+    track_with(rec, cfg, &MetadataOverrides::default())
+}
+
+/// [`track`] with the rate and pitch of `overrides` where given (`--rate`, `--pitch-mm`).
+/// The config is validated first, against the recording's sampling.
+pub fn track_with(
+    rec: &Recording,
+    cfg: &Config,
+    overrides: &MetadataOverrides,
+) -> Result<TrackOutput, TrackError> {
+    let sampling = Sampling::new(&Metadata::resolve(overrides, rec, cfg), cfg);
+    let (_, rows, cols) = rec.dim();
+    cfg.validate_for(&sampling, (rows, cols))?;
+    let tared = rec.tare(&cfg.input, &sampling)?;
     // Local maxima are found while each blurred frame is still in cache; scoring needs
     // the global statistics, so it waits for the whole movie. Same as `detect::detect`.
     let mut maxima = Vec::with_capacity(tared.dim().0);
-    let blurred = preprocess_with(tared.view(), &cfg.preprocess, cfg.input.cell_mm, |_, f| {
-        maxima.push(local_maxima(f, cfg.detect.min_value_psi))
+    let blurred = preprocess_with(tared.view(), &cfg.preprocess, &sampling, |_, f| {
+        maxima.push(frame_points(
+            f,
+            &cfg.detect,
+            cfg.detect.split.as_ref(),
+            sampling.upsample,
+        ))
     })?;
     let detections = score(maxima, blurred.mean, blurred.std, &cfg.detect);
-    let trajectories = link(&detections, &cfg.track)?;
+    let trajectories = link(&detections, &cfg.track, &sampling)?;
     Ok(TrackOutput {
         blurred,
         detections,
@@ -108,11 +130,6 @@ pub struct Bridge {
     pub cost_per_missing: f64,
 }
 
-/// Builds the flow graph of `detections`, solves it and extracts the trajectories.
-pub fn link(detections: &Detections, cfg: &TrackConfig) -> Result<Vec<Trajectory>, FlowError> {
-    link_bridged(detections, cfg, 0, 0.0)
-}
-
 impl Bridge {
     /// The most frames a link may skip at `rate_hz`.
     pub fn missing_frames(&self, rate_hz: f64) -> usize {
@@ -128,25 +145,25 @@ impl Bridge {
 /// However fast the sensor, a link skips at most this many frames (graph size).
 pub const MAX_MISSING_FRAMES: usize = 16;
 
-/// [`link`], with links across up to `missing` missing frames at `cost_per_missing`
-/// each (see [`Bridge`]). With `missing = 0` the graph, and so every result, is
-/// [`link`]'s.
-pub fn link_bridged(
+/// Builds the flow graph of `detections`, solves it and extracts the trajectories. The
+/// link gate is `cfg.max_speed_mm_s` in squared pixels per frame at `sampling`; with
+/// `cfg.bridge` links also skip missing frames (see [`Bridge`]), without it the graph is
+/// the paper's.
+pub fn link(
     detections: &Detections,
     cfg: &TrackConfig,
-    missing: usize,
-    cost_per_missing: f64,
+    sampling: &Sampling,
 ) -> Result<Vec<Trajectory>, FlowError> {
+    let gate_px2 = sampling.gate_px2(cfg.max_speed_mm_s);
+    let (missing, cost_per_missing) = cfg.bridge.map_or((0, 0.0), |b| {
+        (b.missing_frames(sampling.rate_hz), b.cost_per_missing)
+    });
     let n = detections.all.len();
     let (source, sink) = (0, 2 * n + 1);
     let mut g = FlowGraph::new(2 * n + 2);
     // Which detection an edge is the detection edge of (None for other edges).
     let mut edge_detection = Vec::new();
-    let gate_radius = if cfg.link_gate_px2 > 0.0 {
-        cfg.link_gate_px2.sqrt()
-    } else {
-        0.0
-    };
+    let gate_radius = if gate_px2 > 0.0 { gate_px2.sqrt() } else { 0.0 };
     for t in 0..detections.frames() {
         let first = detections.frame_start[t];
         let prev_first = if t > 0 {
@@ -176,14 +193,14 @@ pub fn link_bridged(
                 }
                 let dc = p.col as f64 - d.col as f64;
                 let d2 = dr * dr + dc * dc;
-                if d2 < cfg.link_gate_px2 {
-                    let cost = -(-d2 / cfg.link_gate_px2).ln_1p();
+                if d2 < gate_px2 {
+                    let cost = -(-d2 / gate_px2).ln_1p();
                     g.add_edge(2 * (prev_first + j) + 2, entry, cost)?;
                     edge_detection.push(None);
                 }
             }
             for gap in 2..=(missing + 1).min(t) {
-                let gate = cfg.link_gate_px2 * (gap * gap) as f64;
+                let gate = gate_px2 * (gap * gap) as f64;
                 let (radius, first_back) = (gate.sqrt(), detections.frame_start[t - gap]);
                 let back = detections.in_frame(t - gap);
                 let lo = back.partition_point(|p| (p.row as f64) < d.row as f64 - radius);

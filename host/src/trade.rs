@@ -18,6 +18,7 @@ use serde::Serialize;
 use crate::compile::{compile, CompileError, CompileOptions, Compiled};
 use crate::config::{Config, Preset};
 use crate::geometry::pixel_centre_mm;
+use crate::keyframes::KeyframeOptions;
 use crate::recording::Recording;
 use crate::track::TrackOutput;
 use touch_protocol::CHANNELS;
@@ -78,7 +79,7 @@ pub fn trade(
     let Some((_, exact)) = runs.iter().find(|(p, _)| *p == Preset::Exact) else {
         return Ok(Vec::new());
     };
-    let fs_a = f64::from(base.keyframes.full_scale_ma) / 1000.0;
+    let fs_a = f64::from(KeyframeOptions::new(&base.config.keyframes).full_scale_ma) / 1000.0;
     Ok(runs
         .iter()
         .map(|(preset, c)| {

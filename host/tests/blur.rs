@@ -5,7 +5,8 @@ mod common;
 use ndarray::{Array2, ArrayView2};
 use proptest::prelude::*;
 use touchc::config::PreprocessConfig;
-use touchc::preprocess::{gaussian_kernel, BlurOperator};
+use touchc::config::Sampling;
+use touchc::preprocess::{gaussian_kernel, Blur, BlurOperator};
 
 /// scipy 'reflect', by bouncing off the ends until inside (independent of the crate's
 /// modular formula).
@@ -50,10 +51,10 @@ fn matches_scipy_gaussian_filter1d_doc_example() {
         ),
     ];
     for (sigma, want) in cases {
-        let cfg = PreprocessConfig {
+        let cfg = Blur {
             upsample: 1,
-            blur_sigma: sigma,
-            blur_truncate: 4.0,
+            sigma_px: sigma,
+            truncate: 4.0,
         };
         let op = BlurOperator::new(1, 5, &cfg).unwrap();
         let f = Array2::from_shape_vec((1, 5), vec![1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
@@ -67,7 +68,8 @@ fn matches_scipy_gaussian_filter1d_doc_example() {
 #[test]
 fn paper_shape_matches_oracle() {
     let rec = common::moving_blobs(60, 2, 7);
-    let cfg = PreprocessConfig::default();
+    let cfg = Blur::new(&PreprocessConfig::default(), &Sampling::PAPER);
+    assert_eq!(cfg.sigma_px, 3.0);
     let op = BlurOperator::new(8, 21, &cfg).unwrap();
     let frame = rec
         .index_axis(ndarray::Axis(0), 30)
@@ -91,7 +93,7 @@ proptest! {
     ) {
         let mut n = common::Noise::new(seed);
         let frame = Array2::from_shape_fn((r, c), |_| n.next());
-        let cfg = PreprocessConfig { upsample: k, blur_sigma: sigma, blur_truncate: 4.0 };
+        let cfg = Blur { upsample: k, sigma_px: sigma, truncate: 4.0 };
         let got = BlurOperator::new(r, c, &cfg).unwrap().apply(frame.view());
         let want = oracle(frame.view(), k, sigma, 4.0);
         for (g, w) in got.iter().zip(want.iter()) {

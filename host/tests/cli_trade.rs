@@ -77,7 +77,7 @@ fn presets_and_knobs_reach_the_compile() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("nope"));
     let bad = compile(&["--upsample", "0"]);
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("upsampling factor"));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("preprocess.upsample = 0"));
 }
 
 #[test]

@@ -228,7 +228,9 @@ fn render_wav_is_the_players_output_at_the_chosen_rate() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("a.wav"));
 }
 
-/// Decodes every frame of a GIF into RGBA; returns (width, height, frames, delays).
+/// Decodes a GIF into the full RGBA pictures a viewer shows: each frame's rectangle laid
+/// over the picture before it (transparent pixels keep what was there); returns
+/// (width, height, pictures, delays).
 fn decode_gif(path: &Path) -> (u16, u16, Vec<Vec<u8>>, Vec<u16>) {
     let mut opts = gif::DecodeOptions::new();
     opts.set_color_output(gif::ColorOutput::RGBA);
@@ -236,12 +238,30 @@ fn decode_gif(path: &Path) -> (u16, u16, Vec<Vec<u8>>, Vec<u16>) {
     let mut decoder = opts.read_info(file).unwrap();
     let (w, h) = (decoder.width(), decoder.height());
     let (mut frames, mut delays) = (Vec::new(), Vec::new());
+    let mut canvas = vec![0u8; 4 * usize::from(w) * usize::from(h)];
     while let Some(frame) = decoder.read_next_frame().unwrap() {
-        assert_eq!(
-            (frame.width, frame.height, frame.left, frame.top),
-            (w, h, 0, 0)
+        if frames.is_empty() {
+            assert_eq!(
+                (frame.width, frame.height, frame.left, frame.top),
+                (w, h, 0, 0),
+                "the first frame is whole"
+            );
+        }
+        assert_ne!(frame.dispose, gif::DisposalMethod::Background);
+        let (fw, left, top) = (
+            usize::from(frame.width),
+            usize::from(frame.left),
+            usize::from(frame.top),
         );
-        frames.push(frame.buffer.to_vec());
+        assert!(left + fw <= usize::from(w));
+        assert!(top + usize::from(frame.height) <= usize::from(h));
+        for (i, px) in frame.buffer.chunks_exact(4).enumerate() {
+            if px[3] != 0 {
+                let at = 4 * ((top + i / fw) * usize::from(w) + left + i % fw);
+                canvas[at..at + 4].copy_from_slice(px);
+            }
+        }
+        frames.push(canvas.clone());
         delays.push(frame.delay);
     }
     (w, h, frames, delays)
@@ -281,7 +301,7 @@ fn preview_animates_every_frame_with_the_trajectories() {
     };
     let compiled = compile(&rec, &opts).unwrap();
     let layout = preview::layout(&compiled).unwrap();
-    let tare = opts.config.input.tare_frames;
+    let tare = touchc::config::Sampling::PAPER.frames(opts.config.input.trim_s);
     assert_eq!(
         frames.len(),
         rec.dim().0 - 2 * tare,
@@ -341,6 +361,11 @@ fn preview_animates_every_frame_with_the_trajectories() {
     assert_eq!(thinned.len(), frames.len().div_ceil(3));
     assert_eq!(thinned[1], frames[3]);
     assert!(delays.iter().all(|&d| d == 15));
+    // Frames after the first hold only what changed: the file is far smaller than
+    // whole frames would make it (about 3 bits a pixel after LZW on this picture).
+    let bytes = std::fs::metadata(&gif_path).unwrap().len() as usize;
+    let whole = thinned.len() * usize::from(w) * usize::from(h);
+    assert!(bytes * 4 < whole, "{bytes} bytes for {whole} px");
 }
 
 #[test]
@@ -366,6 +391,48 @@ fn preview_png_shows_one_frame_and_refuses_frames_past_the_end() {
     let has = |c: [u8; 3]| rgb.chunks(3).any(|p| p == c);
     assert!(has([0, 0, 4]));
     assert!(has([120, 120, 120]));
+
+    // The colour bar runs from the heat scale's 0 psi end (bottom row) to its maximum
+    // (top row), brightening all the way.
+    use touchc::viz::{palette::heat, preview};
+    let rec = touchc::recording::Recording::load(&rec_path).unwrap();
+    let opts = touchc::compile::CompileOptions {
+        fit: true,
+        crop: false,
+        ..Default::default()
+    };
+    let layout = preview::layout(&touchc::compile::compile(&rec, &opts).unwrap()).unwrap();
+    let px = |x: u32, y: u32| {
+        let i = 3 * (y * w + x) as usize;
+        [rgb[i], rgb[i + 1], rgb[i + 2]]
+    };
+    let (x0, y0, x1, y1) = layout.colour_bar;
+    let mid = (x0 + x1) / 2;
+    assert_eq!(px(mid, y0), heat(1.0));
+    assert_eq!(px(mid, y1 - 1), heat(0.0));
+    let sum = |c: [u8; 3]| c.iter().map(|&v| u32::from(v)).sum::<u32>();
+    assert!((y0..y1 - 1).all(|y| sum(px(mid, y)) >= sum(px(mid, y + 1))));
+    // Each row is one colour edge to edge, and the middle row is the middle of the scale
+    // (within a row's step).
+    assert!((y0..y1).all(|y| (x0..x1).all(|x| px(x, y) == px(mid, y))));
+    let half = px(mid, (y0 + y1) / 2);
+    let near = |f: f64| heat(f).iter().zip(half).all(|(&a, b)| a.abs_diff(b) <= 3);
+    assert!(near(0.5), "{half:?} vs {:?}", heat(0.5));
+
+    // Every legend entry has its text: light glyph pixels (anti-aliased white) right of
+    // each of the six swatches, on the legend's dark band.
+    let col_w = (w - 16) / 2;
+    for k in 0..6u32 {
+        let (tx, ty) = (
+            8 + 6 + (k % 2) * col_w + 38,
+            layout.legend_top + (k / 2) * 20,
+        );
+        let white = (ty..ty + 20)
+            .flat_map(|y| (tx..tx + col_w - 50).map(move |x| (x, y)))
+            .filter(|&(x, y)| px(x, y).iter().all(|&v| v >= 160))
+            .count();
+        assert!(white > 40, "legend entry {k}: {white} light px");
+    }
     let out = args("100000");
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
@@ -392,4 +459,137 @@ fn preview_of_a_recording_without_touch_says_so() {
         "{err}"
     );
     assert!(!gif_path.exists());
+}
+
+/// Runs `touchc preview` on `rec_path` into a GIF next to it, and the compile the
+/// command runs: (width, composited frames, recording, compile, frame layout).
+fn preview_gif_and_compile(
+    rec_path: &Path,
+) -> (
+    u16,
+    Vec<Vec<u8>>,
+    touchc::recording::Recording,
+    touchc::compile::Compiled,
+    touchc::viz::preview::FrameLayout,
+) {
+    let gif_path = rec_path.with_extension("gif");
+    ok(&touchc(&[
+        "preview",
+        rec_path.to_str().unwrap(),
+        "-o",
+        gif_path.to_str().unwrap(),
+    ]));
+    let (w, _, frames, _) = decode_gif(&gif_path);
+    let rec = touchc::recording::Recording::load(rec_path).unwrap();
+    let opts = touchc::compile::CompileOptions {
+        fit: true,
+        crop: false,
+        ..Default::default()
+    };
+    let compiled = touchc::compile::compile(&rec, &opts).unwrap();
+    let layout = touchc::viz::preview::layout(&compiled).unwrap();
+    (w, frames, rec, compiled, layout)
+}
+
+/// A recording whose touch is partly missed: a press held for 2 s (tracked) and, in the
+/// middle of it, a one-frame blip at the far end of the sleeve (too brief for a
+/// trajectory). 20 quiet frames before and after for the tare and trim.
+fn press_and_blip() -> ndarray::Array3<f64> {
+    let mut rec = ndarray::Array3::<f64>::zeros((100, 8, 21));
+    let mut touch = |t: usize, r: usize, c: usize, psi: f64| {
+        for (dr, dc, f) in [(0, 0, 1.0), (1, 0, 0.5), (0, 1, 0.5), (1, 1, 0.3)] {
+            rec[[t, r + dr, c + dc]] += psi * f;
+        }
+    };
+    for t in 25..65 {
+        touch(t, 3, 4, 2.0);
+    }
+    touch(45, 5, 17, 2.0);
+    rec
+}
+
+#[test]
+fn preview_marks_touch_no_contact_explains_and_only_that() {
+    use touchc::coverage::{self, Cell};
+    use touchc::viz::preview;
+
+    let dir = tempfile::tempdir().unwrap();
+    let rec_path = dir.path().join("blip.npy");
+    std::fs::write(&rec_path, touchc::synth::to_npy(&press_and_blip()).unwrap()).unwrap();
+    let (w, frames, rec, compiled, layout) = preview_gif_and_compile(&rec_path);
+
+    // What the picture must show, from the coverage module on the compile's own
+    // trajectories (the module is tested on its own in `coverage.rs`).
+    let input = &compiled.report.config.input;
+    let sampling =
+        touchc::config::Sampling::new(&compiled.report.metadata, &compiled.report.config);
+    let tared = rec.tare(input, &sampling).unwrap();
+    let points = coverage::contact_points(
+        &compiled.tracked.as_ref().unwrap().trajectories,
+        compiled.report.config.preprocess.upsample,
+    );
+    let cells = coverage::classify(
+        tared.view(),
+        input.touch_threshold_psi,
+        &points,
+        coverage::DEFAULT_RADIUS_CELLS,
+    );
+    let count = |want: Cell| cells.iter().filter(|&&c| c == want).count();
+    // The case is what it claims: the blip is missed, the press is explained.
+    assert!(count(Cell::Unexplained) >= 4, "the blip is unexplained");
+    assert!(count(Cell::Explained) > 100, "the press is tracked");
+    assert!(cells
+        .index_axis(ndarray::Axis(0), 25)
+        .iter()
+        .any(|&c| c == Cell::Unexplained));
+
+    let red = preview::UNEXPLAINED;
+    let (mut marked, mut clean) = (0, 0);
+    for (t, frame) in frames.iter().enumerate() {
+        for ((r, c), &cell) in cells.index_axis(ndarray::Axis(0), t).indexed_iter() {
+            let (x0, y0, x1, y1) = layout.cell_rect(r, c);
+            let reds = (y0..y1)
+                .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                .filter(|&(x, y)| {
+                    let i = 4 * (y * usize::from(w) + x);
+                    frame[i..i + 3] == [red.0, red.1, red.2]
+                })
+                .count();
+            if cell == Cell::Unexplained {
+                // Hatched: one pixel in six at least, outline or not.
+                assert!(
+                    reds >= (x1 - x0) * (y1 - y0) / 6,
+                    "frame {t} cell ({r}, {c})"
+                );
+                marked += 1;
+            } else {
+                assert_eq!(reds, 0, "frame {t} cell ({r}, {c}) is {cell:?}");
+                clean += 1;
+            }
+        }
+    }
+    assert_eq!(marked, count(Cell::Unexplained));
+    assert!(clean > marked);
+
+    // The PNG of the blip's frame says the coverage in its title band: pixels of text
+    // are there, and the same frame's map carries the mark.
+    let png_path = dir.path().join("blip.png");
+    ok(&touchc(&[
+        "preview",
+        rec_path.to_str().unwrap(),
+        "-o",
+        png_path.to_str().unwrap(),
+        "--frame",
+        "25",
+    ]));
+    let (pw, _, rgb) = decode_png(&png_path);
+    let reds = rgb
+        .chunks(3)
+        .enumerate()
+        .filter(|(i, p)| {
+            let (x, y) = ((i % pw as usize) as u32, (i / pw as usize) as u32);
+            y < layout.legend_top && x < layout.colour_bar.0 && *p == [red.0, red.1, red.2]
+        })
+        .count();
+    assert!(reds > 50, "{reds} red px on the map");
 }

@@ -169,7 +169,11 @@ fn cropping_does_not_change_the_result() {
         // ...while the heavy stages saw less of the synthetic scenes (their quiet
         // lead-in and tail are longer than the margins).
         let crop = cropped.report.crop.as_ref().unwrap();
-        let frames = rec.tare(&Default::default()).unwrap().dim().0;
+        let frames = rec
+            .tare(&Default::default(), &touchc::config::Sampling::PAPER)
+            .unwrap()
+            .dim()
+            .0;
         assert!(crop.frames.len() <= frames, "{}", rec.name());
         if rec.name().starts_with('[') {
             assert!(crop.frames.len() < frames, "{}: {crop:?}", rec.name());

@@ -23,7 +23,7 @@ fn check(name: &str) {
         &trajs,
         rows,
         cols,
-        cfg.input.cell_mm / k as f64,
+        cfg.input.pitch_mm / k as f64,
         &Layout::paper(),
         &cfg.placement,
     )
@@ -101,7 +101,7 @@ fn coarse_to_fine_finds_the_published_winner() {
             &r.trajectories(),
             rows,
             cols,
-            cfg.input.cell_mm / k as f64,
+            cfg.input.pitch_mm / k as f64,
             &Layout::paper(),
             &fast,
         )

@@ -39,6 +39,9 @@ pub struct Args {
     /// Algorithm parameters: preset, config file, individual knobs.
     #[command(flatten)]
     params: super::params::ParamArgs,
+    /// The recordings' rate and cell pitch.
+    #[command(flatten)]
+    metadata: super::params::MetadataArgs,
     /// Actuator layout TOML (default: the paper's 2 x 4 sleeve).
     #[arg(long)]
     layout: Option<PathBuf>,
@@ -64,6 +67,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         layout,
         fit: args.fit,
         crop: !args.no_crop,
+        metadata: args.metadata.overrides(),
         ..CompileOptions::default()
     };
     match (&args.out_dir, args.recordings.as_slice()) {
@@ -113,7 +117,7 @@ fn compile_one(
 
 fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
     format!(
-        "touchc: {} -> {}: {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, {:.1} ms",
+        "touchc: {} -> {}: {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, {}, {:.1} ms",
         input.display(),
         out.display(),
         r.duration_s,
@@ -125,6 +129,7 @@ fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
         r.selected.len(),
         r.trajectories,
         r.coverage,
+        r.metadata.describe(),
         1e3 * r.seconds.get("total").copied().unwrap_or(0.0),
     )
 }

@@ -17,7 +17,6 @@ use std::path::Path;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use touch_protocol::{Bank, Stimulus};
-use touchc::config::{Config, Preset};
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
@@ -86,10 +85,4 @@ pub(crate) fn stimulus_in<'a>(
     } else {
         Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
     }
-}
-
-/// Reads a TOML config laid over the paper preset, or the paper preset when no file is
-/// given (for subcommands without `--preset`).
-pub(crate) fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
-    params::layered(Preset::Paper, path, &[])
 }

@@ -4,35 +4,38 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use touchc::config::{CoarseToFine, Config, Preset};
+use touchc::config::{CoarseToFine, Config, MetadataOverrides, Preset};
 
-/// Parameter flags shared by `touchc compile` and `touchc track`.
+/// Parameter flags shared by `touchc compile`, `track` and `preview`. Every knob is
+/// physical (its unit in its name); a flag not given keeps the preset's value.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ParamArgs {
-    /// Parameter preset: `paper` (the published algorithm), `fast` (x4 upsampling,
-    /// coarse-to-fine placement search), `exact` (a 60,060-transform grid).
-    #[arg(long, value_enum, default_value = "paper")]
+    /// Parameter preset: `touch` (the default: real touch, fast strokes, brief taps,
+    /// flat hands, flicker, touch at the start), `paper` (the published algorithm, bit
+    /// for bit), `fast` (x4 upsampling, coarse-to-fine placement search), `exact` (a
+    /// 60,060-transform grid).
+    #[arg(long, value_enum, default_value = "touch")]
     pub preset: Preset,
     /// TOML file overriding the preset's parameters (missing keys keep the preset's).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Upsampling factor k (paper 7). Blur sigma and link gate stay in pixels unless
-    /// given too.
+    /// Upsampling factor k. Blur and link gate are in mm and mm/s, so they keep their
+    /// physical size.
     #[arg(long)]
     pub upsample: Option<usize>,
-    /// Gaussian blur sigma, upsampled pixels (paper 3).
+    /// Gaussian blur sigma, mm.
     #[arg(long)]
-    pub blur_sigma: Option<f64>,
-    /// Cost of starting a trajectory, -ln P_entr (paper 8).
+    pub blur_sigma_mm: Option<f64>,
+    /// Cost of starting a trajectory, -ln P_entr.
     #[arg(long)]
     pub entry_cost: Option<f64>,
-    /// Cost of ending a trajectory, -ln P_exit (paper 8).
+    /// Cost of ending a trajectory, -ln P_exit.
     #[arg(long)]
     pub exit_cost: Option<f64>,
-    /// Link gate, squared upsampled pixels (paper 50).
+    /// Link gate: the fastest a contact may move between frames, mm/s.
     #[arg(long)]
-    pub link_gate: Option<f64>,
-    /// Most trajectories (paper 200).
+    pub max_speed_mm_s: Option<f64>,
+    /// Most trajectories.
     #[arg(long)]
     pub max_trajectories: Option<usize>,
     /// Transform grid `X,Y` (x points, y points; paper 20,20 = 4,200 transforms) or
@@ -42,16 +45,39 @@ pub struct ParamArgs {
     /// Coarse-to-fine placement search `STRIDE,KEEP` (fast: 2,32), or `off`.
     #[arg(long, value_parser = parse_coarse_to_fine)]
     pub coarse_to_fine: Option<Search>,
-    /// Workspace centre bonus b of D = w (1 + b - b d^2 / r^2) (paper 0.04).
+    /// Workspace centre bonus b of D = w (1 + b - b d^2 / r^2).
     #[arg(long)]
     pub centre_bonus: Option<f64>,
-    /// Low-pass cut-off, Hz (paper 4).
+    /// Low-pass cut-off, Hz (below half the recording's rate).
     #[arg(long)]
     pub lowpass_hz: Option<f64>,
     /// Any other parameter, as `SECTION.KEY=VALUE` in TOML syntax (for example
-    /// `detect.sigma_k=1.5`); may be repeated. Applied after the config file.
+    /// `detect.sigma_k=1.5` or `input.baseline="robust"`); may be repeated. Applied
+    /// after the config file.
     #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
     pub set: Vec<String>,
+}
+
+/// The recording's sampling, for every command that reads a recording: over the file's
+/// own values (`.npz` `rate_hz`, `pitch_mm`), which are over the config's.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct MetadataArgs {
+    /// The recording's frame rate, Hz (default: the file's, else `input.rate_hz`).
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// The sensor's cell pitch, mm (default: the file's, else `input.pitch_mm`).
+    #[arg(long, value_name = "MM")]
+    pub pitch_mm: Option<f64>,
+}
+
+impl MetadataArgs {
+    /// The overrides these flags describe.
+    pub fn overrides(&self) -> MetadataOverrides {
+        MetadataOverrides {
+            rate_hz: self.rate,
+            pitch_mm: self.pitch_mm,
+        }
+    }
 }
 
 /// The placement search a `--coarse-to-fine` flag asks for.
@@ -70,10 +96,10 @@ impl ParamArgs {
         if let Some(k) = self.upsample {
             c.preprocess.upsample = k;
         }
-        set(&mut c.preprocess.blur_sigma, self.blur_sigma);
+        set(&mut c.preprocess.blur_sigma_mm, self.blur_sigma_mm);
         set(&mut c.track.entry_cost, self.entry_cost);
         set(&mut c.track.exit_cost, self.exit_cost);
-        set(&mut c.track.link_gate_px2, self.link_gate);
+        set(&mut c.track.max_speed_mm_s, self.max_speed_mm_s);
         if let Some(n) = self.max_trajectories {
             c.track.max_trajectories = n;
         }
@@ -86,6 +112,7 @@ impl ParamArgs {
         }
         set(&mut c.placement.centre_bonus, self.centre_bonus);
         set(&mut c.signal.lowpass_hz, self.lowpass_hz);
+        c.validate().map_err(|e| anyhow::anyhow!("config: {e}"))?;
         Ok(c)
     }
 }
@@ -120,9 +147,13 @@ pub fn layered(preset: Preset, path: Option<&Path>, sets: &[String]) -> anyhow::
             toml::from_str(&doc).with_context(|| format!("--set {set}: not a TOML value"))?;
         merge(&mut table, over);
     }
-    table
+    let config: Config = table
         .try_into()
-        .with_context(|| format!("--set {}: invalid parameter", sets.join(" --set ")))
+        .with_context(|| format!("--set {}: invalid parameter", sets.join(" --set ")))?;
+    config
+        .validate()
+        .map_err(|e| anyhow::anyhow!("config: {e}"))?;
+    Ok(config)
 }
 
 /// Lays `over` onto `base`, table by table.

@@ -24,9 +24,12 @@ pub struct Args {
     /// The frame a `.png` shows (after the tare and trim).
     #[arg(long, default_value_t = 0)]
     frame: usize,
-    /// TOML file overriding the paper's algorithm parameters.
-    #[arg(long)]
-    config: Option<PathBuf>,
+    /// Algorithm parameters: preset, config file, individual knobs.
+    #[command(flatten)]
+    params: super::params::ParamArgs,
+    /// The recording's rate and cell pitch.
+    #[command(flatten)]
+    metadata: super::params::MetadataArgs,
     /// Actuator layout TOML (default: the paper's 2 x 4 sleeve).
     #[arg(long)]
     layout: Option<PathBuf>,
@@ -49,12 +52,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.every == 0 {
         bail!("--every must be at least 1");
     }
-    let config = super::load_config(args.config.as_deref())?;
+    let config = args.params.resolve()?;
     let layout = match &args.layout {
         Some(path) => Layout::load(path)?,
         None => Layout::paper(),
     };
-    let rate = config.input.frame_rate_hz;
     // Whole frames (no crop) so every frame has its blurred map; scaled to the limits
     // rather than refused, since a preview shows the scene, not the stimulus.
     let opts = CompileOptions {
@@ -62,18 +64,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         layout,
         fit: true,
         crop: false,
+        metadata: args.metadata.overrides(),
         ..CompileOptions::default()
     };
     let name = args.recording.display();
     let recording = Recording::load(&args.recording)?;
     let compiled = compile(&recording, &opts).with_context(|| format!("{name}: cannot compile"))?;
+    let rate = compiled.report.metadata.rate_hz.value;
     for w in &compiled.report.warnings {
         eprintln!("touchc: warning: {name}: {w}");
     }
     let image = if gif {
-        preview::gif(&compiled, args.every, rate)
+        preview::gif(&compiled, &recording, args.every, rate)
     } else {
-        preview::png_frame(&compiled, args.frame, rate)
+        preview::png_frame(&compiled, &recording, args.frame, rate)
     }
     .with_context(|| format!("{name}: cannot preview"))?;
     write_atomic(&args.output, &image)?;

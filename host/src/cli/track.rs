@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 use touchc::recording::Recording;
-use touchc::track::{track, TrackOutput};
+use touchc::track::{track_with, TrackOutput};
 
 /// Arguments of `touchc track`.
 #[derive(Debug, clap::Args)]
@@ -18,6 +18,9 @@ pub struct TrackArgs {
     /// Algorithm parameters: preset, config file, individual knobs.
     #[command(flatten)]
     pub params: super::params::ParamArgs,
+    /// The recording's rate and cell pitch.
+    #[command(flatten)]
+    pub metadata: super::params::MetadataArgs,
 }
 
 /// The JSON document: global statistics and trajectories in report order.
@@ -41,7 +44,7 @@ struct TrajectoryReport<'a> {
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let cfg = args.params.resolve()?;
     let rec = Recording::load(&args.recording)?;
-    let out = track(&rec, &cfg)?;
+    let out = track_with(&rec, &cfg, &args.metadata.overrides())?;
     let stdout = std::io::stdout();
     let mut w = stdout.lock();
     if args.json {

@@ -31,6 +31,9 @@ pub struct Args {
     /// Print the table as Markdown (for `docs/trade.md`).
     #[arg(long)]
     markdown: bool,
+    /// The recordings' rate and cell pitch.
+    #[command(flatten)]
+    metadata: super::params::MetadataArgs,
 }
 
 /// The stages of the table, in pipeline order.
@@ -56,7 +59,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut failed = 0;
     for path in &args.recordings {
         let rec = Recording::load(path)?;
-        match pool.install(|| trade(&rec, &CompileOptions::default(), args.repeat)) {
+        let base = CompileOptions {
+            metadata: args.metadata.overrides(),
+            ..CompileOptions::default()
+        };
+        match pool.install(|| trade(&rec, &base, args.repeat)) {
             Ok(r) => rows.extend(r),
             Err(e) => {
                 failed += 1;

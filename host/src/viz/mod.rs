@@ -7,7 +7,7 @@
 //! the code the firmware runs, so limits, ramps and quantisation show as they will
 //! be felt.
 
-mod palette;
+pub mod palette;
 pub mod plot;
 pub mod preview;
 pub mod wav;

@@ -1,10 +1,11 @@
 //! The preview's colours: the heat scale of the pressure maps and the fixed 256-colour
 //! GIF palette.
 //!
-//! One global palette for every frame (the heat scale, greys, the overlay colours, and a
-//! coarse cube for blended edges), looked up through a 32 x 32 x 32 nearest-colour
-//! table: deterministic and fast, where per-frame quantisation would make the colours
-//! flicker from frame to frame.
+//! One global palette for every frame (the heat scale, greys, the overlay colours, a
+//! coarse cube for blended edges, and one transparent entry), looked up through a
+//! 32 x 32 x 32 nearest-colour table: deterministic and fast, where per-frame
+//! quantisation would make the colours flicker from frame to frame. The transparent
+//! entry lets a GIF frame leave the pixels that did not change to the frame before.
 
 use plotters::style::RGBColor;
 
@@ -19,8 +20,13 @@ const HEAT: [(f64, [u8; 3]); 5] = [
 /// Palette entries spent on the heat scale; the rest are greys and overlay colours.
 const HEAT_LEVELS: usize = 192;
 
-/// The heat-scale colour of `x` in `[0, 1]`.
-pub(crate) fn heat(x: f64) -> [u8; 3] {
+/// The palette index no colour maps to: GIF frames mark "unchanged since the frame
+/// before" with it.
+pub(crate) const UNCHANGED: u8 = 255;
+
+/// The heat-scale colour of `x` in `[0, 1]` (clamped; NaN is 0): public so that a test
+/// or a script can check a picture's colour bar against the scale itself.
+pub fn heat(x: f64) -> [u8; 3] {
     let x = if x.is_finite() {
         x.clamp(0.0, 1.0)
     } else {
@@ -47,8 +53,8 @@ pub(crate) struct Palette {
 }
 
 impl Palette {
-    /// The heat scale, 17 greys, `overlays` exactly, and a coarse colour cube for
-    /// blends (text edges on the map), 256 entries in all.
+    /// The heat scale, 17 greys, `overlays` exactly, a coarse colour cube for blends
+    /// (text edges on the map), 255 colours in all, and [`UNCHANGED`] last.
     pub(crate) fn new(overlays: &[RGBColor]) -> Palette {
         let mut colours: Vec<[u8; 3]> = (0..HEAT_LEVELS)
             .map(|i| heat(i as f64 / (HEAT_LEVELS - 1) as f64))
@@ -57,20 +63,20 @@ impl Palette {
         colours.extend(
             overlays
                 .iter()
-                .take(256 - colours.len())
+                .take(usize::from(UNCHANGED) - colours.len())
                 .map(|c| [c.0, c.1, c.2]),
         );
         'cube: for r in [0u8, 128, 255] {
             for g in [0u8, 128, 255] {
                 for b in [0u8, 128, 255] {
-                    if colours.len() == 256 {
+                    if colours.len() == usize::from(UNCHANGED) {
                         break 'cube;
                     }
                     colours.push([r, g, b]);
                 }
             }
         }
-        colours.resize(256, [0, 0, 0]);
+        colours.resize(usize::from(UNCHANGED), [0, 0, 0]);
         let table = (0..32 * 32 * 32)
             .map(|i| {
                 let q = |shift: u32| ((i >> shift) & 31) * 8 + 4;
@@ -84,6 +90,8 @@ impl Palette {
                     .unwrap_or(0) as u8
             })
             .collect();
+        // Black in the file; what shows through is the frame before.
+        colours.push([0, 0, 0]);
         Palette {
             rgb: colours.concat(),
             table,
@@ -126,6 +134,8 @@ mod tests {
         ];
         let p = Palette::new(&overlays);
         assert_eq!(p.rgb.len(), 768);
+        // No colour maps to the transparent entry, not even its own black.
+        assert!((0..32 * 32 * 32).all(|i| p.table[i] != UNCHANGED));
         for c in overlays
             .iter()
             .chain([&RGBColor(0, 0, 0), &RGBColor(255, 255, 255)])

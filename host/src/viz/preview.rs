@@ -2,11 +2,17 @@
 //! paper's Figure 4 b-e as an animation).
 //!
 //! Each frame shows, on the upsampled, blurred pressure map (one colour scale for the
-//! whole recording, 0 psi to its maximum):
+//! whole recording, 0 psi to its maximum, drawn as a colour bar beside the map):
 //! - every tracked trajectory's last second (20 frames) as a trail, and a dot where it
 //!   is now; the trajectories placement selected in bright colours, the others grey;
 //! - the eight workspace circles placement chose, drawn thick when their actuator
 //!   renders at this frame;
+//! - the touch no contact explains, hatched and outlined in red per sensor cell: the
+//!   readings [`coverage::classify`] finds more than [`DEFAULT_RADIUS_CELLS`] cells from
+//!   every tracked contact of the same frame, so a missed touch is never silent in a
+//!   picture; the title gives the recording's coverage;
+//! - under the map, the arm's orientation (column 0 at the elbow, on the left) and a mm
+//!   scale bar; a legend for every marker;
 //! - below, the eight actuators in the sleeve's layout (row 0 on top, column 0 = elbow
 //!   on the left) with the pressure each renders (stage 5) as a bar, and whether it
 //!   comes from a trajectory or from neighbour fill.
@@ -14,30 +20,51 @@
 //! The input is a [`Compiled`] run without the crop, so the frames are the recording's
 //! frames after the tare and trim, one GIF frame each (or every `every`-th).
 //! GIF frames are palette images on one fixed 256-colour palette shared by every frame,
-//! so colours do not flicker from frame to frame.
+//! so colours do not flicker from frame to frame; after the first, each frame holds only
+//! the rectangle that changed, with the pixels that stayed the same transparent.
 
 use std::borrow::Cow;
 
+use ndarray::{Array3, Axis};
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::palette::{heat, Palette};
+use super::palette::{heat, Palette, UNCHANGED};
 use super::plot::{draw_error, encode_png};
 use super::{register_font, VizError, FAMILY};
 use crate::compile::Compiled;
+use crate::coverage::{self, Cell, Coverage, DEFAULT_RADIUS_CELLS};
 use crate::geometry::Circle;
+use crate::recording::{Recording, RecordingError};
 use crate::signals::Source;
 use touch_protocol::CHANNELS;
 
 /// Frames of trail drawn behind a trajectory's current point (1 s at 20 Hz).
 const TRAIL_FRAMES: usize = 20;
-/// Height of the title band, px.
-const TITLE_PX: u32 = 26;
+/// Height of the title band (two lines), px.
+const TITLE_PX: u32 = 44;
 /// Gap around the heat map and the actuator panel, px.
 const PAD_PX: u32 = 8;
+/// Height of the band under the map with the arm's ends and the mm scale bar, px.
+const ORIENT_PX: u32 = 32;
+/// Height of one legend row, px.
+const LEGEND_ROW_PX: u32 = 20;
+/// Legend rows (two entries each).
+const LEGEND_ROWS: u32 = 3;
 /// Height of one actuator's box in the panel below the map, px.
 const BOX_PX: u32 = 64;
 /// Width of the intensity bar in an actuator's box, px.
 const BAR_PX: i32 = 10;
+/// Room right of the map's margin for the colour bar and its labels, px.
+const COLOUR_BAR_ROOM_PX: u32 = 92;
+/// Gap between the map's margin and the colour bar, px.
+const COLOUR_BAR_GAP_PX: u32 = 10;
+/// Width of the colour bar itself, px.
+const COLOUR_BAR_PX: u32 = 16;
+/// Spacing of the hatch lines over unexplained touch, px.
+const HATCH_PX: usize = 6;
+/// Width of the outline around unexplained touch, px.
+const OUTLINE_PX: usize = 2;
 /// An actuator's signal ahead of the current frame.
 const SPARK_AHEAD: RGBColor = RGBColor(200, 200, 200);
 /// An actuator's signal up to the current frame.
@@ -55,7 +82,8 @@ const TARGET_WIDTH_PX: usize = 600;
 
 /// Colours of the selected trajectories, in selection order (repeating); public so
 /// tests and scripts can find them in the frames.
-/// None of them is a circle colour (cyan for an actuator that renders, white otherwise).
+/// None of them is a circle colour (cyan for an actuator that renders, white otherwise)
+/// or [`UNEXPLAINED`].
 pub const TRAJECTORY_COLOURS: [RGBColor; 6] = [
     RGBColor(0, 255, 0),
     RGBColor(255, 0, 255),
@@ -64,6 +92,10 @@ pub const TRAJECTORY_COLOURS: [RGBColor; 6] = [
     RGBColor(255, 128, 0),
     RGBColor(160, 255, 160),
 ];
+/// The hatching and outline of touch no contact explains: a pure red the heat scale
+/// never reaches (its reds are dull crimson and orange) and nothing else on the map
+/// uses; public so tests and scripts can find the marks.
+pub const UNEXPLAINED: RGBColor = RGBColor(255, 0, 0);
 /// Unselected trajectories.
 const OTHER: RGBColor = RGBColor(150, 150, 150);
 /// Workspace circles whose actuator renders.
@@ -71,7 +103,7 @@ const ACTIVE: RGBColor = RGBColor(0, 255, 255);
 /// Workspace circles whose actuator is silent.
 const IDLE: RGBColor = RGBColor(255, 255, 255);
 
-/// The margin around the map (one of the palette's greys).
+/// The margin around the map and the legend's background (one of the palette's greys).
 const OFF_SENSOR: u8 = 47;
 
 /// Why a preview cannot be made.
@@ -84,6 +116,19 @@ pub enum PreviewError {
     /// The compile ran with a crop: its blurred frames do not cover the recording.
     #[error("the compile was cropped to the active scene; preview needs the whole recording")]
     Cropped,
+    /// The recording given is not the one compiled (its tared size differs).
+    #[error(
+        "the recording does not match the compile: {tared:?} tared readings, \
+         {blurred:?} blurred pixels at {upsample}x"
+    )]
+    Mismatch {
+        /// Tared recording `[frames, rows, cols]`.
+        tared: (usize, usize, usize),
+        /// Blurred movie `[frames, rows, cols]`.
+        blurred: (usize, usize, usize),
+        /// The compile's upsampling factor.
+        upsample: usize,
+    },
     /// A frame index past the end.
     #[error("frame {frame} does not exist: the recording has {frames} frames after the tare")]
     Frame {
@@ -92,6 +137,9 @@ pub enum PreviewError {
         /// Frames there are.
         frames: usize,
     },
+    /// The recording could not be tared.
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
     /// Drawing or encoding failed.
     #[error(transparent)]
     Viz(#[from] VizError),
@@ -106,18 +154,37 @@ pub struct FrameLayout {
     pub height: u32,
     /// Image px per blurred-map pixel.
     pub scale: u32,
+    /// Blurred-map pixels per sensor cell (the compile's upsampling factor).
+    pub upsample: usize,
     /// Top-left corner of the heat map in the image, px.
     pub map_origin: (u32, u32),
     /// Blurred-map size, (rows, cols) px.
     pub map_px: (usize, usize),
+    /// The dark margin around the map, px (room for circles reaching past it).
+    pub margin: u32,
+    /// The colour bar, `[x0, x1) x [y0, y1)` as `(x0, y0, x1, y1)`: the 0 psi end is
+    /// its bottom row, the maximum its top row.
+    pub colour_bar: (u32, u32, u32, u32),
+    /// Top of the band with the arm's ends and the scale bar, px.
+    pub orient_top: u32,
+    /// Top of the legend, px.
+    pub legend_top: u32,
 }
 
 impl FrameLayout {
-    /// The layout for a blurred map of `rows` x `cols` pixels of `pitch_mm`: the map
-    /// scaled by an integer factor to about 600 px wide, with a margin wide enough for
-    /// the workspace `circles` that reach past its edges (placement may put a row of
-    /// circles partly off the sensor), and the actuator panel below.
-    pub fn new(rows: usize, cols: usize, pitch_mm: f64, circles: &[Circle]) -> FrameLayout {
+    /// The layout for a blurred map of `rows` x `cols` pixels of `pitch_mm` (`upsample`
+    /// pixels per sensor cell): the map scaled by an integer factor to about 600 px
+    /// wide, with a margin wide enough for the workspace `circles` that reach past its
+    /// edges (placement may put a row of circles partly off the sensor), the colour bar
+    /// on its right, the orientation band and the legend under it, and the actuator
+    /// panel below.
+    pub fn new(
+        rows: usize,
+        cols: usize,
+        upsample: usize,
+        pitch_mm: f64,
+        circles: &[Circle],
+    ) -> FrameLayout {
         let scale = (TARGET_WIDTH_PX / cols.max(1)).clamp(1, 16) as u32;
         let (mw, mh) = (cols as u32 * scale, rows as u32 * scale);
         let px_per_mm = f64::from(scale) / pitch_mm;
@@ -138,13 +205,27 @@ impl FrameLayout {
         // layout cannot blow the image up.
         let margin =
             ((overshoot_mm * px_per_mm).ceil() as u32 + LABEL_PX).clamp(PAD_PX, MAX_MARGIN_PX);
-        let width = (mw + 2 * margin).max(480 + 2 * PAD_PX);
+        let width = (mw + 2 * margin + COLOUR_BAR_ROOM_PX).max(480 + 2 * PAD_PX);
+        let map_origin = ((width - COLOUR_BAR_ROOM_PX - mw) / 2, TITLE_PX + margin);
+        let bar_x = map_origin.0 + mw + margin + COLOUR_BAR_GAP_PX;
+        let orient_top = map_origin.1 + mh + margin;
+        let legend_top = orient_top + ORIENT_PX;
         FrameLayout {
             width,
-            height: TITLE_PX + mh + 2 * margin + 2 * BOX_PX + PAD_PX,
+            height: legend_top + LEGEND_ROWS * LEGEND_ROW_PX + PAD_PX + 2 * BOX_PX + PAD_PX,
             scale,
-            map_origin: ((width - mw) / 2, TITLE_PX + margin),
+            upsample: upsample.max(1),
+            map_origin,
             map_px: (rows, cols),
+            margin,
+            colour_bar: (
+                bar_x,
+                map_origin.1,
+                bar_x + COLOUR_BAR_PX,
+                map_origin.1 + mh,
+            ),
+            orient_top,
+            legend_top,
         }
     }
 
@@ -155,6 +236,16 @@ impl FrameLayout {
             (self.map_origin.0 as f64 + (col as f64 + 0.5) * s) as i32,
             (self.map_origin.1 as f64 + (row as f64 + 0.5) * s) as i32,
         )
+    }
+
+    /// The image rectangle `(x0, y0, x1, y1)`, half-open, of sensor cell `(row, col)`.
+    pub fn cell_rect(&self, row: usize, col: usize) -> (usize, usize, usize, usize) {
+        let side = self.upsample * self.scale as usize;
+        let (x0, y0) = (
+            self.map_origin.0 as usize + col * side,
+            self.map_origin.1 as usize + row * side,
+        );
+        (x0, y0, x0 + side, y0 + side)
     }
 }
 
@@ -168,27 +259,38 @@ struct Scene<'a> {
     psi_max: f64,
     /// Each actuator's whole signal as trace points (see [`traces`]).
     traces: [Vec<(i32, i32)>; CHANNELS],
+    /// Every tared reading classified against the tracked contacts.
+    cells: Array3<Cell>,
+    /// The recording's coverage by those contacts.
+    coverage: Coverage,
 }
 
 impl<'a> Scene<'a> {
-    fn new(compiled: &'a Compiled) -> Result<Self, PreviewError> {
-        let (Some(tracked), Some(signals)) = (&compiled.tracked, &compiled.signals) else {
-            return Err(PreviewError::NoTouch);
-        };
-        let frames = &tracked.blurred.frames;
-        if frames.dim().0 != signals.frames() {
-            return Err(PreviewError::Cropped);
+    fn new(compiled: &'a Compiled, recording: &Recording) -> Result<Self, PreviewError> {
+        let (frames, layout) = checked(compiled)?;
+        let tracked = compiled.tracked.as_ref().ok_or(PreviewError::NoTouch)?;
+        let signals = compiled.signals.as_ref().ok_or(PreviewError::NoTouch)?;
+        let input = &compiled.report.config.input;
+        let sampling =
+            crate::config::Sampling::new(&compiled.report.metadata, &compiled.report.config);
+        let tared = recording.tare(input, &sampling)?;
+        let (t, r, c) = tared.dim();
+        let k = layout.upsample;
+        if frames.dim() != (t, r * k, c * k) {
+            return Err(PreviewError::Mismatch {
+                tared: tared.dim(),
+                blurred: frames.dim(),
+                upsample: k,
+            });
         }
-        let (_, rows, cols) = frames.dim();
-        let circles = compiled
-            .placement
-            .as_ref()
-            .map_or(&[][..], |p| &p.circles[..]);
+        let points = coverage::contact_points(&tracked.trajectories, k);
+        let threshold = input.touch_threshold_psi;
+        let cells = coverage::classify(tared.view(), threshold, &points, DEFAULT_RADIUS_CELLS);
+        let coverage = coverage::measure(tared.view(), threshold, &points, DEFAULT_RADIUS_CELLS);
         let finite_max =
             |it: &mut dyn Iterator<Item = f64>| it.filter(|v| v.is_finite()).fold(0.0f64, f64::max);
         let vmax = finite_max(&mut frames.iter().copied());
         let psi_max = finite_max(&mut signals.psi.iter().flatten().copied());
-        let layout = FrameLayout::new(rows, cols, tracked.pitch_mm(), circles);
         let psi_max = if psi_max > 0.0 { psi_max } else { 1.0 };
         Ok(Scene {
             compiled,
@@ -198,6 +300,8 @@ impl<'a> Scene<'a> {
             vmax: if vmax > 0.0 { vmax } else { 1.0 },
             psi_max,
             traces: traces(&layout, &signals.psi, psi_max),
+            cells,
+            coverage,
         })
     }
 
@@ -206,16 +310,41 @@ impl<'a> Scene<'a> {
     }
 }
 
-/// The layout of `compiled`'s preview frames (for tests and scripts).
-pub fn layout(compiled: &Compiled) -> Result<FrameLayout, PreviewError> {
-    Ok(Scene::new(compiled)?.layout)
+/// The blurred movie of an uncropped compile with touch, and its frames' layout.
+fn checked(compiled: &Compiled) -> Result<(&ndarray::Array3<f64>, FrameLayout), PreviewError> {
+    let (Some(tracked), Some(signals)) = (&compiled.tracked, &compiled.signals) else {
+        return Err(PreviewError::NoTouch);
+    };
+    let frames = &tracked.blurred.frames;
+    if frames.dim().0 != signals.frames() {
+        return Err(PreviewError::Cropped);
+    }
+    let (_, rows, cols) = frames.dim();
+    let circles = compiled
+        .placement
+        .as_ref()
+        .map_or(&[][..], |p| &p.circles[..]);
+    let upsample = compiled.report.config.preprocess.upsample;
+    let layout = FrameLayout::new(rows, cols, upsample, tracked.pitch_mm(), circles);
+    Ok((frames, layout))
 }
 
-/// The animation: one GIF frame per recording frame (every `every`-th, at least 1),
-/// played at the recording's rate, looping.
-pub fn gif(compiled: &Compiled, every: usize, frame_rate_hz: f64) -> Result<Vec<u8>, PreviewError> {
+/// The layout of `compiled`'s preview frames (for tests and scripts).
+pub fn layout(compiled: &Compiled) -> Result<FrameLayout, PreviewError> {
+    Ok(checked(compiled)?.1)
+}
+
+/// The animation of `compiled` (run on `recording` without the crop): one GIF frame per
+/// recording frame (every `every`-th, at least 1), played at the recording's rate,
+/// looping.
+pub fn gif(
+    compiled: &Compiled,
+    recording: &Recording,
+    every: usize,
+    frame_rate_hz: f64,
+) -> Result<Vec<u8>, PreviewError> {
     register_font()?;
-    let scene = Scene::new(compiled)?;
+    let scene = Scene::new(compiled, recording)?;
     let FrameLayout { width, height, .. } = scene.layout;
     let (w16, h16) = (
         u16::try_from(width).map_err(|_| too_big(width, height))?,
@@ -229,6 +358,7 @@ pub fn gif(compiled: &Compiled, every: usize, frame_rate_hz: f64) -> Result<Vec<
         OTHER,
         ACTIVE,
         IDLE,
+        UNEXPLAINED,
         TRAJECTORY_COLOURS[0],
         TRAJECTORY_COLOURS[1],
         TRAJECTORY_COLOURS[2],
@@ -247,29 +377,86 @@ pub fn gif(compiled: &Compiled, every: usize, frame_rate_hz: f64) -> Result<Vec<
         let mut enc = gif::Encoder::new(&mut out, w16, h16, &palette.rgb).map_err(encode)?;
         enc.set_repeat(gif::Repeat::Infinite).map_err(encode)?;
         let mut rgb = vec![0u8; width as usize * height as usize * 3];
+        let mut shown: Option<Vec<u8>> = None;
         for t in (0..scene.count()).step_by(every) {
             draw_frame(&scene, t, frame_rate_hz, &mut rgb)?;
-            let frame = gif::Frame {
-                width: w16,
-                height: h16,
-                delay,
-                buffer: Cow::Owned(palette.indices(&rgb)),
-                ..gif::Frame::default()
+            let now = palette.indices(&rgb);
+            let mut frame = match &shown {
+                Some(before) => changes(before, &now, w16),
+                None => gif::Frame {
+                    width: w16,
+                    height: h16,
+                    buffer: Cow::Borrowed(&now[..]),
+                    ..gif::Frame::default()
+                },
             };
+            frame.delay = delay;
+            frame.dispose = gif::DisposalMethod::Keep;
+            frame.transparent = Some(UNCHANGED);
             enc.write_frame(&frame).map_err(encode)?;
+            drop(frame);
+            shown = Some(now);
         }
     }
     Ok(out)
 }
 
-/// One frame as a PNG, to look at a moment closely.
+/// The GIF frame that turns `before` into `now` (palette indices, `width` px per row):
+/// the smallest rectangle holding every changed pixel, with the unchanged ones inside
+/// it [`UNCHANGED`] (transparent), which compresses to almost nothing. A frame where
+/// nothing changed is one transparent pixel, so it still takes its time.
+fn changes<'f>(before: &[u8], now: &[u8], width: u16) -> gif::Frame<'f> {
+    let w = usize::from(width);
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for (i, _) in before
+        .iter()
+        .zip(now)
+        .enumerate()
+        .filter(|(_, (a, b))| a != b)
+    {
+        let (x, y) = (i % w, i / w);
+        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
+    }
+    if x0 == usize::MAX {
+        return gif::Frame {
+            width: 1,
+            height: 1,
+            buffer: Cow::Owned(vec![UNCHANGED]),
+            ..gif::Frame::default()
+        };
+    }
+    let mut buffer = Vec::with_capacity((x1 - x0) * (y1 - y0));
+    for y in y0..y1 {
+        let row = y * w;
+        buffer.extend(
+            before[row + x0..row + x1]
+                .iter()
+                .zip(&now[row + x0..row + x1])
+                .map(|(&a, &b)| if a == b { UNCHANGED } else { b }),
+        );
+    }
+    // The rectangle lies inside a `width` x `height` image, so every side fits in u16.
+    let side = |v: usize| u16::try_from(v).unwrap_or(u16::MAX);
+    gif::Frame {
+        left: side(x0),
+        top: side(y0),
+        width: side(x1 - x0),
+        height: side(y1 - y0),
+        buffer: Cow::Owned(buffer),
+        ..gif::Frame::default()
+    }
+}
+
+/// One frame of `compiled` (run on `recording` without the crop) as a PNG, to look at a
+/// moment closely.
 pub fn png_frame(
     compiled: &Compiled,
+    recording: &Recording,
     t: usize,
     frame_rate_hz: f64,
 ) -> Result<Vec<u8>, PreviewError> {
     register_font()?;
-    let scene = Scene::new(compiled)?;
+    let scene = Scene::new(compiled, recording)?;
     if t >= scene.count() {
         return Err(PreviewError::Frame {
             frame: t,
@@ -291,34 +478,151 @@ fn too_big(width: u32, height: u32) -> VizError {
     }
 }
 
-fn draw_frame(scene: &Scene<'_>, t: usize, rate_hz: f64, rgb: &mut [u8]) -> Result<(), VizError> {
-    let l = scene.layout;
-    rgb.fill(255);
-    // Off the sensor: dark, so that circles reaching past the map stay visible.
-    let margin = l.map_origin.0.min(l.map_origin.1 - TITLE_PX) as usize;
-    let (mw, mh) = (l.map_px.1 * l.scale as usize, l.map_px.0 * l.scale as usize);
-    for y in l.map_origin.1 as usize - margin..l.map_origin.1 as usize + mh + margin {
-        let row = y * l.width as usize;
-        let x0 = l.map_origin.0 as usize - margin;
-        rgb[3 * (row + x0)..3 * (row + x0 + mw + 2 * margin)].fill(OFF_SENSOR);
+/// An RGB8 image buffer with its width, for the fills plotters would draw pixel by pixel.
+struct Canvas<'b> {
+    rgb: &'b mut [u8],
+    width: usize,
+}
+
+impl Canvas<'_> {
+    fn set(&mut self, x: usize, y: usize, colour: [u8; 3]) {
+        let i = 3 * (y * self.width + x);
+        self.rgb[i..i + 3].copy_from_slice(&colour);
     }
-    // The heat map straight into the buffer: per-pixel drawing calls would cost more
-    // than everything else in the frame.
-    let frame = scene.frames.index_axis(ndarray::Axis(0), t);
-    let s = l.scale as usize;
-    for ((r, c), &v) in frame.indexed_iter() {
-        let colour = heat(v / scene.vmax);
-        for y in 0..s {
-            let row = (l.map_origin.1 as usize + r * s + y) * l.width as usize;
-            for x in 0..s {
-                let i = 3 * (row + l.map_origin.0 as usize + c * s + x);
-                rgb[i..i + 3].copy_from_slice(&colour);
+
+    /// Fills the half-open rectangle `[x0, x1) x [y0, y1)`.
+    fn fill(&mut self, (x0, y0, x1, y1): (usize, usize, usize, usize), colour: [u8; 3]) {
+        for y in y0..y1 {
+            let row = 3 * y * self.width;
+            self.rgb[row + 3 * x0..row + 3 * x1]
+                .chunks_exact_mut(3)
+                .for_each(|p| p.copy_from_slice(&colour));
+        }
+    }
+
+    /// Diagonal hatch lines over the rectangle, aligned to the image so that the lines
+    /// run on across neighbouring rectangles.
+    fn hatch(&mut self, (x0, y0, x1, y1): (usize, usize, usize, usize), colour: [u8; 3]) {
+        for y in y0..y1 {
+            for x in (x0..x1).filter(|x| (x + y) % HATCH_PX == 0) {
+                self.set(x, y, colour);
             }
         }
     }
+}
+
+fn draw_frame(scene: &Scene<'_>, t: usize, rate_hz: f64, rgb: &mut [u8]) -> Result<(), VizError> {
+    let l = scene.layout;
+    rgb.fill(255);
+    let mut canvas = Canvas {
+        rgb,
+        width: l.width as usize,
+    };
+    let (ox, oy) = (l.map_origin.0 as usize, l.map_origin.1 as usize);
+    // Off the sensor: dark, so that circles reaching past the map stay visible.
+    let margin = l.margin as usize;
+    let (mw, mh) = (l.map_px.1 * l.scale as usize, l.map_px.0 * l.scale as usize);
+    canvas.fill(
+        (ox - margin, oy - margin, ox + mw + margin, oy + mh + margin),
+        [OFF_SENSOR; 3],
+    );
+    // The heat map straight into the buffer: per-pixel drawing calls would cost more
+    // than everything else in the frame.
+    let frame = scene.frames.index_axis(Axis(0), t);
+    let s = l.scale as usize;
+    for ((r, c), &v) in frame.indexed_iter() {
+        let (x, y) = (ox + c * s, oy + r * s);
+        canvas.fill((x, y, x + s, y + s), heat(v / scene.vmax));
+    }
+    mark_unexplained(&mut canvas, &l, scene.cells.index_axis(Axis(0), t));
+    // The colour bar: the heat scale from 0 psi (bottom row) to the maximum (top row).
+    let (bx0, by0, bx1, by1) = l.colour_bar;
+    for y in by0..by1 {
+        let x = f64::from(by1 - 1 - y) / f64::from((by1 - by0).max(2) - 1);
+        let (y, x0, x1) = (y as usize, bx0 as usize, bx1 as usize);
+        canvas.fill((x0, y, x1, y + 1), heat(x));
+    }
+    // The legend's dark band (the idle circles are white) and its hatched swatch.
+    let band = legend_band(&l);
+    canvas.fill(band, [OFF_SENSOR; 3]);
+    let swatch = swatch_rect(&l, 4);
+    canvas.hatch(swatch, rgb_of(UNEXPLAINED));
     let root = BitMapBackend::with_buffer(rgb, (l.width, l.height)).into_drawing_area();
     overlay(scene, t, rate_hz, &root).map_err(draw_error)?;
     root.present().map_err(draw_error)
+}
+
+fn rgb_of(c: RGBColor) -> [u8; 3] {
+    [c.0, c.1, c.2]
+}
+
+/// Hatches every unexplained sensor cell of one frame and outlines each unexplained
+/// region (an edge is drawn where the neighbouring cell is not unexplained), so a
+/// missed patch reads as one shape, however many cells it spans.
+fn mark_unexplained(canvas: &mut Canvas<'_>, l: &FrameLayout, cells: ndarray::ArrayView2<Cell>) {
+    let (rows, cols) = cells.dim();
+    let red = rgb_of(UNEXPLAINED);
+    let missed = |r: usize, c: usize| cells[[r, c]] == Cell::Unexplained;
+    for ((r, c), _) in cells
+        .indexed_iter()
+        .filter(|&(_, &v)| v == Cell::Unexplained)
+    {
+        let rect @ (x0, y0, x1, y1) = l.cell_rect(r, c);
+        canvas.hatch(rect, red);
+        let w = OUTLINE_PX;
+        if r == 0 || !missed(r - 1, c) {
+            canvas.fill((x0, y0, x1, y0 + w), red);
+        }
+        if r + 1 == rows || !missed(r + 1, c) {
+            canvas.fill((x0, y1 - w, x1, y1), red);
+        }
+        if c == 0 || !missed(r, c - 1) {
+            canvas.fill((x0, y0, x0 + w, y1), red);
+        }
+        if c + 1 == cols || !missed(r, c + 1) {
+            canvas.fill((x1 - w, y0, x1, y1), red);
+        }
+    }
+}
+
+/// The legend's dark band, `(x0, y0, x1, y1)`.
+fn legend_band(l: &FrameLayout) -> (usize, usize, usize, usize) {
+    (
+        PAD_PX as usize,
+        l.legend_top as usize,
+        (l.width - PAD_PX) as usize,
+        (l.legend_top + LEGEND_ROWS * LEGEND_ROW_PX) as usize,
+    )
+}
+
+/// The marker swatch of legend entry `k` (row-major, two per row), `(x0, y0, x1, y1)`.
+fn swatch_rect(l: &FrameLayout, k: u32) -> (usize, usize, usize, usize) {
+    let col_w = (l.width - 2 * PAD_PX) / 2;
+    let x0 = PAD_PX + 6 + (k % 2) * col_w;
+    let y0 = l.legend_top + (k / 2) * LEGEND_ROW_PX + 3;
+    (
+        x0 as usize,
+        y0 as usize,
+        (x0 + 30) as usize,
+        (y0 + LEGEND_ROW_PX - 6) as usize,
+    )
+}
+
+/// The longest "round" length (1, 2 or 5 times a power of ten, in mm) that is at most
+/// `max_px` long at `px_per_mm`, and its length in px; `None` when not even 1 mm fits.
+fn scale_bar(px_per_mm: f64, max_px: f64) -> Option<(f64, i32)> {
+    let max_mm = max_px / px_per_mm;
+    // NaN (no scale) fails this too.
+    if max_mm.is_nan() || max_mm < 1.0 {
+        return None;
+    }
+    let decade = 10f64.powf(max_mm.log10().floor());
+    let mm = [5.0, 2.0, 1.0]
+        .iter()
+        .map(|m| m * decade)
+        .find(|&mm| mm <= max_mm)
+        .unwrap_or(decade);
+    Some((mm, (mm * px_per_mm).round() as i32))
 }
 
 type Area<'b> = DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>;
@@ -328,20 +632,40 @@ type DrawResult<'b> =
 fn overlay<'b>(scene: &Scene<'_>, t: usize, rate_hz: f64, root: &Area<'b>) -> DrawResult<'b> {
     let l = scene.layout;
     let c = scene.compiled;
+    let missed_now = scene
+        .cells
+        .index_axis(Axis(0), t)
+        .iter()
+        .filter(|&&v| v == Cell::Unexplained)
+        .count();
     root.draw(&Text::new(
         format!(
-            "{}  frame {}/{}  {:.2} s  (0 - {:.2} psi)",
+            "{}  frame {}/{}  {:.2} s  unexplained touch now: {missed_now} cells",
             std::path::Path::new(&c.report.input)
                 .file_name()
                 .map_or(c.report.input.as_str(), |n| n.to_str().unwrap_or("")),
             t,
             scene.count(),
             t as f64 / rate_hz.max(1.0),
-            scene.vmax
         ),
-        (PAD_PX as i32, 5),
+        (PAD_PX as i32, 4),
         (FAMILY, 16).into_font().color(&BLACK),
     ))?;
+    let cov = &scene.coverage;
+    root.draw(&Text::new(
+        format!(
+            "coverage {:.0}%: touch more than {DEFAULT_RADIUS_CELLS} cells from every \
+             contact is hatched red ({} of {} touch readings)",
+            100.0 * cov.ratio(),
+            cov.unexplained_cells,
+            cov.touch_cells
+        ),
+        (PAD_PX as i32, 24),
+        (FAMILY, 13).into_font().color(&BLACK),
+    ))?;
+    colour_bar_labels(scene, root)?;
+    orientation(scene, root)?;
+    legend(&l, rate_hz, root)?;
     let signals = c.signals.as_ref();
     let renders = |ch: usize| signals.is_some_and(|s| s.source[ch][t] != Source::Silent);
     if let Some(p) = &c.placement {
@@ -389,6 +713,144 @@ fn overlay<'b>(scene: &Scene<'_>, t: usize, rate_hz: f64, root: &Area<'b>) -> Dr
         }
     }
     actuator_panel(scene, t, root)
+}
+
+/// The colour bar's outline and its psi labels: the maximum at the top, 0 at the bottom,
+/// the middle between.
+fn colour_bar_labels<'b>(scene: &Scene<'_>, root: &Area<'b>) -> DrawResult<'b> {
+    let (x0, y0, x1, y1) = scene.layout.colour_bar;
+    let (x0, y0, x1, y1) = (x0 as i32, y0 as i32, x1 as i32, y1 as i32);
+    root.draw(&Rectangle::new(
+        [(x0 - 1, y0 - 1), (x1, y1)],
+        BOX.stroke_width(1),
+    ))?;
+    let font = (FAMILY, 12).into_font().color(&BLACK);
+    let left = font.pos(Pos::new(HPos::Left, VPos::Center));
+    for (frac, y) in [(1.0, y0), (0.5, (y0 + y1) / 2), (0.0, y1 - 1)] {
+        root.draw(&PathElement::new(
+            vec![(x1, y), (x1 + 4, y)],
+            BLACK.stroke_width(1),
+        ))?;
+        root.draw(&Text::new(
+            format!("{:.2}", frac * scene.vmax),
+            (x1 + 6, y),
+            left.clone(),
+        ))?;
+    }
+    root.draw(&Text::new(
+        "psi",
+        ((x0 + x1) / 2, y0 - 4),
+        font.pos(Pos::new(HPos::Center, VPos::Bottom)),
+    ))
+}
+
+/// Under the map: which end is the elbow and which the wrist (column 0 is nearest the
+/// elbow), and a scale bar in mm.
+fn orientation<'b>(scene: &Scene<'_>, root: &Area<'b>) -> DrawResult<'b> {
+    let l = scene.layout;
+    let (x0, y) = (l.map_origin.0 as i32, (l.orient_top + 6) as i32);
+    let x1 = x0 + (l.map_px.1 as u32 * l.scale) as i32;
+    let font = (FAMILY, 13).into_font().color(&BLACK);
+    root.draw(&Text::new(
+        "\u{2190} elbow (sensor column 0)",
+        (x0, y),
+        font.pos(Pos::new(HPos::Left, VPos::Top)),
+    ))?;
+    root.draw(&Text::new(
+        "wrist \u{2192}",
+        (x1, y),
+        font.pos(Pos::new(HPos::Right, VPos::Top)),
+    ))?;
+    let px_per_mm = f64::from(l.scale) / scene.pitch_mm;
+    let Some((mm, len)) = scale_bar(px_per_mm, f64::from(x1 - x0) / 4.0) else {
+        return Ok(());
+    };
+    let (mid, bar_y) = ((x0 + x1) / 2, y + 18);
+    let (a, b) = (mid - len / 2, mid - len / 2 + len);
+    root.draw(&Rectangle::new(
+        [(a, bar_y - 1), (b, bar_y + 2)],
+        BLACK.filled(),
+    ))?;
+    for x in [a, b - 1] {
+        root.draw(&PathElement::new(
+            vec![(x, bar_y - 5), (x, bar_y + 5)],
+            BLACK.stroke_width(1),
+        ))?;
+    }
+    root.draw(&Text::new(
+        format!("{mm} mm"),
+        (mid, bar_y - 4),
+        (FAMILY, 12)
+            .into_font()
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Bottom)),
+    ))
+}
+
+/// One legend entry per marker, two per row, white on the dark band.
+fn legend<'b>(l: &FrameLayout, rate_hz: f64, root: &Area<'b>) -> DrawResult<'b> {
+    let trail_s = TRAIL_FRAMES as f64 / rate_hz.max(1.0);
+    let entries = [
+        format!("selected trajectory: trail of the last {trail_s:.1} s, dot = now"),
+        "trajectory placement did not select".to_string(),
+        "actuator workspace (channel number), actuator on".to_string(),
+        "actuator workspace, actuator at rest".to_string(),
+        format!("touch no contact explains (> {DEFAULT_RADIUS_CELLS} cells away)"),
+        "heat: blurred pressure, colour bar in psi".to_string(),
+    ];
+    let font = (FAMILY, 12)
+        .into_font()
+        .color(&IDLE)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    for (k, text) in (0u32..).zip(&entries) {
+        let (x0, y0, x1, y1) = swatch_rect(l, k);
+        let (x0, y0, x1, y1) = (x0 as i32, y0 as i32, x1 as i32, y1 as i32);
+        let ym = (y0 + y1) / 2;
+        match k {
+            0 | 1 => {
+                let colour = if k == 0 { TRAJECTORY_COLOURS[0] } else { OTHER };
+                root.draw(&PathElement::new(
+                    vec![(x0, y1 - 2), (x0 + 10, ym + 2), (x1 - 6, ym)],
+                    colour.stroke_width(2),
+                ))?;
+                root.draw(&plotters::element::Circle::new(
+                    (x1 - 6, ym),
+                    5,
+                    colour.filled(),
+                ))?;
+            }
+            2 | 3 => {
+                let style = if k == 2 {
+                    ACTIVE.stroke_width(3)
+                } else {
+                    IDLE.stroke_width(1)
+                };
+                root.draw(&plotters::element::Circle::new(
+                    ((x0 + x1) / 2, ym),
+                    (y1 - y0) / 2,
+                    style,
+                ))?;
+            }
+            4 => {
+                // The hatching is in the buffer already (see `draw_frame`).
+                root.draw(&Rectangle::new(
+                    [(x0, y0), (x1 - 1, y1 - 1)],
+                    UNEXPLAINED.stroke_width(2),
+                ))?;
+            }
+            _ => {
+                for i in 0..(x1 - x0) {
+                    let [r, g, b] = heat(f64::from(i) / f64::from(x1 - x0 - 1));
+                    root.draw(&PathElement::new(
+                        vec![(x0 + i, y0), (x0 + i, y1 - 1)],
+                        RGBColor(r, g, b).stroke_width(1),
+                    ))?;
+                }
+            }
+        }
+        root.draw(&Text::new(text.as_str(), (x1 + 8, ym), font.clone()))?;
+    }
+    Ok(())
 }
 
 /// Where actuator `ch`'s box sits: its top-left corner and width, px.
@@ -503,11 +965,17 @@ mod tests {
     #[test]
     fn layout_scales_the_paper_map_and_makes_room_for_circles() {
         let pitch = 25.4 / 7.0;
-        let l = FrameLayout::new(56, 147, pitch, &[]);
+        let l = FrameLayout::new(56, 147, 7, pitch, &[]);
         assert_eq!(l.scale, 4);
-        assert_eq!(l.width, 147 * 4 + 2 * LABEL_PX);
+        assert_eq!(l.width, 147 * 4 + 2 * LABEL_PX + COLOUR_BAR_ROOM_PX);
         assert_eq!(l.map_origin, (LABEL_PX, TITLE_PX + LABEL_PX));
-        assert_eq!(l.pixel_centre(0, 0), (16 + 2, 42 + 2));
+        assert_eq!(l.pixel_centre(0, 0), (16 + 2, 60 + 2));
+        // Sensor cell (1, 2) is 7 x 7 map pixels of 4 x 4 image px.
+        assert_eq!(l.cell_rect(1, 2), (16 + 56, 60 + 28, 16 + 84, 60 + 56));
+        // The colour bar spans the map's height, right of its margin.
+        let (x0, y0, _, y1) = l.colour_bar;
+        assert!(x0 > 16 + 588 + LABEL_PX);
+        assert_eq!((y0, y1), (60, 60 + 224));
         // A circle 10 mm past the top edge: the margin grows by its 11 px.
         let c = Circle {
             x_mm: 100.0,
@@ -515,9 +983,36 @@ mod tests {
             r_mm: 18.5,
             weight: 1.0,
         };
-        let m = FrameLayout::new(56, 147, pitch, &[c]);
+        let m = FrameLayout::new(56, 147, 7, pitch, &[c]);
         let over = (10.0 * 4.0 / pitch).ceil() as u32;
         assert_eq!(m.map_origin.1, TITLE_PX + over + LABEL_PX);
         assert_eq!(m.height, l.height + 2 * over);
+    }
+
+    #[test]
+    fn scale_bar_is_a_round_length_that_fits() {
+        // 4 px per 3.63 mm: at most 147 px = 133 mm, so 100 mm = 110 px.
+        let px_per_mm = 4.0 / (25.4 / 7.0);
+        let (mm, px) = scale_bar(px_per_mm, 147.0).unwrap();
+        assert_eq!(mm, 100.0);
+        assert_eq!(px, (100.0 * px_per_mm).round() as i32);
+        assert_eq!(scale_bar(1.0, 49.0).unwrap().0, 20.0);
+        assert_eq!(scale_bar(1.0, 50.0).unwrap().0, 50.0);
+        assert_eq!(scale_bar(1.0, 0.5), None);
+    }
+
+    #[test]
+    fn a_changed_rectangle_keeps_unchanged_pixels_transparent() {
+        let before = vec![1u8; 5 * 4];
+        let mut now = before.clone();
+        now[5 + 1] = 2; // (1, 1)
+        now[2 * 5 + 3] = 3; // (3, 2)
+        let f = changes(&before, &now, 5);
+        assert_eq!((f.left, f.top, f.width, f.height), (1, 1, 3, 2));
+        let u = UNCHANGED;
+        assert_eq!(&f.buffer[..], &[2, u, u, u, u, 3]);
+        let same = changes(&before, &before, 5);
+        assert_eq!((same.width, same.height), (1, 1));
+        assert_eq!(&same.buffer[..], &[u]);
     }
 }
