@@ -60,7 +60,10 @@ fn bench(c: &mut Criterion) {
     }
 
     // Stage by stage, on the inputs the paper preset's compile hands each stage.
-    let opts = CompileOptions::default();
+    let opts = CompileOptions {
+        config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+        ..CompileOptions::default()
+    };
     let cfg = &opts.config;
     let paper = touchc::config::Sampling::PAPER;
     let compiled = compile(&rec, &opts).expect("compiles");
@@ -138,7 +141,14 @@ fn bench(c: &mut Criterion) {
         limits: opts.limits,
     };
     c.bench_function("stage/keyframes", |b| {
-        b.iter(|| encode(black_box(&compiled.signal), fields, &opts.keyframes).expect("encode"))
+        b.iter(|| {
+            encode(
+                black_box(&compiled.signal),
+                fields,
+                &touchc::keyframes::KeyframeOptions::new(&opts.config.keyframes),
+            )
+            .expect("encode")
+        })
     });
 }
 

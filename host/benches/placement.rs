@@ -7,14 +7,13 @@ mod common;
 use common::Reference;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use touchc::config::Config;
 use touchc::layout::Layout;
 use touchc::placement::place;
 
 fn bench(c: &mut Criterion) {
-    let cfg = Config::default();
+    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
     let k = cfg.preprocess.upsample;
-    let pitch = cfg.input.cell_mm / k as f64;
+    let pitch = cfg.input.pitch_mm / k as f64;
     let layout = Layout::paper();
     for name in ["tap_pat_200", "stroke_60"] {
         let r = Reference::load(name);
