@@ -475,6 +475,8 @@ fn preview_gif_and_compile(
     let gif_path = rec_path.with_extension("gif");
     ok(&touchc(&[
         "preview",
+        "--preset",
+        "paper",
         rec_path.to_str().unwrap(),
         "-o",
         gif_path.to_str().unwrap(),
@@ -484,6 +486,7 @@ fn preview_gif_and_compile(
     let opts = touchc::compile::CompileOptions {
         fit: true,
         crop: false,
+        config: touchc::config::Config::preset(touchc::config::Preset::Paper),
         ..Default::default()
     };
     let compiled = touchc::compile::compile(&rec, &opts).unwrap();

@@ -156,6 +156,7 @@ fn cropping_does_not_change_the_result() {
             rec,
             &CompileOptions {
                 crop: false,
+                config: touchc::config::Config::preset(touchc::config::Preset::Paper),
                 ..CompileOptions::default()
             },
         )
