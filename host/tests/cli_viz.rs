@@ -579,6 +579,8 @@ fn preview_marks_touch_no_contact_explains_and_only_that() {
     let png_path = dir.path().join("blip.png");
     ok(&touchc(&[
         "preview",
+        "--preset",
+        "paper",
         rec_path.to_str().unwrap(),
         "-o",
         png_path.to_str().unwrap(),
