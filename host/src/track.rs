@@ -163,19 +163,8 @@ pub fn link(
     let mut g = FlowGraph::new(2 * n + 2);
     // Which detection an edge is the detection edge of (None for other edges).
     let mut edge_detection = Vec::new();
-    let gate_radius = if gate_px2 > 0.0 { gate_px2.sqrt() } else { 0.0 };
     for t in 0..detections.frames() {
         let first = detections.frame_start[t];
-        let prev_first = if t > 0 {
-            detections.frame_start[t - 1]
-        } else {
-            first
-        };
-        let prev = if t > 0 {
-            detections.in_frame(t - 1)
-        } else {
-            &[]
-        };
         for (i, d) in detections.in_frame(t).iter().enumerate() {
             let k = first + i;
             let (entry, exit) = (2 * k + 1, 2 * k + 2);
@@ -184,25 +173,16 @@ pub fn link(
             g.add_edge(source, entry, cfg.entry_cost)?;
             g.add_edge(exit, sink, cfg.exit_cost)?;
             edge_detection.extend([None, None]);
-            // Previous detections are sorted by row: skip rows too far above to link.
-            let lo = prev.partition_point(|p| (p.row as f64) < d.row as f64 - gate_radius);
-            for (j, p) in prev.iter().enumerate().skip(lo) {
-                let dr = p.row as f64 - d.row as f64;
-                if dr > gate_radius {
-                    break;
-                }
-                let dc = p.col as f64 - d.col as f64;
-                let d2 = dr * dr + dc * dc;
-                if d2 < gate_px2 {
-                    let cost = -(-d2 / gate_px2).ln_1p();
-                    g.add_edge(2 * (prev_first + j) + 2, entry, cost)?;
-                    edge_detection.push(None);
-                }
-            }
-            for gap in 2..=(missing + 1).min(t) {
+            // Links from `gap` frames back: the previous frame (the paper's only link),
+            // then across missing frames when bridging.
+            for gap in 1..=(missing + 1).min(t) {
                 let gate = gate_px2 * (gap * gap) as f64;
-                let (radius, first_back) = (gate.sqrt(), detections.frame_start[t - gap]);
-                let back = detections.in_frame(t - gap);
+                let radius = if gate > 0.0 { gate.sqrt() } else { 0.0 };
+                let (back, first_back) = (
+                    detections.in_frame(t - gap),
+                    detections.frame_start[t - gap],
+                );
+                // Earlier detections are sorted by row: skip rows too far above to link.
                 let lo = back.partition_point(|p| (p.row as f64) < d.row as f64 - radius);
                 for (j, p) in back.iter().enumerate().skip(lo) {
                     let dr = p.row as f64 - d.row as f64;
@@ -212,7 +192,10 @@ pub fn link(
                     let dc = p.col as f64 - d.col as f64;
                     let d2 = dr * dr + dc * dc;
                     if d2 < gate {
-                        let cost = -(-d2 / gate).ln_1p() + cost_per_missing * (gap - 1) as f64;
+                        let mut cost = -(-d2 / gate).ln_1p();
+                        if gap > 1 {
+                            cost += cost_per_missing * (gap - 1) as f64;
+                        }
                         g.add_edge(2 * (first_back + j) + 2, entry, cost)?;
                         edge_detection.push(None);
                     }
