@@ -29,6 +29,7 @@ fn long_recording() -> Recording {
         mask: Mask::Cells142,
         noise_psi: 0.004,
         quiet_frames: 30,
+        ..SynthSpec::default()
     });
     Recording::from_array("combination_698", data.view()).expect("valid synthetic data")
 }
@@ -59,7 +60,10 @@ fn bench(c: &mut Criterion) {
     }
 
     // Stage by stage, on the inputs the paper preset's compile hands each stage.
-    let opts = CompileOptions::default();
+    let opts = CompileOptions {
+        config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+        ..CompileOptions::default()
+    };
     let cfg = &opts.config;
     let paper = touchc::config::Sampling::PAPER;
     let compiled = compile(&rec, &opts).expect("compiles");

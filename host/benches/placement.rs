@@ -7,12 +7,11 @@ mod common;
 use common::Reference;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use touchc::config::Config;
 use touchc::layout::Layout;
 use touchc::placement::place;
 
 fn bench(c: &mut Criterion) {
-    let cfg = Config::default();
+    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
     let k = cfg.preprocess.upsample;
     let pitch = cfg.input.pitch_mm / k as f64;
     let layout = Layout::paper();

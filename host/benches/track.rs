@@ -8,14 +8,13 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use ndarray_npy::WriteNpyExt;
-use touchc::config::Config;
 use touchc::detect::detect;
 use touchc::preprocess::preprocess;
 use touchc::recording::Recording;
 use touchc::track::{link, track};
 
 fn stages(c: &mut Criterion) {
-    let cfg = Config::default();
+    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
     let paper = touchc::config::Sampling::PAPER;
     let data = common::moving_blobs(705, 4, 42);
     let mut bytes = Vec::new();

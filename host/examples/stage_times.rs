@@ -34,14 +34,13 @@ impl std::ops::Sub for Instant {
 }
 
 use ndarray_npy::WriteNpyExt;
-use touchc::config::Config;
 use touchc::detect::detect;
 use touchc::preprocess::preprocess;
 use touchc::recording::Recording;
 use touchc::track::{link, track};
 
 fn main() -> anyhow::Result<()> {
-    let cfg = Config::default();
+    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
     let dir = tempfile::tempdir()?;
     let path = match std::env::args().nth(1) {
         Some(p) => p.into(),

@@ -11,6 +11,7 @@ use serde::Serialize;
 use crate::condition::{self, ConditionError, LimitViolation};
 use crate::config::Config;
 use crate::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
+use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
 use crate::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
 use crate::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
@@ -123,6 +124,13 @@ pub struct Report {
     pub no_touch: bool,
     /// The crop applied: frames `[start, end)`, cells rows/cols `[start, end)`.
     pub crop: Option<Crop>,
+    /// Share of the touch pressure within two cells of a tracked contact (1 without
+    /// touch; see [`crate::coverage`]).
+    pub coverage: f64,
+    /// The figures behind `coverage`: touch and explained pressure, touch readings.
+    pub coverage_detail: Coverage,
+    /// Where the unexplained touch lies (absent without touch).
+    pub misses: Option<Misses>,
     /// Things the user should know.
     pub warnings: Vec<String>,
     /// The recording's rate and pitch as used, each with its source (cli, file,
@@ -232,6 +240,8 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     };
     let (tracked, crop) =
         scene::track_cropped(tared.view(), &crop, cfg, &sampling, &mut |s| clock.stage(s))?;
+    let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
+    clock.stage("coverage");
 
     // Stage 4.
     let (rows_px, cols_px) = (
@@ -287,6 +297,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
         placement,
         signals,
         crop,
+        covered,
     };
     finish(
         rec,
@@ -306,6 +317,58 @@ struct Scene {
     placement: Option<Placement>,
     signals: ChannelSignals,
     crop: Crop,
+    covered: (Coverage, Misses),
+}
+
+/// Coverage below this share of the touch pressure is a warning.
+pub const COVERAGE_WARNING: f64 = 0.8;
+
+/// The coverage of the tracked contacts on `tared`, and where the rest lies; below
+/// [`COVERAGE_WARNING`] a warning with the likely causes and what to try.
+fn measure_coverage(
+    tared: ndarray::ArrayView3<f64>,
+    tracked: &TrackOutput,
+    cfg: &Config,
+    sampling: &Sampling,
+    warnings: &mut Vec<String>,
+) -> (Coverage, Misses) {
+    let points = coverage::contact_points(&tracked.trajectories, sampling.upsample);
+    let threshold = cfg.input.touch_threshold_psi;
+    let cells = coverage::classify(tared, threshold, &points, DEFAULT_RADIUS_CELLS);
+    let cov = coverage::measure_classified(tared, &cells);
+    let tracking = tracking_figures(cfg, sampling);
+    let misses = coverage::explain(tared, &cells, &points, &tracking);
+    if cov.ratio() < COVERAGE_WARNING {
+        let mut w = format!(
+            "the tracked contacts explain {:.0}% of the touch pressure (coverage {:.2}, \
+             below {COVERAGE_WARNING}): touch is lost",
+            100.0 * cov.ratio(),
+            cov.ratio()
+        );
+        for a in misses.advice(&tracking) {
+            w.push_str("; ");
+            w.push_str(&a);
+        }
+        warnings.push(w);
+    }
+    (cov, misses)
+}
+
+/// What the config's tracking can follow, in the units of [`Tracking`].
+fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
+    let strongest = -crate::detect::detection_cost(1e6, &cfg.detect);
+    let pay = cfg.track.entry_cost + cfg.track.exit_cost;
+    let min_frames = if strongest > 0.0 {
+        (pay / strongest).floor() as usize + 1
+    } else {
+        usize::MAX
+    };
+    Tracking {
+        rate_hz: sampling.rate_hz,
+        cell_mm: sampling.pitch_mm,
+        gate_mm_s: cfg.track.max_speed_mm_s,
+        min_frames,
+    }
 }
 
 /// Stage 7 and the report; `scene` is `None` for a recording without touch.
@@ -321,9 +384,15 @@ fn finish(
     scene: Option<Scene>,
 ) -> Result<Compiled, CompileError> {
     let no_touch = scene.is_none();
-    let (tracked, placement, signals, crop) = match scene {
-        Some(s) => (Some(s.tracked), s.placement, Some(s.signals), Some(s.crop)),
-        None => (None, None, None, None),
+    let (tracked, placement, signals, crop, covered) = match scene {
+        Some(s) => (
+            Some(s.tracked),
+            s.placement,
+            Some(s.signals),
+            Some(s.crop),
+            Some(s.covered),
+        ),
+        None => (None, None, None, None, None),
     };
     let name = stimulus_name(&opts.name);
     let fields = HeaderFields {
@@ -368,6 +437,9 @@ fn finish(
         fit_scale,
         no_touch,
         crop,
+        coverage: covered.map_or(1.0, |c| c.0.ratio()),
+        coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
+        misses: covered.map(|c| c.1),
         warnings,
         metadata: *metadata,
         config: opts.config.clone(),

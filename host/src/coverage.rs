@@ -138,6 +138,11 @@ pub fn measure(
     radius_cells: f64,
 ) -> Coverage {
     let cells = classify(tared, threshold_psi, points, radius_cells);
+    measure_classified(tared, &cells)
+}
+
+/// The coverage of `tared` given its readings classified by [`classify`].
+pub fn measure_classified(tared: ArrayView3<f64>, cells: &Array3<Cell>) -> Coverage {
     let mut cov = Coverage::default();
     for (&v, &cell) in tared.iter().zip(cells.iter()) {
         match cell {
@@ -155,6 +160,183 @@ pub fn measure(
         }
     }
     cov
+}
+
+/// What tracking settings a recording would need, for the warning that explains low
+/// coverage: the figures [`explain`] derives from the tared recording and the config.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tracking {
+    /// Frame rate, Hz.
+    pub rate_hz: f64,
+    /// Cell pitch, mm.
+    pub cell_mm: f64,
+    /// The fastest contact the link gate follows, mm/s.
+    pub gate_mm_s: f64,
+    /// The fewest frames a trajectory of strong detections needs to pay its entry and
+    /// exit costs.
+    pub min_frames: usize,
+}
+
+/// Where the touch no contact explains lies, as shares of the unexplained pressure, and
+/// the figures that point at a cause.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Misses {
+    /// In touches (runs of frames with any touch) shorter than `Tracking::min_frames`.
+    pub brief: f64,
+    /// In frames of longer touches where no contact was tracked at all.
+    pub untracked: f64,
+    /// In frames with a tracked contact, but more than the radius away from it: a large
+    /// contact, or a second one.
+    pub beside: f64,
+    /// Touches that resume after a gap of one or two frames (flicker, or taps in quick
+    /// succession).
+    pub dropouts: usize,
+    /// The 90th percentile speed of the touch's pressure centroid between consecutive
+    /// touched frames, mm/s.
+    pub speed_p90_mm_s: f64,
+}
+
+impl Misses {
+    /// The likely causes, largest first, each with what to try.
+    pub fn advice(&self, t: &Tracking) -> Vec<String> {
+        let mut out: Vec<(f64, String)> = Vec::new();
+        let pct = |v: f64| (100.0 * v).round();
+        if self.brief > 0.0 {
+            out.push((
+                self.brief,
+                format!(
+                    "{}% of the missed touch is in touches shorter than {} frames ({:.0} ms), the least a trajectory needs to pay its entry and exit costs: try --preset touch, or lower --entry-cost and --exit-cost",
+                    pct(self.brief),
+                    t.min_frames,
+                    1000.0 * t.min_frames as f64 / t.rate_hz
+                ),
+            ));
+        }
+        if self.untracked > 0.0 {
+            let fast = self.speed_p90_mm_s > t.gate_mm_s;
+            let why = if fast {
+                format!(
+                    "the touch moves at up to {:.2} m/s (90th percentile), the link gate follows {:.2} m/s: try --preset touch, or a wider link gate",
+                    self.speed_p90_mm_s / 1000.0,
+                    t.gate_mm_s / 1000.0
+                )
+            } else if self.dropouts > 0 {
+                format!(
+                    "the touch drops out for one or two frames {} times (flicker) and the pieces are too short to track: try --preset touch (links across missing frames)",
+                    self.dropouts
+                )
+            } else {
+                "its detections are too weak to start a trajectory: try --preset touch, or lower --entry-cost and --exit-cost"
+                    .to_string()
+            };
+            out.push((
+                self.untracked,
+                format!(
+                    "{}% of the missed touch is in frames where no contact was tracked; {why}",
+                    pct(self.untracked)
+                ),
+            ));
+        }
+        if self.beside > 0.0 {
+            out.push((
+                self.beside,
+                format!(
+                    "{}% of the missed touch lies more than {DEFAULT_RADIUS_CELLS} cells from the contact tracked in its frame: a large contact (a flat hand) or a second one; try --preset touch (contact splitting)",
+                    pct(self.beside)
+                ),
+            ));
+        }
+        out.sort_by(|a, b| b.0.total_cmp(&a.0));
+        out.into_iter().map(|(_, s)| s).collect()
+    }
+}
+
+/// Sorts the unexplained touch of `cells` (from [`classify`] on `tared`) by likely cause
+/// (see [`Misses`]); `points` are the contact points `cells` was classified against.
+pub fn explain(
+    tared: ArrayView3<f64>,
+    cells: &Array3<Cell>,
+    points: &[ContactPoint],
+    t: &Tracking,
+) -> Misses {
+    let frames = tared.dim().0;
+    let mut tracked = vec![false; frames];
+    for p in points.iter().filter(|p| p.frame < frames) {
+        tracked[p.frame] = true;
+    }
+    // Per frame: touch present, unexplained pressure, pressure centroid.
+    let mut touched = vec![false; frames];
+    let mut missed = vec![0.0; frames];
+    let mut centroid = vec![None; frames];
+    for (f, (frame, class)) in tared
+        .axis_iter(Axis(0))
+        .zip(cells.axis_iter(Axis(0)))
+        .enumerate()
+    {
+        let (mut w, mut sr, mut sc) = (0.0, 0.0, 0.0);
+        for (((r, c), &v), &cell) in frame.indexed_iter().zip(class.iter()) {
+            if cell == Cell::Quiet {
+                continue;
+            }
+            touched[f] = true;
+            w += v;
+            sr += v * r as f64;
+            sc += v * c as f64;
+            if cell == Cell::Unexplained {
+                missed[f] += v;
+            }
+        }
+        if w > 0.0 {
+            centroid[f] = Some((sr / w, sc / w));
+        }
+    }
+    let total: f64 = missed.iter().sum();
+    let mut m = Misses::default();
+    // Runs of touched frames, and the gaps between them.
+    let mut f = 0;
+    let mut last_end: Option<usize> = None;
+    while f < frames {
+        if !touched[f] {
+            f += 1;
+            continue;
+        }
+        let start = f;
+        while f < frames && touched[f] {
+            f += 1;
+        }
+        if last_end.is_some_and(|e| start - e <= 2) {
+            m.dropouts += 1;
+        }
+        last_end = Some(f);
+        for g in start..f {
+            if f - start < t.min_frames {
+                m.brief += missed[g];
+            } else if !tracked[g] {
+                m.untracked += missed[g];
+            } else {
+                m.beside += missed[g];
+            }
+        }
+    }
+    if total > 0.0 {
+        m.brief /= total;
+        m.untracked /= total;
+        m.beside /= total;
+    }
+    let mut speeds: Vec<f64> = centroid
+        .windows(2)
+        .filter_map(|w| match (w[0], w[1]) {
+            (Some(a), Some(b)) => {
+                Some(((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt() * t.cell_mm * t.rate_hz)
+            }
+            _ => None,
+        })
+        .collect();
+    if !speeds.is_empty() {
+        speeds.sort_by(f64::total_cmp);
+        m.speed_p90_mm_s = speeds[(speeds.len() - 1) * 9 / 10];
+    }
+    m
 }
 
 #[cfg(test)]
@@ -236,5 +418,42 @@ mod tests {
         assert_eq!(cells[[0, 0, 0]], Cell::Explained);
         assert_eq!(cells[[0, 0, 1]], Cell::Quiet);
         assert_eq!(cells[[0, 0, 5]], Cell::Unexplained);
+    }
+
+    #[test]
+    fn misses_sorted_by_cause() {
+        let t = Tracking {
+            rate_hz: 20.0,
+            cell_mm: 25.4,
+            gate_mm_s: 500.0,
+            min_frames: 3,
+        };
+        // 1 x 20 cells, 12 frames: a one-frame tap at frame 1 (missed); frames 4-9 a
+        // contact moving 3 cells a frame (untracked); frames 4-9 also a second reading
+        // 10 cells beside a tracked point at frame 9.
+        let mut rec = Array3::<f64>::zeros((12, 1, 20));
+        rec[[1, 0, 0]] = 1.0;
+        for f in 4..10 {
+            rec[[f, 0, (f - 4) * 3]] = 1.0;
+        }
+        rec[[9, 0, 19]] = 2.0;
+        let pts = [ContactPoint {
+            frame: 9,
+            row: 0.0,
+            col: 15.0,
+        }];
+        let cells = classify(rec.view(), 0.08, &pts, 2.0);
+        let m = explain(rec.view(), &cells, &pts, &t);
+        // Missed: tap 1, frames 4-8 five readings of 1, frame 9 the 2 beside (the moving
+        // contact at col 15 is explained).
+        assert!((m.brief - 1.0 / 8.0).abs() < 1e-12, "{m:?}");
+        assert!((m.untracked - 5.0 / 8.0).abs() < 1e-12, "{m:?}");
+        assert!((m.beside - 2.0 / 8.0).abs() < 1e-12, "{m:?}");
+        assert_eq!(m.dropouts, 1);
+        // 3 cells a frame at 20 Hz and 25.4 mm = 1.52 m/s, above the 0.5 m/s gate.
+        assert!(m.speed_p90_mm_s > 1000.0, "{m:?}");
+        let advice = m.advice(&t);
+        assert!(advice[0].contains("no contact was tracked") && advice[0].contains("gate"));
+        assert!(advice[1].contains("2 cells") && advice[2].contains("shorter than 3 frames"));
     }
 }

@@ -10,6 +10,7 @@
 //! so corners may be detections here (the reference trajectories are unaffected).
 
 use ndarray::ArrayView2;
+use serde::{Deserialize, Serialize};
 
 use crate::config::DetectConfig;
 use crate::preprocess::Blurred;
@@ -183,6 +184,123 @@ pub fn detection_cost(z: f64, cfg: &DetectConfig) -> f64 {
     ln_q - ln_p
 }
 
+/// Contact splitting: a flat contact (a palm) is one blob with a broad top and one local
+/// maximum, so one trajectory would stand for all of it and render it at one point.
+/// Splitting adds detections on a lattice of cells inside such a contact, so that the
+/// actuators it covers each get a trajectory to render.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Split {
+    /// A contact is flat when at least this many cells read `level` of its peak or more.
+    pub min_cells: usize,
+    /// Share of the contact's peak that makes its top.
+    pub level: f64,
+    /// Lattice pitch, in cells: cells whose row and column are multiples of it. With 2,
+    /// every cell of the top lies within 1.5 cells of a lattice cell.
+    pub spacing_cells: usize,
+}
+
+/// The lattice detections of one blurred frame (`[R k, C k]` pixels, `k = upsample`):
+/// the centre pixels of lattice cells inside the top of every flat contact, as
+/// `(row, col, value)` in row-major order.
+///
+/// Cells are read at their centre pixels; a contact is a 4-connected group of cells
+/// above `min_value`; its top is the cells at or above `split.level` of its peak.
+pub fn lattice_points(
+    frame: ArrayView2<f64>,
+    upsample: usize,
+    split: &Split,
+    min_value: f64,
+) -> Vec<(usize, usize, f64)> {
+    let k = upsample.max(1);
+    let (h, w) = frame.dim();
+    let (rows, cols) = (h / k, w / k);
+    let centre = |i: usize| i * k + k / 2;
+    let value = |r: usize, c: usize| frame[[centre(r), centre(c)]];
+    let mut label = vec![usize::MAX; rows * cols];
+    let mut out = Vec::new();
+    let mut stack = Vec::new();
+    let spacing = split.spacing_cells.max(1);
+    for start in 0..rows * cols {
+        if label[start] != usize::MAX
+            || value(start / cols, start % cols).partial_cmp(&min_value)
+                != Some(std::cmp::Ordering::Greater)
+        {
+            continue;
+        }
+        // Flood-fill one contact, remembering its cells and peak.
+        let mut cells = Vec::new();
+        let mut peak = f64::NEG_INFINITY;
+        label[start] = start;
+        stack.push(start);
+        while let Some(i) = stack.pop() {
+            let (r, c) = (i / cols, i % cols);
+            let v = value(r, c);
+            peak = peak.max(v);
+            cells.push((i, v));
+            let neighbours = [
+                (r > 0).then(|| i - cols),
+                (r + 1 < rows).then(|| i + cols),
+                (c > 0).then(|| i - 1),
+                (c + 1 < cols).then(|| i + 1),
+            ];
+            for j in neighbours.into_iter().flatten() {
+                if label[j] == usize::MAX && value(j / cols, j % cols) > min_value {
+                    label[j] = start;
+                    stack.push(j);
+                }
+            }
+        }
+        let top = split.level * peak;
+        if cells.iter().filter(|(_, v)| *v >= top).count() < split.min_cells {
+            continue;
+        }
+        out.extend(
+            cells
+                .iter()
+                .filter(|&&(i, v)| {
+                    v >= top && (i / cols) % spacing == 0 && (i % cols) % spacing == 0
+                })
+                .map(|&(i, v)| (centre(i / cols), centre(i % cols), v)),
+        );
+    }
+    out.sort_by_key(|&(r, c, _)| (r, c));
+    out
+}
+
+/// The local maxima and lattice points of one frame, row-major, each pixel once.
+pub fn with_lattice(
+    maxima: Vec<(usize, usize, f64)>,
+    lattice: Vec<(usize, usize, f64)>,
+) -> Vec<(usize, usize, f64)> {
+    if lattice.is_empty() {
+        return maxima;
+    }
+    let mut all = maxima;
+    all.extend(lattice);
+    all.sort_by_key(|&(r, c, _)| (r, c));
+    all.dedup_by_key(|p| (p.0, p.1));
+    all
+}
+
+/// The detections of one blurred frame: its local maxima above `cfg.min_value_psi`,
+/// and with `split` the lattice points of its flat contacts.
+pub fn frame_points(
+    frame: ArrayView2<f64>,
+    cfg: &DetectConfig,
+    split: Option<&Split>,
+    upsample: usize,
+) -> Vec<(usize, usize, f64)> {
+    let maxima = local_maxima(frame, cfg.min_value_psi);
+    match split {
+        Some(s) => with_lattice(
+            maxima,
+            lattice_points(frame, upsample, s, cfg.min_value_psi),
+        ),
+        None => maxima,
+    }
+}
+
 /// Finds and scores the detections of every frame.
 ///
 /// A zero (or non-finite) standard deviation means a featureless recording: it has no
@@ -194,6 +312,17 @@ pub fn detect(blurred: &Blurred, cfg: &DetectConfig) -> Detections {
         .map(|f| local_maxima(f, cfg.min_value_psi))
         .collect();
     score(maxima, blurred.mean, blurred.std, cfg)
+}
+
+/// [`detect`], with the lattice points of flat contacts when `cfg.split` asks for them
+/// (frames upsampled `upsample` times; see [`Split`]).
+pub fn detect_with(blurred: &Blurred, cfg: &DetectConfig, upsample: usize) -> Detections {
+    let points = blurred
+        .frames
+        .outer_iter()
+        .map(|f| frame_points(f, cfg, cfg.split.as_ref(), upsample))
+        .collect();
+    score(points, blurred.mean, blurred.std, cfg)
 }
 
 /// Scores per-frame local maxima (`maxima[t]` as returned by [`local_maxima`] for frame
@@ -289,5 +418,40 @@ mod tests {
         assert_eq!(m, vec![(1, 1, 2.0), (1, 2, 2.0)]);
         let constant = ndarray::Array2::<f64>::from_elem((3, 3), 5.0);
         assert!(local_maxima(constant.view(), 1e-5).is_empty());
+    }
+
+    #[test]
+    fn a_flat_contact_gets_lattice_points_a_fingertip_none() {
+        // 6 x 8 cells at upsampling 1: a flat 4 x 5 top and a one-cell fingertip.
+        let mut f = ndarray::Array2::<f64>::zeros((6, 8));
+        for r in 0..4 {
+            for c in 0..5 {
+                f[[r, c]] = 1.0;
+            }
+        }
+        f[[5, 7]] = 2.0;
+        let split = Split {
+            min_cells: 8,
+            level: 0.5,
+            spacing_cells: 2,
+        };
+        let pts = lattice_points(f.view(), 1, &split, 0.05);
+        let cells: Vec<(usize, usize)> = pts.iter().map(|p| (p.0, p.1)).collect();
+        assert_eq!(cells, vec![(0, 0), (0, 2), (0, 4), (2, 0), (2, 2), (2, 4)]);
+        // Upsampled x3: the same cells, at their centre pixels.
+        let up = ndarray::Array2::from_shape_fn((18, 24), |(r, c)| f[[r / 3, c / 3]]);
+        let pts3 = lattice_points(up.view(), 3, &split, 0.05);
+        assert_eq!(pts3[1], (1, 7, 1.0));
+        // Merged with the maxima, each pixel once, row-major.
+        let maxima = local_maxima(f.view(), 0.05);
+        let all = with_lattice(maxima.clone(), pts);
+        assert!(all.windows(2).all(|w| (w[0].0, w[0].1) < (w[1].0, w[1].1)));
+        assert!(maxima.iter().all(|m| all.contains(m)));
+        // A smaller top is not split.
+        let few = Split {
+            min_cells: 21,
+            ..split
+        };
+        assert!(lattice_points(f.view(), 1, &few, 0.05).is_empty());
     }
 }

@@ -37,6 +37,7 @@ pub mod keyframes;
 pub mod scene;
 pub mod compile;
 pub mod coverage;
+pub mod evaluate;
 pub mod trade;
 
 pub mod output;

@@ -23,7 +23,7 @@ use ndarray::{ArrayView3, Axis, Slice};
 use serde::Serialize;
 
 use crate::config::{Config, Sampling};
-use crate::detect::{detect, detection_cost, Detections};
+use crate::detect::{detect_with, detection_cost, Detections};
 use crate::placement::Placement;
 use crate::preprocess::{preprocess, Blurred};
 use crate::signals::{self, ChannelSignals, Source};
@@ -113,7 +113,7 @@ pub fn track_cropped(
         crop.rows.start * k..crop.rows.end * k,
         crop.cols.start * k..crop.cols.end * k,
     );
-    let found = detect(&window, &cfg.detect);
+    let found = detect_with(&window, &cfg.detect, k);
     let detections = shift_and_clip(&found, crop.frames.start, tared.dim().0, &rows, &cols);
     lap("detect");
     let trajectories = link(&detections, &cfg.track, sampling)?;

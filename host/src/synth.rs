@@ -1,13 +1,23 @@
-//! Synthetic recordings: seeded, physically plausible touches on a sleeve mask, so
-//! anyone can run the whole chain without a pressure sleeve.
+//! Synthetic recordings: seeded, physically plausible touches on a sensor, so anyone can
+//! run the whole chain without a pressure sleeve, and with the truth of where each
+//! contact was, so tests can measure what tracking keeps and loses.
 //!
-//! A recording is `[T, 8, 21]` psi at 20 Hz: `quiet` frames of sensor noise, the
-//! gestures one after another with a short pause between, then `quiet` frames
-//! again. Each contact is an anisotropic Gaussian pressure blob whose centre
-//! moves along a path and whose amplitude rises and falls smoothly. Cells outside
-//! the sleeve mask are NaN, as in the public data set.
+//! A recording is `[T, rows, cols]` psi at the sensor's rate: `quiet` frames of sensor
+//! noise, the gestures one after another with a short pause between, then `quiet` frames
+//! again. Each contact is a pressure blob (anisotropic Gaussian, or flat-topped for a
+//! palm) whose centre moves along a path and whose amplitude rises and falls smoothly.
+//! Cells outside the sleeve mask are NaN, as in the public data set.
+//!
+//! Two sensors: the paper's 8 x 21 sleeve at 20 Hz and a 10 x 10 grid at 54 Hz, both of
+//! one-inch cells (see [`Sensor`]). The gestures' defaults are those of the shipped
+//! examples (`examples/generate.sh`: the same spec gives the same bytes as ever);
+//! [`Tuning`] sets their speed, duration, frequency and spacing in physical units for the
+//! cases real touch holds (fast strokes, brief taps, shakes), and [`SynthSpec`] adds
+//! flicker and recordings that begin or end mid-touch. [`generate_with_truth`] also says
+//! where every contact was, frame by frame ([`Truth`], `touchc synth --truth`).
 
 use ndarray::Array3;
+use serde::{Deserialize, Serialize};
 
 /// Rows of the published sensor frame.
 pub const ROWS: usize = 8;
@@ -15,18 +25,44 @@ pub const ROWS: usize = 8;
 pub const COLS: usize = 21;
 
 /// A gesture the generator can produce.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Gesture {
-    /// One fingertip-sized contact sliding along the arm over about 1.2 s.
+    /// One fingertip-sized contact sliding along the arm over about 1.2 s
+    /// ([`Tuning::stroke_speed_mps`] sets its speed).
     Stroke,
-    /// Three short fingertip presses at one spot.
+    /// Three short fingertip presses at one spot ([`Tuning::tap_s`] sets their length).
     Tap,
     /// Four flat-hand pats at neighbouring spots.
     Pat,
     /// A grip: four fingertips on one side and the heel of the hand on the other, together.
     Squeeze,
-    /// A contact moving back and forth across the arm at 3 Hz.
+    /// A contact moving back and forth across the arm at 3 Hz
+    /// ([`Tuning::shake_hz`], [`Tuning::shake_amplitude_mm`]).
     Shake,
+    /// A flat hand pressed and held: one large, flat-topped contact for 1.5 s.
+    Palm,
+    /// Three strokes back and forth along the arm, each lifted [`Tuning::gap_s`]
+    /// (150 ms by default) before the next touches down where it ended.
+    Strokes,
+    /// Two seconds of nothing but sensor noise.
+    Rest,
+}
+
+impl Gesture {
+    /// The gesture's name on the command line and in truth files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Gesture::Stroke => "stroke",
+            Gesture::Tap => "tap",
+            Gesture::Pat => "pat",
+            Gesture::Squeeze => "squeeze",
+            Gesture::Shake => "shake",
+            Gesture::Palm => "palm",
+            Gesture::Strokes => "strokes",
+            Gesture::Rest => "rest",
+        }
+    }
 }
 
 /// Which sleeve outline to mask the frame with.
@@ -53,6 +89,73 @@ impl Mask {
     }
 }
 
+/// The sensor a recording imitates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Sensor {
+    /// The paper's sleeve: 8 x 21 one-inch cells (outline from [`Mask`]) at 20 Hz.
+    Sleeve,
+    /// A 10 x 10 fabric grid of about one-inch cells at 54 Hz, every cell live (the
+    /// other lab's sensor of `REAL-TOUCH`-style recordings).
+    Grid10,
+}
+
+impl Sensor {
+    /// Rows of the frame.
+    pub fn rows(self) -> usize {
+        match self {
+            Sensor::Sleeve => ROWS,
+            Sensor::Grid10 => 10,
+        }
+    }
+
+    /// Columns of the frame.
+    pub fn cols(self) -> usize {
+        match self {
+            Sensor::Sleeve => COLS,
+            Sensor::Grid10 => 10,
+        }
+    }
+
+    /// Frame rate, Hz.
+    pub fn rate_hz(self) -> f64 {
+        match self {
+            Sensor::Sleeve => 20.0,
+            Sensor::Grid10 => 54.0,
+        }
+    }
+
+    /// Cell pitch, mm.
+    pub fn pitch_mm(self) -> f64 {
+        25.4
+    }
+
+    /// The sensor's name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sensor::Sleeve => "sleeve",
+            Sensor::Grid10 => "grid10",
+        }
+    }
+}
+
+/// Physical settings of the gestures; `None` keeps a gesture as the shipped examples
+/// have it (so their bytes never change).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Tuning {
+    /// Speed of `stroke` and `strokes` along the arm, m/s (`strokes` default: 0.3).
+    pub stroke_speed_mps: Option<f64>,
+    /// Length of each `tap`, seconds (default 0.2); a frame falls inside its plateau.
+    pub tap_s: Option<f64>,
+    /// Frequency of `shake`, Hz (default 3).
+    pub shake_hz: Option<f64>,
+    /// Amplitude of `shake` across the arm, mm either side (default two cells).
+    pub shake_amplitude_mm: Option<f64>,
+    /// Time between lift-off and the next touch-down within `strokes`, seconds
+    /// (default 0.15).
+    pub gap_s: Option<f64>,
+}
+
 /// Everything that shapes a synthetic recording.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SynthSpec {
@@ -60,12 +163,23 @@ pub struct SynthSpec {
     pub gestures: Vec<Gesture>,
     /// Seed of the random generator: the same spec gives the same bytes.
     pub seed: u64,
-    /// Sleeve outline.
+    /// Sleeve outline (the sleeve sensor only).
     pub mask: Mask,
     /// Standard deviation of the sensor noise, psi.
     pub noise_psi: f64,
     /// Noise-only frames before and after the gestures.
     pub quiet_frames: usize,
+    /// The sensor imitated.
+    pub sensor: Sensor,
+    /// Speeds, durations and spacing of the gestures.
+    pub tuning: Tuning,
+    /// Dropouts per second while a contact presses fully: it reads almost nothing for
+    /// 19-37 ms (one or two frames at 54 Hz; sensor flicker; 0 = none).
+    pub flicker: f64,
+    /// Start the recording in the middle of the first contact (no quiet frames before).
+    pub begin_mid_touch: bool,
+    /// End the recording in the middle of the last contact (no quiet frames after).
+    pub end_mid_touch: bool,
 }
 
 impl Default for SynthSpec {
@@ -76,36 +190,114 @@ impl Default for SynthSpec {
             mask: Mask::Cells142,
             noise_psi: 0.004,
             quiet_frames: 30,
+            sensor: Sensor::Sleeve,
+            tuning: Tuning::default(),
+            flicker: 0.0,
+            begin_mid_touch: false,
+            end_mid_touch: false,
         }
     }
 }
 
-const FRAME_RATE_HZ: f64 = 20.0;
-const PAUSE_FRAMES: usize = 10;
+impl SynthSpec {
+    /// Cell `(r, c)` carries a sensor.
+    fn has_cell(&self, r: usize, c: usize) -> bool {
+        match self.sensor {
+            Sensor::Sleeve => self.mask.has_cell(r, c),
+            Sensor::Grid10 => true,
+        }
+    }
+}
+
+/// Pause between gestures, seconds (10 frames at the sleeve's 20 Hz).
+const PAUSE_S: f64 = 0.5;
+/// Amplitude factor of a flickering frame: a 1 psi contact reads 0.03 psi.
+const FLICKER_FACTOR: f64 = 0.03;
+/// Shortest and longest dropout of a flickering contact, seconds.
+const FLICKER_S: (f64, f64) = (0.019, 0.037);
+/// Least time between two dropouts of one contact, seconds.
+const FLICKER_SPACING_S: f64 = 0.1;
+/// A contact's radius is where it falls to this share of its peak.
+const RADIUS_LEVEL: f64 = 0.1;
+
+/// How a contact's pressure falls off from its centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Profile {
+    /// `exp(-d^2 / 2)` in units of the blob's sigmas: a fingertip, a heel.
+    Gaussian,
+    /// `exp(-d^4 / 2)`: flat on top, falling fast at the rim (a flat hand).
+    Flat,
+}
 
 /// One contact: where it is and how hard it presses at a given time.
 struct Contact {
+    gesture: Gesture,
     start: f64,
     length: f64,
     peak_psi: f64,
     /// Blob size along the arm and across it, in cells.
     sigma: (f64, f64),
-    /// Centre (col, row) at relative time `u` in [0, 1].
+    profile: Profile,
+    /// Rise and fall time, seconds; `None` rises and falls over the whole contact
+    /// (the shipped examples).
+    ramp_s: Option<f64>,
+    /// Centre (col, row) at relative time `u` in [0, 1], cell edges at integers.
     path: Box<dyn Fn(f64) -> (f64, f64)>,
 }
 
 impl Contact {
-    fn pressure(&self, t: f64, r: usize, c: usize) -> f64 {
+    /// The share of the peak pressed at time `t` (0 outside the contact).
+    fn envelope(&self, t: f64) -> f64 {
         let u = (t - self.start) / self.length;
         if !(0.0..=1.0).contains(&u) {
             return 0.0;
         }
-        // A raised-cosine envelope: no step at touch-down or lift-off.
-        let envelope = (std::f64::consts::PI * u).sin().powi(2);
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        match self.ramp_s {
+            // A raised-cosine envelope: no step at touch-down or lift-off.
+            None => (std::f64::consts::PI * u).sin().powi(2),
+            Some(ramp) => {
+                let edge = (t - self.start).min(self.start + self.length - t);
+                if edge >= ramp {
+                    1.0
+                } else {
+                    (half_pi * edge / ramp).sin().powi(2)
+                }
+            }
+        }
+    }
+
+    /// Centre (col, row) at time `t`, cell edges at integers.
+    fn centre(&self, t: f64) -> (f64, f64) {
+        (self.path)(((t - self.start) / self.length).clamp(0.0, 1.0))
+    }
+
+    fn pressure(&self, t: f64, r: usize, c: usize) -> f64 {
+        let envelope = self.envelope(t);
+        if envelope == 0.0 {
+            return 0.0;
+        }
+        let u = (t - self.start) / self.length;
         let (x, y) = (self.path)(u);
         let dx = (c as f64 + 0.5 - x) / self.sigma.0;
         let dy = (r as f64 + 0.5 - y) / self.sigma.1;
-        self.peak_psi * envelope * (-0.5 * (dx * dx + dy * dy)).exp()
+        let d2 = dx * dx + dy * dy;
+        let fall = match self.profile {
+            Profile::Gaussian => (-0.5 * d2).exp(),
+            Profile::Flat => (-0.5 * d2 * d2).exp(),
+        };
+        self.peak_psi * envelope * fall
+    }
+
+    /// Distance from the centre, in cells along the longer axis, where the pressure
+    /// falls to [`RADIUS_LEVEL`] of the peak.
+    fn radius_cells(&self) -> f64 {
+        let d2 = 2.0 * (1.0 / RADIUS_LEVEL).ln();
+        let d = match self.profile {
+            Profile::Gaussian => d2.sqrt(),
+            Profile::Flat => d2.sqrt().sqrt(),
+        };
+        d * self.sigma.0.max(self.sigma.1)
     }
 }
 
@@ -140,49 +332,129 @@ impl Rng {
     }
 }
 
+/// Where gestures happen: the shipped gestures are laid out on the sleeve's 21 x 8
+/// cells; another frame scales their positions (not their sizes) to its own.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    /// Scale of positions along the arm and across it.
+    sx: f64,
+    sy: f64,
+    rate_hz: f64,
+    pitch_mm: f64,
+    cols: f64,
+    rows: f64,
+}
+
+impl Frame {
+    fn of(sensor: Sensor) -> Frame {
+        Frame {
+            sx: sensor.cols() as f64 / COLS as f64,
+            sy: sensor.rows() as f64 / ROWS as f64,
+            rate_hz: sensor.rate_hz(),
+            pitch_mm: sensor.pitch_mm(),
+            cols: sensor.cols() as f64,
+            rows: sensor.rows() as f64,
+        }
+    }
+
+    /// Seconds to travel `cells` at `mps`.
+    fn travel_s(&self, cells: f64, mps: f64) -> f64 {
+        cells.abs() * self.pitch_mm / 1000.0 / mps
+    }
+}
+
 /// Contacts of one gesture starting at `t0` seconds; returns them and the gesture length.
-fn gesture(kind: Gesture, t0: f64, rng: &mut Rng) -> (Vec<Contact>, f64) {
+///
+/// The random draws of the shipped gestures come first and in their original order, so
+/// that an untuned gesture on the sleeve is the same as ever.
+fn gesture(
+    kind: Gesture,
+    t0: f64,
+    rng: &mut Rng,
+    tuning: &Tuning,
+    fr: Frame,
+) -> (Vec<Contact>, f64) {
     let mut contacts = Vec::new();
+    let (sx, sy) = (fr.sx, fr.sy);
+    let blob =
+        |gesture, start, length, peak_psi, sigma, path: Box<dyn Fn(f64) -> (f64, f64)>| Contact {
+            gesture,
+            start,
+            length,
+            peak_psi,
+            sigma,
+            profile: Profile::Gaussian,
+            ramp_s: None,
+            path,
+        };
     let length = match kind {
         Gesture::Stroke => {
             let row = rng.range(2.5, 5.5);
             let (from, to) = (rng.range(1.5, 3.5), rng.range(15.5, 18.0));
             let drift = rng.range(-1.0, 1.0);
-            let length = rng.range(1.0, 1.4);
-            contacts.push(Contact {
-                start: t0,
+            let mut length = rng.range(1.0, 1.4);
+            let mut ramp_s = None;
+            if let Some(v) = tuning.stroke_speed_mps {
+                length = fr.travel_s((to - from) * sx, v);
+                ramp_s = Some((0.05f64).min(length / 4.0));
+            }
+            let mut c = blob(
+                kind,
+                t0,
                 length,
-                peak_psi: rng.range(1.0, 1.3),
-                sigma: (0.9, 0.8),
-                path: Box::new(move |u| (from + (to - from) * u, row + drift * u)),
-            });
+                rng.range(1.0, 1.3),
+                (0.9, 0.8),
+                Box::new(move |u| (sx * (from + (to - from) * u), sy * (row + drift * u))),
+            );
+            c.ramp_s = ramp_s;
+            contacts.push(c);
             length
         }
         Gesture::Tap => {
             let (x, y) = (rng.range(4.0, 16.0), rng.range(2.5, 5.5));
+            let (tap, every) = match tuning.tap_s {
+                None => (0.2, 0.4),
+                Some(s) => (s, (s + 0.3).max(0.4)),
+            };
             for k in 0..3 {
-                contacts.push(Contact {
-                    start: t0 + 0.4 * k as f64,
-                    length: 0.2,
-                    peak_psi: rng.range(0.9, 1.4),
-                    sigma: (0.7, 0.7),
-                    path: Box::new(move |_| (x, y)),
-                });
+                let mut start = t0 + every * k as f64;
+                let mut ramp_s = None;
+                if tuning.tap_s.is_some() {
+                    // A brief tap still shows in a frame: its middle falls within a
+                    // quarter frame of a frame time, inside the plateau.
+                    let ramp = (tap / 5.0).min(0.01);
+                    let period = 1.0 / fr.rate_hz;
+                    let frame = (start * fr.rate_hz).ceil() / fr.rate_hz;
+                    let jitter = rng.range(-0.25, 0.25) * period.min(tap - 2.0 * ramp);
+                    start = frame - tap / 2.0 + jitter;
+                    ramp_s = Some(ramp);
+                }
+                let mut c = blob(
+                    kind,
+                    start,
+                    tap,
+                    rng.range(0.9, 1.4),
+                    (0.7, 0.7),
+                    Box::new(move |_| (sx * x, sy * y)),
+                );
+                c.ramp_s = ramp_s;
+                contacts.push(c);
             }
-            1.2
+            every * 2.0 + tap + 0.2
         }
         Gesture::Pat => {
             let mut x = rng.range(3.0, 7.0);
             for k in 0..4 {
                 let y = rng.range(3.0, 5.0);
                 let here = x;
-                contacts.push(Contact {
-                    start: t0 + 0.5 * k as f64,
-                    length: 0.3,
-                    peak_psi: rng.range(0.6, 1.0),
-                    sigma: (1.6, 1.4),
-                    path: Box::new(move |_| (here, y)),
-                });
+                contacts.push(blob(
+                    kind,
+                    t0 + 0.5 * k as f64,
+                    0.3,
+                    rng.range(0.6, 1.0),
+                    (1.6, 1.4),
+                    Box::new(move |_| (sx * here, sy * y)),
+                ));
                 x += rng.range(2.5, 4.0);
             }
             2.0
@@ -197,66 +469,290 @@ fn gesture(kind: Gesture, t0: f64, rng: &mut Rng) -> (Vec<Contact>, f64) {
                     x + 2.2 * k as f64 + rng.range(-0.3, 0.3),
                     rng.range(1.6, 2.4),
                 );
-                contacts.push(Contact {
-                    start: t0,
-                    length: 1.8,
-                    peak_psi: peak * rng.range(0.85, 1.0),
-                    sigma: (0.8, 0.8),
-                    path: Box::new(move |_| (fx, fy)),
-                });
+                contacts.push(blob(
+                    kind,
+                    t0,
+                    1.8,
+                    peak * rng.range(0.85, 1.0),
+                    (0.8, 0.8),
+                    Box::new(move |_| (sx * fx, sy * fy)),
+                ));
             }
             let (px, py) = (x + 3.3, rng.range(5.6, 6.4));
-            contacts.push(Contact {
-                start: t0,
-                length: 1.8,
-                peak_psi: peak * 0.8,
-                sigma: (2.0, 1.0),
-                path: Box::new(move |_| (px, py)),
-            });
+            contacts.push(blob(
+                kind,
+                t0,
+                1.8,
+                peak * 0.8,
+                (2.0, 1.0),
+                Box::new(move |_| (sx * px, sy * py)),
+            ));
             1.8
         }
         Gesture::Shake => {
             let x = rng.range(6.0, 15.0);
+            let c = match (tuning.shake_hz, tuning.shake_amplitude_mm) {
+                (None, None) => blob(
+                    kind,
+                    t0,
+                    1.5,
+                    rng.range(0.8, 1.2),
+                    (1.0, 1.0),
+                    Box::new(move |u| {
+                        (
+                            sx * x,
+                            sy * (4.0 + 2.0 * (2.0 * std::f64::consts::PI * 3.0 * 1.5 * u).sin()),
+                        )
+                    }),
+                ),
+                (hz, amp) => {
+                    let hz = hz.unwrap_or(3.0);
+                    let amp = amp.unwrap_or(2.0 * fr.pitch_mm) / fr.pitch_mm;
+                    let cy = fr.rows / 2.0;
+                    // A fingertip the size of a stroke's.
+                    let mut c = blob(
+                        kind,
+                        t0,
+                        1.5,
+                        rng.range(0.8, 1.2),
+                        (0.9, 0.8),
+                        Box::new(move |u| {
+                            let phase = 2.0 * std::f64::consts::PI * hz * 1.5 * u;
+                            (sx * x, cy + amp * phase.sin())
+                        }),
+                    );
+                    c.ramp_s = Some(0.15);
+                    c
+                }
+            };
+            contacts.push(c);
+            1.5
+        }
+        Gesture::Palm => {
+            let (x, y) = (fr.cols / 2.0 + rng.range(-1.5, 1.5), fr.rows / 2.0);
             contacts.push(Contact {
+                gesture: kind,
                 start: t0,
                 length: 1.5,
-                peak_psi: rng.range(0.8, 1.2),
-                sigma: (1.0, 1.0),
-                path: Box::new(move |u| {
-                    (
-                        x,
-                        4.0 + 2.0 * (2.0 * std::f64::consts::PI * 3.0 * 1.5 * u).sin(),
-                    )
-                }),
+                peak_psi: rng.range(0.4, 0.7),
+                sigma: (3.0, 2.0),
+                profile: Profile::Flat,
+                ramp_s: Some(0.15),
+                path: Box::new(move |_| (x, y)),
             });
             1.5
         }
+        Gesture::Strokes => {
+            let v = tuning.stroke_speed_mps.unwrap_or(0.3);
+            let gap = tuning.gap_s.unwrap_or(0.15);
+            let row = fr.rows / 2.0 + rng.range(-1.0, 1.0);
+            let (a, b) = (fr.cols * 0.15, fr.cols * 0.85);
+            let each = fr.travel_s(b - a, v);
+            for k in 0..3 {
+                let (from, to) = if k % 2 == 0 { (a, b) } else { (b, a) };
+                let mut c = blob(
+                    kind,
+                    t0 + (each + gap) * k as f64,
+                    each,
+                    rng.range(0.8, 1.2),
+                    (0.9, 0.8),
+                    Box::new(move |u| (from + (to - from) * u, row)),
+                );
+                c.ramp_s = Some((0.04f64).min(each / 4.0));
+                contacts.push(c);
+            }
+            3.0 * each + 2.0 * gap
+        }
+        Gesture::Rest => 2.0,
     };
     (contacts, length)
 }
 
-/// Generates a recording, `[T, 8, 21]` psi, NaN outside the mask.
+/// Where one contact was in one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TruthPoint {
+    /// Frame index in the recording (before any tare or trim).
+    pub frame: usize,
+    /// Time of the frame, seconds from the first frame.
+    pub t_s: f64,
+    /// Centre row, in cells (cell `r` has its centre at `r`, as in `coverage`).
+    pub row: f64,
+    /// Centre column, in cells.
+    pub col: f64,
+    /// Centre along the arm, mm from the frame's edge (cell `c` spans `[c, c+1)` pitches).
+    pub x_mm: f64,
+    /// Centre across the arm, mm.
+    pub y_mm: f64,
+    /// Where the contact falls to a tenth of its peak, cells (its longer axis).
+    pub radius_cells: f64,
+    /// The same, mm.
+    pub radius_mm: f64,
+    /// Peak pressure of the contact in this frame, psi (0 between touch-down and lift-off
+    /// only where it flickers to almost nothing).
+    pub pressure_psi: f64,
+}
+
+/// One true contact, frame by frame, over the frames it presses at all.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthContact {
+    /// Number of the contact, in order of touch-down within its gesture list.
+    pub id: usize,
+    /// The gesture it belongs to.
+    pub gesture: Gesture,
+    /// Its frames, in order.
+    pub points: Vec<TruthPoint>,
+}
+
+/// Where every contact of a synthetic recording really was (`touchc synth --truth`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    /// The sensor imitated.
+    pub sensor: Sensor,
+    /// Frame rate, Hz.
+    pub rate_hz: f64,
+    /// Cell pitch, mm.
+    pub pitch_mm: f64,
+    /// Frames in the recording.
+    pub frames: usize,
+    /// Rows of a frame.
+    pub rows: usize,
+    /// Columns of a frame.
+    pub cols: usize,
+    /// The contacts.
+    pub contacts: Vec<TruthContact>,
+}
+
+/// Generates a recording, `[T, rows, cols]` psi, NaN outside the mask.
 pub fn generate(spec: &SynthSpec) -> Array3<f64> {
+    generate_with_truth(spec).0
+}
+
+/// Generates a recording and says where each contact was.
+pub fn generate_with_truth(spec: &SynthSpec) -> (Array3<f64>, Truth) {
+    let sensor = spec.sensor;
+    let fr = Frame::of(sensor);
+    let rate = fr.rate_hz;
     let mut rng = Rng(spec.seed);
     let mut contacts = Vec::new();
-    let mut t = spec.quiet_frames as f64 / FRAME_RATE_HZ;
+    let mut t = spec.quiet_frames as f64 / rate;
     for (i, &g) in spec.gestures.iter().enumerate() {
         if i > 0 {
-            t += PAUSE_FRAMES as f64 / FRAME_RATE_HZ;
+            t += PAUSE_S;
         }
-        let (mut cs, length) = gesture(g, t, &mut rng);
+        let (mut cs, length) = gesture(g, t, &mut rng, &spec.tuning, fr);
         contacts.append(&mut cs);
         t += length;
     }
-    let frames = (t * FRAME_RATE_HZ).ceil() as usize + spec.quiet_frames;
-    Array3::from_shape_fn((frames, ROWS, COLS), |(f, r, c)| {
-        if !spec.mask.has_cell(r, c) {
+    let frames = (t * rate).ceil() as usize + spec.quiet_frames;
+    let (rows, cols) = (sensor.rows(), sensor.cols());
+    // Flicker draws from its own stream, so a spec without it keeps its bytes.
+    let dim = flicker_frames(&contacts, frames, rate, spec);
+    let amplitude = |k: usize, f: usize| if dim[k][f] { FLICKER_FACTOR } else { 1.0 };
+    let mut data = Array3::from_shape_fn((frames, rows, cols), |(f, r, c)| {
+        if !spec.has_cell(r, c) {
             return f64::NAN;
         }
-        let t = f as f64 / FRAME_RATE_HZ;
-        let touch: f64 = contacts.iter().map(|k| k.pressure(t, r, c)).sum();
+        let t = f as f64 / rate;
+        let touch: f64 = contacts
+            .iter()
+            .enumerate()
+            .map(|(k, contact)| contact.pressure(t, r, c) * amplitude(k, f))
+            .sum();
         touch + spec.noise_psi * rng.normal()
-    })
+    });
+    let mid = |c: &Contact| ((c.start + c.length / 2.0) * rate).round() as usize;
+    let first = match (spec.begin_mid_touch, contacts.first()) {
+        (true, Some(c)) => mid(c).min(frames.saturating_sub(1)),
+        _ => 0,
+    };
+    let end = match (spec.end_mid_touch, contacts.last()) {
+        (true, Some(c)) => (mid(c) + 1).clamp(first + 1, frames),
+        _ => frames,
+    };
+    if first > 0 || end < frames {
+        data = data.slice(ndarray::s![first..end, .., ..]).to_owned();
+    }
+    let truth = Truth {
+        sensor,
+        rate_hz: rate,
+        pitch_mm: fr.pitch_mm,
+        frames: end - first,
+        rows,
+        cols,
+        contacts: contacts
+            .iter()
+            .enumerate()
+            .map(|(id, c)| TruthContact {
+                id,
+                gesture: c.gesture,
+                points: (first..end)
+                    .filter_map(|f| {
+                        let t = f as f64 / rate;
+                        let pressure = c.peak_psi * c.envelope(t) * amplitude(id, f);
+                        let inside = t >= c.start && t <= c.start + c.length;
+                        inside.then(|| {
+                            let (x, y) = c.centre(t);
+                            let radius = c.radius_cells();
+                            TruthPoint {
+                                frame: f - first,
+                                t_s: (f - first) as f64 / rate,
+                                row: y - 0.5,
+                                col: x - 0.5,
+                                x_mm: x * fr.pitch_mm,
+                                y_mm: y * fr.pitch_mm,
+                                radius_cells: radius,
+                                radius_mm: radius * fr.pitch_mm,
+                                pressure_psi: pressure,
+                            }
+                        })
+                    })
+                    .collect(),
+            })
+            .filter(|c| !c.points.is_empty())
+            .collect(),
+    };
+    (data, truth)
+}
+
+/// Per contact and frame: true where the contact flickers (reads almost nothing).
+///
+/// Dropouts arrive at `spec.flicker` per second while the contact presses fully, last
+/// [`FLICKER_S`] (one or two frames at 54 Hz, as measured on real captures) and are at
+/// least [`FLICKER_SPACING_S`] apart; a frame flickers when its time falls inside one.
+/// So a 20 Hz recording of the same touch sees fewer, single-frame dropouts.
+fn flicker_frames(
+    contacts: &[Contact],
+    frames: usize,
+    rate: f64,
+    spec: &SynthSpec,
+) -> Vec<Vec<bool>> {
+    let mut dim = vec![vec![false; frames]; contacts.len()];
+    if spec.flicker.is_nan() || spec.flicker <= 0.0 {
+        return dim;
+    }
+    let mut rng = Rng(spec.seed ^ 0xF11C_4E42_D0D0_5EED);
+    for (k, c) in contacts.iter().enumerate() {
+        let full = |t: f64| c.envelope(t) >= 0.999;
+        let mut t = c.start;
+        loop {
+            t += -(1.0 - rng.uniform()).ln() / spec.flicker;
+            let d = rng.range(FLICKER_S.0, FLICKER_S.1);
+            if t + d + FLICKER_SPACING_S / 2.0 > c.start + c.length {
+                break;
+            }
+            // Only while pressing fully, with full pressure on both sides.
+            if full(t - 1.0 / rate) && full(t + d + 1.0 / rate) {
+                let first = (t * rate).ceil() as usize;
+                let last = ((t + d) * rate).floor() as usize;
+                let last = last.min(frames.saturating_sub(1));
+                if first <= last {
+                    dim[k][first..=last].fill(true);
+                }
+            }
+            t += d + FLICKER_SPACING_S;
+        }
+    }
+    dim
 }
 
 /// Encodes a recording as `.npy` bytes (little-endian f64, C order).
@@ -318,5 +814,146 @@ mod tests {
             .index_axis(ndarray::Axis(0), 0)
             .iter()
             .all(|v| v.is_nan() || *v == 0.0));
+    }
+
+    #[test]
+    fn untuned_gestures_keep_the_shipped_examples_bytes() {
+        let cases: [(&[Gesture], u64, Mask, &[u8]); 2] = [
+            (
+                &[Gesture::Stroke],
+                7,
+                Mask::Cells142,
+                include_bytes!("../../examples/stroke.npy"),
+            ),
+            (
+                &[Gesture::Tap, Gesture::Pat],
+                11,
+                Mask::Cells142,
+                include_bytes!("../../examples/tap_pat.npy"),
+            ),
+        ];
+        for (gestures, seed, mask, bytes) in cases {
+            let spec = SynthSpec {
+                gestures: gestures.to_vec(),
+                seed,
+                mask,
+                ..SynthSpec::default()
+            };
+            assert!(to_npy(&generate(&spec)).unwrap() == bytes, "{gestures:?}");
+        }
+    }
+
+    fn tuned(sensor: Sensor, gestures: &[Gesture], tuning: Tuning) -> SynthSpec {
+        SynthSpec {
+            gestures: gestures.to_vec(),
+            sensor,
+            tuning,
+            noise_psi: 0.003,
+            quiet_frames: (sensor.rate_hz() * 1.5) as usize,
+            ..SynthSpec::default()
+        }
+    }
+
+    #[test]
+    fn a_tuned_stroke_moves_at_its_speed_on_both_sensors() {
+        for sensor in [Sensor::Sleeve, Sensor::Grid10] {
+            for v in [0.05, 1.5] {
+                let spec = tuned(
+                    sensor,
+                    &[Gesture::Stroke],
+                    Tuning {
+                        stroke_speed_mps: Some(v),
+                        ..Tuning::default()
+                    },
+                );
+                let (rec, truth) = generate_with_truth(&spec);
+                assert_eq!(rec.dim().1, sensor.rows());
+                assert_eq!(rec.dim().2, sensor.cols());
+                assert_eq!(truth.frames, rec.dim().0);
+                let pts = &truth.contacts[0].points;
+                assert!(pts.len() >= 3, "{sensor:?} {v}: {} frames", pts.len());
+                // Speed along the path, from truth positions, mm/s.
+                let (a, b) = (pts[0], pts[pts.len() - 1]);
+                let dist = ((b.x_mm - a.x_mm).powi(2) + (b.y_mm - a.y_mm).powi(2)).sqrt();
+                let speed = dist / (b.t_s - a.t_s) / 1000.0;
+                assert!(
+                    (speed - v).abs() < 0.25 * v,
+                    "{sensor:?}: {speed} m/s for {v}"
+                );
+                // The recording carries the contact where the truth says.
+                let p = pts[pts.len() / 2];
+                let (r, c) = (p.row.round() as usize, p.col.round() as usize);
+                assert!(rec[[p.frame, r, c]] > 0.5, "{sensor:?} {v}: {p:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_brief_tap_shows_in_a_frame_even_at_20_hz() {
+        let spec = tuned(
+            Sensor::Sleeve,
+            &[Gesture::Tap],
+            Tuning {
+                tap_s: Some(0.05),
+                ..Tuning::default()
+            },
+        );
+        let (_, truth) = generate_with_truth(&spec);
+        assert_eq!(truth.contacts.len(), 3);
+        for c in &truth.contacts {
+            assert!(c.points.len() <= 2, "{:?}", c.points);
+            let peak = c.points.iter().map(|p| p.pressure_psi).fold(0.0, f64::max);
+            assert!(peak >= 0.9, "{:?}", c.points);
+        }
+    }
+
+    #[test]
+    fn begin_and_end_mid_touch_cut_the_quiet_frames() {
+        let spec = SynthSpec {
+            begin_mid_touch: true,
+            end_mid_touch: true,
+            ..tuned(Sensor::Grid10, &[Gesture::Palm], Tuning::default())
+        };
+        let (rec, truth) = generate_with_truth(&spec);
+        let touched = |f: usize| rec.index_axis(ndarray::Axis(0), f).iter().any(|&v| v > 0.3);
+        assert!(touched(0) && touched(rec.dim().0 - 1));
+        assert_eq!(truth.contacts[0].points[0].frame, 0);
+        // A palm covers many cells at once.
+        let cells = rec
+            .index_axis(ndarray::Axis(0), 0)
+            .iter()
+            .filter(|&&v| v > 0.08)
+            .count();
+        assert!(cells >= 20, "{cells}");
+    }
+
+    #[test]
+    fn flicker_drops_a_pressing_contact_for_one_or_two_frames() {
+        let spec = SynthSpec {
+            flicker: 5.0,
+            ..tuned(Sensor::Grid10, &[Gesture::Palm], Tuning::default())
+        };
+        let (_, truth) = generate_with_truth(&spec);
+        let p: Vec<f64> = truth.contacts[0]
+            .points
+            .iter()
+            .map(|p| p.pressure_psi)
+            .collect();
+        // Within the plateau (the ramps at both ends rise and fall through 0.08 psi).
+        let full = |i: &usize| p[*i] > 0.3;
+        let (a, b) = (
+            (0..p.len()).find(full).unwrap(),
+            (0..p.len()).rfind(full).unwrap(),
+        );
+        let low: Vec<usize> = (a..b).filter(|&i| p[i] < 0.08).collect();
+        assert!(!low.is_empty(), "{p:?}");
+        for i in low {
+            // Each dropout is bounded by full pressure within two frames on each side.
+            assert!(p[i.saturating_sub(2)..i].iter().any(|&v| v > 0.3), "{p:?}");
+            assert!(
+                p[i + 1..(i + 3).min(p.len())].iter().any(|&v| v > 0.3),
+                "{p:?}"
+            );
+        }
     }
 }

@@ -13,9 +13,10 @@
 //! (so the strongest trajectory usually comes first).
 
 use ndarray::Array3;
+use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, Metadata, MetadataOverrides, Sampling, TrackConfig};
-use crate::detect::{local_maxima, score, Detections};
+use crate::detect::{frame_points, score, Detections};
 use crate::flow::{min_cost_flow, FlowError, FlowGraph};
 use crate::preprocess::{preprocess_with, Blurred, PreprocessError};
 use crate::recording::{Recording, RecordingError};
@@ -94,7 +95,12 @@ pub fn track_with(
     // the global statistics, so it waits for the whole movie. Same as `detect::detect`.
     let mut maxima = Vec::with_capacity(tared.dim().0);
     let blurred = preprocess_with(tared.view(), &cfg.preprocess, &sampling, |_, f| {
-        maxima.push(local_maxima(f, cfg.detect.min_value_psi))
+        maxima.push(frame_points(
+            f,
+            &cfg.detect,
+            cfg.detect.split.as_ref(),
+            sampling.upsample,
+        ))
     })?;
     let detections = score(maxima, blurred.mean, blurred.std, &cfg.detect);
     let trajectories = link(&detections, &cfg.track, &sampling)?;
@@ -105,32 +111,60 @@ pub fn track_with(
     })
 }
 
+/// Links across missing frames: a contact that reads below detection for a frame or two
+/// (sensor flicker) stays one trajectory instead of breaking into pieces.
+///
+/// A detection in frame `t` also links from detections of frames `t - g` for
+/// `g = 2 ..= m + 1`, where `m` frames last at most `max_missing_s`, within `g` times the
+/// one-frame gate radius (the contact may keep moving while unseen), at the one-frame
+/// link cost of the scaled gate plus `cost_per_missing` per frame skipped. A flow that
+/// can take the frames in between keeps them: skipping a strong detection forgoes its
+/// negative cost. 60 ms bridges one frame at 20 Hz and three at 54 Hz (real flicker
+/// lasts one or two frames at 54 Hz); a lift of 150 ms between two strokes never.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bridge {
+    /// Longest time a contact may go unseen, seconds.
+    pub max_missing_s: f64,
+    /// Cost added per frame skipped.
+    pub cost_per_missing: f64,
+}
+
+impl Bridge {
+    /// The most frames a link may skip at `rate_hz`.
+    pub fn missing_frames(&self, rate_hz: f64) -> usize {
+        let m = (self.max_missing_s * rate_hz + 1e-9).floor();
+        if m.is_finite() && m > 0.0 {
+            (m as usize).min(MAX_MISSING_FRAMES)
+        } else {
+            0
+        }
+    }
+}
+
+/// However fast the sensor, a link skips at most this many frames (graph size).
+pub const MAX_MISSING_FRAMES: usize = 16;
+
 /// Builds the flow graph of `detections`, solves it and extracts the trajectories. The
-/// link gate is `cfg.max_speed_mm_s` in squared pixels per frame at `sampling`.
+/// link gate is `cfg.max_speed_mm_s` in squared pixels per frame at `sampling`; with
+/// `cfg.bridge` links also skip missing frames (see [`Bridge`]), without it the graph is
+/// the paper's.
 pub fn link(
     detections: &Detections,
     cfg: &TrackConfig,
     sampling: &Sampling,
 ) -> Result<Vec<Trajectory>, FlowError> {
     let gate_px2 = sampling.gate_px2(cfg.max_speed_mm_s);
+    let (missing, cost_per_missing) = cfg.bridge.map_or((0, 0.0), |b| {
+        (b.missing_frames(sampling.rate_hz), b.cost_per_missing)
+    });
     let n = detections.all.len();
     let (source, sink) = (0, 2 * n + 1);
     let mut g = FlowGraph::new(2 * n + 2);
     // Which detection an edge is the detection edge of (None for other edges).
     let mut edge_detection = Vec::new();
-    let gate_radius = if gate_px2 > 0.0 { gate_px2.sqrt() } else { 0.0 };
     for t in 0..detections.frames() {
         let first = detections.frame_start[t];
-        let prev_first = if t > 0 {
-            detections.frame_start[t - 1]
-        } else {
-            first
-        };
-        let prev = if t > 0 {
-            detections.in_frame(t - 1)
-        } else {
-            &[]
-        };
         for (i, d) in detections.in_frame(t).iter().enumerate() {
             let k = first + i;
             let (entry, exit) = (2 * k + 1, 2 * k + 2);
@@ -139,19 +173,32 @@ pub fn link(
             g.add_edge(source, entry, cfg.entry_cost)?;
             g.add_edge(exit, sink, cfg.exit_cost)?;
             edge_detection.extend([None, None]);
-            // Previous detections are sorted by row: skip rows too far above to link.
-            let lo = prev.partition_point(|p| (p.row as f64) < d.row as f64 - gate_radius);
-            for (j, p) in prev.iter().enumerate().skip(lo) {
-                let dr = p.row as f64 - d.row as f64;
-                if dr > gate_radius {
-                    break;
-                }
-                let dc = p.col as f64 - d.col as f64;
-                let d2 = dr * dr + dc * dc;
-                if d2 < gate_px2 {
-                    let cost = -(-d2 / gate_px2).ln_1p();
-                    g.add_edge(2 * (prev_first + j) + 2, entry, cost)?;
-                    edge_detection.push(None);
+            // Links from `gap` frames back: the previous frame (the paper's only link),
+            // then across missing frames when bridging.
+            for gap in 1..=(missing + 1).min(t) {
+                let gate = gate_px2 * (gap * gap) as f64;
+                let radius = if gate > 0.0 { gate.sqrt() } else { 0.0 };
+                let (back, first_back) = (
+                    detections.in_frame(t - gap),
+                    detections.frame_start[t - gap],
+                );
+                // Earlier detections are sorted by row: skip rows too far above to link.
+                let lo = back.partition_point(|p| (p.row as f64) < d.row as f64 - radius);
+                for (j, p) in back.iter().enumerate().skip(lo) {
+                    let dr = p.row as f64 - d.row as f64;
+                    if dr > radius {
+                        break;
+                    }
+                    let dc = p.col as f64 - d.col as f64;
+                    let d2 = dr * dr + dc * dc;
+                    if d2 < gate {
+                        let mut cost = -(-d2 / gate).ln_1p();
+                        if gap > 1 {
+                            cost += cost_per_missing * (gap - 1) as f64;
+                        }
+                        g.add_edge(2 * (first_back + j) + 2, entry, cost)?;
+                        edge_detection.push(None);
+                    }
                 }
             }
         }

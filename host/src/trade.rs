@@ -46,6 +46,10 @@ pub struct TradeRow {
     pub tracks_agree_pct: f64,
     /// Stimulus file size.
     pub bytes: usize,
+    /// Share of the touch pressure within two cells of a tracked contact.
+    pub coverage: f64,
+    /// Share of the true contacts tracked (`None` without a truth file).
+    pub recall: Option<f64>,
 }
 
 /// Compiles `rec` under every preset (each `repeats` times, keeping the fastest) and
@@ -92,6 +96,8 @@ pub fn trade(
                 tracks_agree_pct: 100.0
                     * track_agreement(c.tracked.as_ref(), exact.tracked.as_ref()),
                 bytes: c.report.bytes,
+                coverage: c.report.coverage,
+                recall: None,
             }
         })
         .collect())

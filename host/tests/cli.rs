@@ -10,7 +10,7 @@ use bin::command as touchc;
 fn track_json_reproduces_the_reference() {
     let dir = common::reference_dir();
     let out = touchc()
-        .args(["track", "--json"])
+        .args(["track", "--preset", "paper", "--json"])
         .arg(dir.join("tap_pat_200.npy"))
         .output()
         .unwrap();
@@ -44,7 +44,11 @@ fn track_json_reproduces_the_reference() {
 #[test]
 fn track_table_lists_every_trajectory() {
     let p = common::reference_dir().join("stroke_60.npy");
-    let out = touchc().arg("track").arg(&p).output().unwrap();
+    let out = touchc()
+        .args(["track", "--preset", "paper"])
+        .arg(&p)
+        .output()
+        .unwrap();
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("1 trajectories"), "{text}");
@@ -58,7 +62,11 @@ fn bad_files_exit_non_zero_naming_the_file() {
     std::fs::write(&bad, b"not a numpy file").unwrap();
     let missing = dir.path().join("missing.npy");
     for p in [&bad, &missing] {
-        let out = touchc().args(["track", "--json"]).arg(p).output().unwrap();
+        let out = touchc()
+            .args(["track", "--preset", "paper", "--json"])
+            .arg(p)
+            .output()
+            .unwrap();
         assert!(!out.status.success());
         assert!(out.stdout.is_empty());
         let err = String::from_utf8_lossy(&out.stderr);

@@ -147,8 +147,8 @@ fn trade_prints_every_preset_against_exact() {
     );
     let text = std::fs::read_to_string(&csv).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines.len(), 4, "{text}");
-    let exact: Vec<&str> = lines[3].split(',').collect();
+    assert_eq!(lines.len(), 5, "{text}");
+    let exact: Vec<&str> = lines[4].split(',').collect();
     assert_eq!(exact[1], "exact");
     // Exact against itself: no gap, no difference, full agreement.
     assert_eq!(&exact[12..16], &["0.000", "0.000", "0.000", "100.0"]);

@@ -472,6 +472,8 @@ fn preview_gif_and_compile(
     let gif_path = rec_path.with_extension("gif");
     ok(&touchc(&[
         "preview",
+        "--preset",
+        "paper",
         rec_path.to_str().unwrap(),
         "-o",
         gif_path.to_str().unwrap(),
@@ -481,6 +483,7 @@ fn preview_gif_and_compile(
     let opts = touchc::compile::CompileOptions {
         fit: true,
         crop: false,
+        config: touchc::config::Config::preset(touchc::config::Preset::Paper),
         ..Default::default()
     };
     let compiled = touchc::compile::compile(&rec, &opts).unwrap();
@@ -573,6 +576,8 @@ fn preview_marks_touch_no_contact_explains_and_only_that() {
     let png_path = dir.path().join("blip.png");
     ok(&touchc(&[
         "preview",
+        "--preset",
+        "paper",
         rec_path.to_str().unwrap(),
         "-o",
         png_path.to_str().unwrap(),

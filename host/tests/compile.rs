@@ -21,7 +21,14 @@ fn synth_recording(gestures: &[Gesture], seed: u64) -> Recording {
 }
 
 fn compile_default(rec: &Recording) -> Compiled {
-    compile(rec, &CompileOptions::default()).unwrap()
+    compile(
+        rec,
+        &CompileOptions {
+            config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+            ..CompileOptions::default()
+        },
+    )
+    .unwrap()
 }
 
 /// Channels that press out (past 0 A: the ramps between 0 A and the -0.9 A pre-dent
@@ -139,11 +146,19 @@ fn cropping_does_not_change_the_result() {
         recs.push(Recording::load(dir.join(name)).unwrap());
     }
     for rec in &recs {
-        let cropped = compile(rec, &CompileOptions::default()).unwrap();
+        let cropped = compile(
+            rec,
+            &CompileOptions {
+                config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+                ..CompileOptions::default()
+            },
+        )
+        .unwrap();
         let whole = compile(
             rec,
             &CompileOptions {
                 crop: false,
+                config: touchc::config::Config::preset(touchc::config::Preset::Paper),
                 ..CompileOptions::default()
             },
         )

@@ -12,7 +12,10 @@ fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
 }
 
 fn run(a: &Array3<f64>) -> TrackOutput {
-    run_cfg(a, &Config::default())
+    run_cfg(
+        a,
+        &touchc::config::Config::preset(touchc::config::Preset::Paper),
+    )
 }
 
 fn assert_costs_finite(out: &TrackOutput) {
@@ -65,7 +68,7 @@ fn scaling_by_1e30_and_1e_minus_30() {
     assert!((big.std() / (base.std() * 1e30) - 1.0).abs() < 1e-12);
     assert_costs_finite(&big);
     // With the psi threshold scaled too, the problem is the same one.
-    let mut cfg = Config::default();
+    let mut cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
     cfg.detect.min_value_psi *= 1e30;
     let big_same = run_cfg(&a.mapv(|v| v * 1e30), &cfg);
     assert_eq!(big_same.trajectories.len(), base.trajectories.len());
@@ -135,7 +138,11 @@ fn infinities_are_errors() {
 fn shorter_than_the_tare_buffer_is_an_error() {
     let a = common::moving_blobs(30, 1, 29);
     let rec = Recording::from_array("short", a.view()).unwrap();
-    let err = track(&rec, &Config::default()).unwrap_err();
+    let err = track(
+        &rec,
+        &touchc::config::Config::preset(touchc::config::Preset::Paper),
+    )
+    .unwrap_err();
     assert!(matches!(
         err,
         TrackError::Recording(RecordingError::TooShort { min: 41, .. })

@@ -37,7 +37,7 @@ fn assert_finite(what: &str, c: &Compiled) {
 }
 
 fn with(f: impl FnOnce(&mut Config)) -> Config {
-    let mut c = Config::default();
+    let mut c = touchc::config::Config::preset(touchc::config::Preset::Paper);
     f(&mut c);
     c
 }
@@ -47,7 +47,8 @@ fn upsample_1_and_15() {
     for k in [1, 15] {
         // Blur and gate are in mm, so they keep their size: the same touch, tracked as
         // the same one contact.
-        let c = run(Config::default().upsampled(k)).unwrap();
+        let c = run(touchc::config::Config::preset(touchc::config::Preset::Paper).upsampled(k))
+            .unwrap();
         assert_finite(&format!("upsample {k}"), &c);
         assert_eq!(c.report.trajectories, 1, "upsample {k}");
     }
@@ -96,7 +97,10 @@ fn grid_of_one_and_of_a_hundred_thousand_transforms() {
 
     let big = with(|c| (c.placement.grid_x, c.placement.grid_y) = (100, 44));
     assert_eq!(grid_size(&big.placement), Some(99_000));
-    let paper = run(Config::default()).unwrap();
+    let paper = run(touchc::config::Config::preset(
+        touchc::config::Preset::Paper,
+    ))
+    .unwrap();
     let c = run(big).unwrap();
     assert_finite("grid 99,000", &c);
     assert_eq!(c.report.transforms, 99_000);

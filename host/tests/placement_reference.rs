@@ -11,7 +11,7 @@ use touchc::placement::place;
 
 fn check(name: &str) {
     let r = Reference::load(name);
-    let cfg = Config::default();
+    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
     let k = cfg.preprocess.upsample;
     let trajs = r.trajectories();
     for (t, rt) in trajs.iter().zip(&r.trajectories) {
@@ -86,7 +86,7 @@ fn tap_pat_200_matches_the_published_code() {
 fn coarse_to_fine_finds_the_published_winner() {
     for name in ["stroke_60", "tap_pat_200"] {
         let r = Reference::load(name);
-        let cfg = Config::default();
+        let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
         let k = cfg.preprocess.upsample;
         let (rows, cols) = (r.tared_shape[1] * k, r.tared_shape[2] * k);
         let fast = Config::preset(Preset::Fast).placement;

@@ -6,7 +6,7 @@ mod poison;
 
 use ndarray::{Array2, Array3, ShapeBuilder};
 use ndarray_npy::WriteNpyExt;
-use touchc::config::Config;
+
 use touchc::recording::{Recording, RecordingError};
 use touchc::track::track;
 
@@ -121,14 +121,28 @@ fn too_short_for_the_tare_says_the_minimum() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(&dir, "short.npy", &common::moving_blobs(40, 1, 1));
     let rec = Recording::load(&p).unwrap();
-    let err = track(&rec, &Config::default()).unwrap_err();
+    let err = track(
+        &rec,
+        &touchc::config::Config::preset(touchc::config::Preset::Paper),
+    )
+    .unwrap_err();
     let msg = err.to_string();
     assert!(
         msg.contains("short.npy") && msg.contains("at least 41 frames"),
         "{msg}"
     );
     let ok = Recording::load(write(&dir, "just.npy", &common::moving_blobs(41, 1, 1))).unwrap();
-    assert_eq!(track(&ok, &Config::default()).unwrap().frames().dim().0, 1);
+    assert_eq!(
+        track(
+            &ok,
+            &touchc::config::Config::preset(touchc::config::Preset::Paper)
+        )
+        .unwrap()
+        .frames()
+        .dim()
+        .0,
+        1
+    );
 }
 
 #[test]
@@ -149,7 +163,7 @@ fn fortran_order_and_f32_load_the_same_values() {
             .all(|(p, q)| p == q || (p.is_nan() && q.is_nan()))
     };
     assert!(nan_eq(&c64, &f64_) && nan_eq(&c64, &c32));
-    let cfg = Config::default();
+    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
     let (t64, t32) = (track(&c64, &cfg).unwrap(), track(&c32, &cfg).unwrap());
     assert!(!t64.trajectories.is_empty());
     assert_eq!(t64, t32);

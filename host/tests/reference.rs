@@ -2,7 +2,6 @@
 
 mod common;
 
-use touchc::config::Config;
 use touchc::detect::detect;
 use touchc::recording::Recording;
 use touchc::track::track;
@@ -16,10 +15,17 @@ fn check(name: &str) {
     let rec = Recording::load(dir.join(format!("{name}.npy"))).unwrap();
     let text = std::fs::read_to_string(dir.join(format!("{name}.reference.json"))).unwrap();
     let reference: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let out = track(&rec, &Config::default()).unwrap();
+    let out = track(
+        &rec,
+        &touchc::config::Config::preset(touchc::config::Preset::Paper),
+    )
+    .unwrap();
     // The pipeline finds maxima during the blur; the standalone stage must agree.
     assert_eq!(
-        detect(&out.blurred, &Config::default().detect),
+        detect(
+            &out.blurred,
+            &touchc::config::Config::preset(touchc::config::Preset::Paper).detect
+        ),
         out.detections
     );
 

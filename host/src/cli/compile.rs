@@ -117,7 +117,7 @@ fn compile_one(
 
 fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
     format!(
-        "touchc: {} -> {}: {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, {}, {:.1} ms",
+        "touchc: {} -> {}: {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, {}, {:.1} ms",
         input.display(),
         out.display(),
         r.duration_s,
@@ -128,6 +128,7 @@ fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
         100.0 * r.max_error_fs,
         r.selected.len(),
         r.trajectories,
+        r.coverage,
         r.metadata.describe(),
         1e3 * r.seconds.get("total").copied().unwrap_or(0.0),
     )

@@ -10,9 +10,11 @@ use touchc::config::{CoarseToFine, Config, MetadataOverrides, Preset};
 /// physical (its unit in its name); a flag not given keeps the preset's value.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ParamArgs {
-    /// Parameter preset: `paper` (the published algorithm), `fast` (x4 upsampling,
-    /// coarse-to-fine placement search), `exact` (a 60,060-transform grid).
-    #[arg(long, value_enum, default_value = "paper")]
+    /// Parameter preset: `touch` (the default: real touch, fast strokes, brief taps,
+    /// flat hands, flicker, touch at the start), `paper` (the published algorithm, bit
+    /// for bit), `fast` (x4 upsampling, coarse-to-fine placement search), `exact` (a
+    /// 60,060-transform grid).
+    #[arg(long, value_enum, default_value = "touch")]
     pub preset: Preset,
     /// TOML file overriding the preset's parameters (missing keys keep the preset's).
     #[arg(long)]

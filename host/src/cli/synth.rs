@@ -1,21 +1,27 @@
-//! `touchc synth KIND... -o rec.npy`: a seeded synthetic recording.
+//! `touchc synth KIND... -o rec.npy [--truth truth.json]`: a seeded synthetic recording,
+//! and where its contacts really were.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use touchc::output::write_atomic;
-use touchc::synth::{self, Gesture, Mask, SynthSpec};
+use touchc::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
 
 /// Arguments of `touchc synth`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Gestures, played one after another (several make a combination).
+    /// Gestures, played one after another (several make a combination; `rest` is two
+    /// seconds of sensor noise alone).
     #[arg(required = true, value_enum)]
     gestures: Vec<Gesture>,
     /// Seed of the random generator: the same arguments give the same file.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Sleeve outline (NaN outside it).
+    /// The sensor imitated: `sleeve` (8 x 21 cells, 20 Hz) or `grid10` (10 x 10 cells,
+    /// 54 Hz), one-inch cells both.
+    #[arg(long, value_enum, default_value = "sleeve")]
+    sensor: Sensor,
+    /// Sleeve outline (NaN outside it; the sleeve only).
     #[arg(long, value_enum, default_value = "cells142")]
     mask: Mask,
     /// Sensor noise, psi (standard deviation).
@@ -24,6 +30,34 @@ pub struct Args {
     /// Noise-only frames before and after the gestures.
     #[arg(long, default_value_t = 30)]
     quiet_frames: usize,
+    /// Stroke speed along the arm, m/s (`stroke`, `strokes`).
+    #[arg(long)]
+    speed: Option<f64>,
+    /// Length of each tap, ms (`tap`).
+    #[arg(long)]
+    tap_ms: Option<f64>,
+    /// Shake frequency, Hz (`shake`).
+    #[arg(long)]
+    shake_hz: Option<f64>,
+    /// Shake amplitude across the arm, mm either side (`shake`).
+    #[arg(long)]
+    shake_mm: Option<f64>,
+    /// Time from lift-off to the next touch-down, ms (`strokes`).
+    #[arg(long)]
+    gap_ms: Option<f64>,
+    /// Flicker: dropouts per second while a contact presses fully, each 19-37 ms long
+    /// (one or two frames at 54 Hz) at 3% of the contact's pressure.
+    #[arg(long, default_value_t = 0.0)]
+    flicker: f64,
+    /// Begin the recording in the middle of the first contact.
+    #[arg(long)]
+    begin_mid_touch: bool,
+    /// End the recording in the middle of the last contact.
+    #[arg(long)]
+    end_mid_touch: bool,
+    /// Also write where each contact really was, frame by frame (JSON).
+    #[arg(long)]
+    truth: Option<PathBuf>,
     /// The `.npy` file to write (`-`: standard output).
     #[arg(short, long)]
     output: PathBuf,
@@ -34,23 +68,64 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.noise.is_finite() && args.noise >= 0.0,
         "--noise must be a finite, non-negative psi value"
     );
+    anyhow::ensure!(
+        args.flicker.is_finite() && args.flicker >= 0.0,
+        "--flicker must be a finite, non-negative rate per second, got {}",
+        args.flicker
+    );
+    let positive = |name: &str, v: Option<f64>| -> anyhow::Result<()> {
+        if let Some(v) = v {
+            anyhow::ensure!(
+                v.is_finite() && v > 0.0,
+                "--{name} must be a finite, positive number, got {v}"
+            );
+        }
+        Ok(())
+    };
+    positive("speed", args.speed)?;
+    positive("tap-ms", args.tap_ms)?;
+    positive("shake-hz", args.shake_hz)?;
+    positive("shake-mm", args.shake_mm)?;
+    if let Some(g) = args.gap_ms {
+        anyhow::ensure!(
+            g.is_finite() && g >= 0.0,
+            "--gap-ms must be a finite, non-negative number, got {g}"
+        );
+    }
     let spec = SynthSpec {
         gestures: args.gestures.clone(),
         seed: args.seed,
         mask: args.mask,
         noise_psi: args.noise,
         quiet_frames: args.quiet_frames,
+        sensor: args.sensor,
+        tuning: Tuning {
+            stroke_speed_mps: args.speed,
+            tap_s: args.tap_ms.map(|ms| ms / 1000.0),
+            shake_hz: args.shake_hz,
+            shake_amplitude_mm: args.shake_mm,
+            gap_s: args.gap_ms.map(|ms| ms / 1000.0),
+        },
+        flicker: args.flicker,
+        begin_mid_touch: args.begin_mid_touch,
+        end_mid_touch: args.end_mid_touch,
     };
-    let recording = synth::generate(&spec);
+    let (recording, truth) = synth::generate_with_truth(&spec);
     let bytes = synth::to_npy(&recording)
         .with_context(|| format!("{}: cannot encode the recording", args.output.display()))?;
+    // The truth first: if it cannot be written, no recording appears either.
+    if let Some(path) = &args.truth {
+        let json = serde_json::to_vec_pretty(&truth)
+            .with_context(|| format!("{}: cannot encode the truth", path.display()))?;
+        write_atomic(path, &json)?;
+    }
     write_atomic(&args.output, &bytes)?;
+    let (frames, rows, cols) = recording.dim();
     eprintln!(
-        "touchc: wrote {} ({} frames of {}x{})",
+        "touchc: wrote {} ({frames} frames of {rows}x{cols} at {} Hz, {} contacts)",
         super::escaped(&touchc::output::shown(&args.output)),
-        recording.shape()[0],
-        synth::ROWS,
-        synth::COLS
+        spec.sensor.rate_hz(),
+        truth.contacts.len()
     );
     Ok(())
 }

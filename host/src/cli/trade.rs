@@ -103,6 +103,11 @@ fn cells(r: &TradeRow) -> Vec<String> {
     out.push(format!("{:.3}", r.max_vs_exact_pct));
     out.push(format!("{:.1}", r.tracks_agree_pct));
     out.push(r.bytes.to_string());
+    out.push(format!("{:.2}", r.coverage));
+    out.push(
+        r.recall
+            .map_or_else(|| "-".to_string(), |v| format!("{v:.2}")),
+    );
     out
 }
 
@@ -117,6 +122,8 @@ fn headers() -> Vec<String> {
             "max vs exact % fs",
             "tracks agree %",
             "bytes",
+            "coverage",
+            "recall",
         ]
         .map(String::from),
     );

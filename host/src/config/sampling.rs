@@ -205,7 +205,7 @@ mod tests {
     /// of crop margin.
     #[test]
     fn paper_values_are_exact() {
-        let c = Config::default();
+        let c = Config::preset(crate::config::Preset::Paper);
         let s = Sampling::PAPER;
         assert_eq!(s.px(c.preprocess.blur_sigma_mm), 3.0);
         assert_eq!(s.gate_px2(c.track.max_speed_mm_s), 50.0);
@@ -225,7 +225,7 @@ mod tests {
             upsample: 4,
             ..Sampling::PAPER
         };
-        let c = Config::default();
+        let c = Config::preset(crate::config::Preset::Paper);
         assert!((fast.px(c.preprocess.blur_sigma_mm) - 12.0 / 7.0).abs() < 1e-6);
         assert!((fast.gate_px2(c.track.max_speed_mm_s) - 50.0 * 16.0 / 49.0).abs() < 1e-6);
     }
@@ -239,7 +239,11 @@ mod tests {
         assert_eq!(s.frames(1.0), 54);
         assert_eq!(s.frames_ceil(0.5), 27);
         // A speed is per second: at 54 Hz a contact moves 20/54 as far per frame.
-        let g = s.gate_px2(Config::default().track.max_speed_mm_s);
+        let g = s.gate_px2(
+            Config::preset(crate::config::Preset::Paper)
+                .track
+                .max_speed_mm_s,
+        );
         assert!((g - 50.0 * (20.0f64 / 54.0).powi(2)).abs() < 1e-5);
     }
 }
