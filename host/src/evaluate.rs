@@ -17,7 +17,10 @@
 use ndarray::ArrayView3;
 use serde::Serialize;
 
+use crate::compile::Compiled;
+use crate::config::Sampling;
 use crate::coverage::{self, ContactPoint, Coverage, DEFAULT_RADIUS_CELLS};
+use crate::recording::{Recording, RecordingError};
 use crate::synth::{Truth, TruthPoint};
 use crate::trajectory::Trajectory;
 
@@ -93,6 +96,30 @@ impl Evaluation {
             self.trajectories
         )
     }
+}
+
+/// Measures what `compiled` (a compile of `rec`) tracked against `truth`, on the tared
+/// recording and at the sampling the compile itself used (its report carries both).
+pub fn evaluate_compiled(
+    truth: &Truth,
+    rec: &Recording,
+    compiled: &Compiled,
+) -> Result<Evaluation, RecordingError> {
+    let cfg = &compiled.report.config;
+    let sampling = Sampling::new(&compiled.report.metadata, cfg);
+    let tared = rec.tare(&cfg.input, &sampling)?;
+    let trajectories = compiled
+        .tracked
+        .as_ref()
+        .map_or(&[][..], |t| &t.trajectories[..]);
+    Ok(evaluate(
+        truth,
+        sampling.frames(cfg.input.trim_s),
+        tared.view(),
+        cfg.input.touch_threshold_psi,
+        trajectories,
+        sampling.upsample,
+    ))
 }
 
 /// Measures `trajectories` (pixels of a grid upsampled `upsample` times, frames of

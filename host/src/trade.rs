@@ -17,9 +17,11 @@ use serde::Serialize;
 
 use crate::compile::{compile, CompileError, CompileOptions, Compiled};
 use crate::config::{Config, Preset};
+use crate::evaluate::evaluate_compiled;
 use crate::geometry::pixel_centre_mm;
 use crate::keyframes::KeyframeOptions;
 use crate::recording::Recording;
+use crate::synth::Truth;
 use crate::track::TrackOutput;
 use touch_protocol::CHANNELS;
 
@@ -53,11 +55,14 @@ pub struct TradeRow {
 }
 
 /// Compiles `rec` under every preset (each `repeats` times, keeping the fastest) and
-/// compares each with `exact`. `base` supplies everything but the config.
+/// compares each with `exact`. `base` supplies everything but the config. With the
+/// `truth` of a synthetic recording (`touchc synth --truth`), each row also gets its
+/// recall.
 pub fn trade(
     rec: &Recording,
     base: &CompileOptions,
     repeats: usize,
+    truth: Option<&Truth>,
 ) -> Result<Vec<TradeRow>, CompileError> {
     let mut runs = Vec::new();
     for preset in Preset::ALL {
@@ -80,11 +85,14 @@ pub fn trade(
         return Ok(Vec::new());
     };
     let fs_a = f64::from(KeyframeOptions::new(&base.config.keyframes).full_scale_ma) / 1000.0;
-    Ok(runs
-        .iter()
+    runs.iter()
         .map(|(preset, c)| {
             let (rms, max) = signal_difference(&c.signal, &exact.signal);
-            TradeRow {
+            let recall = match truth {
+                Some(t) => Some(evaluate_compiled(t, rec, c)?.recall()),
+                None => None,
+            };
+            Ok(TradeRow {
                 input: rec.name().to_string(),
                 preset: *preset,
                 seconds: c.report.seconds.clone(),
@@ -97,10 +105,10 @@ pub fn trade(
                     * track_agreement(c.tracked.as_ref(), exact.tracked.as_ref()),
                 bytes: c.report.bytes,
                 coverage: c.report.coverage,
-                recall: None,
-            }
+                recall,
+            })
         })
-        .collect())
+        .collect()
 }
 
 fn total(c: &Compiled) -> f64 {

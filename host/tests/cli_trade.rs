@@ -156,3 +156,56 @@ fn trade_prints_every_preset_against_exact() {
     let svg = std::fs::read_to_string(&svg).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("exact"));
 }
+
+#[test]
+fn trade_measures_recall_against_a_synthetic_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("fast.npy");
+    let truth = dir.path().join("fast.truth.json");
+    // A 1 m/s stroke at 20 Hz: twice the paper's link gate, well inside touch's.
+    let out = touchc(&[
+        "synth",
+        "stroke",
+        "--speed",
+        "1.0",
+        "--seed",
+        "3",
+        "--truth",
+        s(&truth),
+        "-o",
+        s(&rec),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = dir.path().join("t.csv");
+    let args = ["trade", s(&rec), "--repeat", "1", "--threads", "1"];
+    let out = touchc(&[&args[..], &["--truth", s(&truth), "--csv", s(&csv)]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let col = header
+        .iter()
+        .position(|h| *h == "recall")
+        .expect("a recall column");
+    let recall = |preset: &str| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.split(',').nth(1) == Some(preset))
+            .unwrap();
+        line.split(',').nth(col).unwrap().parse().unwrap()
+    };
+    assert_eq!(recall("touch"), 1.0, "{text}");
+    assert!(recall("paper") < 1.0, "{text}");
+
+    // One truth file per recording, or a usage error naming both counts.
+    let out = touchc(&[&args[..], &[s(&rec), "--truth", s(&truth)]].concat());
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("2 recordings, 1 truth files"));
+}

@@ -2,8 +2,8 @@
 //! against the truth of where each contact was (`touchc::evaluate`).
 
 use touchc::compile::{compile, CompileOptions, Compiled};
-use touchc::config::{Config, MetadataOverrides, Preset, Sampling};
-use touchc::evaluate::{evaluate, Evaluation};
+use touchc::config::{Config, MetadataOverrides, Preset};
+use touchc::evaluate::{evaluate_compiled, Evaluation};
 use touchc::recording::Recording;
 use touchc::signals::Source;
 use touchc::synth::{self, Gesture, Sensor, SynthSpec, Tuning};
@@ -110,11 +110,10 @@ fn run(case: &Case, preset: Preset, seed: u64) -> (Evaluation, Compiled) {
     };
     let (data, truth) = synth::generate_with_truth(&spec);
     let rec = Recording::from_array(case.name.clone(), data.view()).unwrap();
-    let cfg = Config::preset(preset);
     let compiled = compile(
         &rec,
         &CompileOptions {
-            config: cfg.clone(),
+            config: Config::preset(preset),
             metadata: MetadataOverrides {
                 rate_hz: Some(truth.rate_hz),
                 pitch_mm: Some(truth.pitch_mm),
@@ -123,20 +122,7 @@ fn run(case: &Case, preset: Preset, seed: u64) -> (Evaluation, Compiled) {
         },
     )
     .unwrap();
-    let sampling = Sampling::new(&compiled.report.metadata, &cfg);
-    let tared = rec.tare(&cfg.input, &sampling).unwrap();
-    let trajectories = compiled
-        .tracked
-        .as_ref()
-        .map_or(&[][..], |t| &t.trajectories[..]);
-    let e = evaluate(
-        &truth,
-        sampling.frames(cfg.input.trim_s),
-        tared.view(),
-        cfg.input.touch_threshold_psi,
-        trajectories,
-        sampling.upsample,
-    );
+    let e = evaluate_compiled(&truth, &rec, &compiled).unwrap();
     (e, compiled)
 }
 

@@ -8,6 +8,7 @@ use anyhow::Context;
 use touchc::compile::CompileOptions;
 use touchc::output::write_atomic;
 use touchc::recording::Recording;
+use touchc::synth::Truth;
 use touchc::trade::{plot_svg, trade, TradeRow};
 
 /// Arguments of `touchc trade`.
@@ -31,6 +32,10 @@ pub struct Args {
     /// Print the table as Markdown (for `docs/trade.md`).
     #[arg(long)]
     markdown: bool,
+    /// Where each contact really was (`touchc synth --truth`), one file per recording in
+    /// the same order: adds each preset's recall.
+    #[arg(long)]
+    truth: Vec<PathBuf>,
     /// The recordings' rate and cell pitch.
     #[command(flatten)]
     metadata: super::params::MetadataArgs,
@@ -55,15 +60,36 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         builder = builder.num_threads(n);
     }
     let pool = builder.build().context("cannot start the worker threads")?;
+    if !args.truth.is_empty() && args.truth.len() != args.recordings.len() {
+        return Err(super::Usage(format!(
+            "--truth needs one file per recording: {} recordings, {} truth files",
+            args.recordings.len(),
+            args.truth.len()
+        ))
+        .into());
+    }
+    let truths = args
+        .truth
+        .iter()
+        .map(|p| {
+            let text = std::fs::read(p).with_context(|| format!("{}: cannot read", p.display()))?;
+            serde_json::from_slice::<Truth>(&text).with_context(|| {
+                format!(
+                    "{}: not a truth file of `touchc synth --truth`",
+                    p.display()
+                )
+            })
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let mut rows = Vec::new();
     let mut failed = 0;
-    for path in &args.recordings {
+    for (i, path) in args.recordings.iter().enumerate() {
         let rec = Recording::load(path)?;
         let base = CompileOptions {
             metadata: args.metadata.overrides(),
             ..CompileOptions::default()
         };
-        match pool.install(|| trade(&rec, &base, args.repeat)) {
+        match pool.install(|| trade(&rec, &base, args.repeat, truths.get(i))) {
             Ok(r) => rows.extend(r),
             Err(e) => {
                 failed += 1;
