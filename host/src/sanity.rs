@@ -267,13 +267,21 @@ mod tests {
 
     #[test]
     fn an_ordinary_recording_gets_no_warning() {
-        let w = run(&recording(0.0, 2.0, 5), &Config::default(), &Sampling::PAPER);
+        let w = run(
+            &recording(0.0, 2.0, 5),
+            &Config::default(),
+            &Sampling::PAPER,
+        );
         assert!(w.is_empty(), "{w:?}");
     }
 
     #[test]
     fn raw_counts_are_named_with_the_median() {
-        let w = run(&recording(512.0, 40.0, 5), &Config::default(), &Sampling::PAPER);
+        let w = run(
+            &recording(512.0, 40.0, 5),
+            &Config::default(),
+            &Sampling::PAPER,
+        );
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(w[0].contains("median reading is 512") && w[0].contains("ADC counts"));
     }
@@ -289,7 +297,11 @@ mod tests {
         assert_eq!(w.len(), 2, "{w:?}");
         assert!(w[1].contains("fall with touch") && w[1].contains("120 readings"));
         // The same in psi-like units: only the falling warning.
-        let w = run(&recording(5.0, -2.0, 5), &Config::default(), &Sampling::PAPER);
+        let w = run(
+            &recording(5.0, -2.0, 5),
+            &Config::default(),
+            &Sampling::PAPER,
+        );
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(w[0].contains("down to -2.0"), "{w:?}");
     }

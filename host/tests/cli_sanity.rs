@@ -215,15 +215,48 @@ fn knobs_out_of_range_are_refused_by_the_binary() {
     let dir = tempfile::tempdir().unwrap();
     let rec = write(dir.path(), "blobs.npy", &common::moving_blobs(100, 1, 6));
     for (set, want) in [
-        ("preprocess.blur_sigma_mm=0", ["preprocess.blur_sigma_mm = 0", "[0.01, 500] mm"]),
-        ("preprocess.blur_truncate=0", ["preprocess.blur_truncate = 0", "[1, 10] sigmas"]),
-        ("preprocess.blur_sigma_mm=1e308", ["preprocess.blur_sigma_mm = 1e308", "[0.01, 500] mm"]),
-        ("preprocess.blur_sigma_mm=1e9", ["preprocess.blur_sigma_mm = 1e9", "[0.01, 500] mm"]),
-        ("detect.sigma_k=nan", ["detect.sigma_k = NaN", "finite, in [-10, 10]"]),
-        ("signal.lowpass_hz=5e-324", ["signal.lowpass_hz = 5e-324", "[0.01, 500] Hz"]),
-        ("signal.lowpass_hz=1e-300", ["signal.lowpass_hz = 1e-300", "[0.01, 500] Hz"]),
-        ("signal.lowpass_hz=10", ["signal.lowpass_hz = 10", "below the Nyquist frequency, 10 Hz"]),
-        ("signal.lowpass_hz=400", ["signal.lowpass_hz = 400", "below the Nyquist frequency, 10 Hz"]),
+        (
+            "preprocess.blur_sigma_mm=0",
+            ["preprocess.blur_sigma_mm = 0", "[0.01, 500] mm"],
+        ),
+        (
+            "preprocess.blur_truncate=0",
+            ["preprocess.blur_truncate = 0", "[1, 10] sigmas"],
+        ),
+        (
+            "preprocess.blur_sigma_mm=1e308",
+            ["preprocess.blur_sigma_mm = 1e308", "[0.01, 500] mm"],
+        ),
+        (
+            "preprocess.blur_sigma_mm=1e9",
+            ["preprocess.blur_sigma_mm = 1e9", "[0.01, 500] mm"],
+        ),
+        (
+            "detect.sigma_k=nan",
+            ["detect.sigma_k = NaN", "finite, in [-10, 10]"],
+        ),
+        (
+            "signal.lowpass_hz=5e-324",
+            ["signal.lowpass_hz = 5e-324", "[0.01, 500] Hz"],
+        ),
+        (
+            "signal.lowpass_hz=1e-300",
+            ["signal.lowpass_hz = 1e-300", "[0.01, 500] Hz"],
+        ),
+        (
+            "signal.lowpass_hz=10",
+            [
+                "signal.lowpass_hz = 10",
+                "below the Nyquist frequency, 10 Hz",
+            ],
+        ),
+        (
+            "signal.lowpass_hz=400",
+            [
+                "signal.lowpass_hz = 400",
+                "below the Nyquist frequency, 10 Hz",
+            ],
+        ),
     ] {
         let (out, err, written, report) = compile(&rec, &["--set", set]);
         assert_eq!(out.status.code(), Some(1), "{set}: {err}");
@@ -234,10 +267,12 @@ fn knobs_out_of_range_are_refused_by_the_binary() {
         assert!(err.len() < 600, "{set}: {err}");
     }
     // Above the Nyquist frequency of the rate given on the command line, too.
-    let (out, err, written, _) =
-        compile(&rec, &["--rate", "6", "--set", "signal.lowpass_hz=4"]);
+    let (out, err, written, _) = compile(&rec, &["--rate", "6", "--set", "signal.lowpass_hz=4"]);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("below the Nyquist frequency, 3 Hz") && !written, "{err}");
+    assert!(
+        err.contains("below the Nyquist frequency, 3 Hz") && !written,
+        "{err}"
+    );
 }
 
 /// 8 s of one touch sampled at `rate`: a press held from 2 s to 4 s, then a stroke
@@ -265,7 +300,10 @@ fn one_touch_at_20_and_54_hz_lasts_as_long() {
     let (o20, e20, _, r20) = compile(&slow, &[]);
     let (o54, e54, _, r54) = compile(&fast, &["--rate", "54"]);
     assert!(o20.status.success() && o54.status.success(), "{e20}\n{e54}");
-    assert!(!e20.contains("warning") && !e54.contains("warning"), "{e20}\n{e54}");
+    assert!(
+        !e20.contains("warning") && !e54.contains("warning"),
+        "{e20}\n{e54}"
+    );
     let (r20, r54) = (r20.unwrap(), r54.unwrap());
     assert_eq!(r54["metadata"]["rate_hz"]["value"], 54.0);
     assert_eq!(r54["metadata"]["rate_hz"]["source"], "cli");
