@@ -221,6 +221,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
 
     // Stage 0: tare and trim, and the paper's "no touch" filter.
     let tared = rec.tare(&cfg.input, &sampling)?;
+    warnings.extend(crate::sanity::check(rec, tared.view(), cfg, &sampling));
     let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
     clock.stage("tare");
     if touched <= cfg.input.min_touch_readings {

@@ -35,6 +35,7 @@ pub mod condition;
 pub mod keyframes;
 
 pub mod scene;
+pub mod sanity;
 pub mod compile;
 pub mod coverage;
 pub mod evaluate;

@@ -50,8 +50,14 @@ pub const MAX_FRAME_PX: usize = 4096;
 /// everything anyway).
 pub const MAX_GATE_PX: f64 = 4096.0;
 
+/// `v` as a user typed it: `1e308` and `5e-324` in exponent form rather than 300 digits.
 fn num(v: f64) -> String {
-    format!("{v}")
+    let a = v.abs();
+    if a != 0.0 && a.is_finite() && !(1e-4..1e9).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
 }
 
 /// `knob` must be finite and within `[lo, hi]` (in `unit`).
@@ -62,7 +68,7 @@ fn within(knob: &'static str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<()
     Err(ConfigError::OutOfRange {
         knob,
         value: num(v),
-        range: format!("finite, in [{lo}, {hi}]{unit}"),
+        range: format!("finite, in [{}, {}]{unit}", num(lo), num(hi)),
     })
 }
 

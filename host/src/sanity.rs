@@ -1,0 +1,359 @@
+//! Input sanity: warnings (never failures) for recordings that compile but probably do
+//! not mean what the compile assumes.
+//!
+//! A recording in the wrong unit, from a sensor whose reading falls with pressure, that
+//! begins mid-touch under the paper's leading baseline, or given at the wrong rate or
+//! pitch, still compiles to a valid stimulus: the result is just not the touch that was
+//! recorded. Each check here gives the figure it saw and what to try. The unit checks
+//! ([`raw_counts`], [`falls_with_touch`]) come first: when either fires, the psi
+//! thresholds the later checks use mean nothing, so those are skipped.
+
+use ndarray::{ArrayView3, Axis};
+
+use crate::config::{Baseline, Config, Sampling};
+use crate::recording::Recording;
+
+/// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
+/// and looks like raw ADC counts.
+pub const RAW_COUNTS_MEDIAN: f64 = 100.0;
+
+/// Contacts whose centroid moves at a median speed above this, mm/s, are implausibly
+/// fast for a hand (strokes reach about 1.5 m/s, shakes about 1 m/s).
+pub const MAX_PLAUSIBLE_SPEED_MM_S: f64 = 3000.0;
+
+/// Fewest frame-to-frame centroid steps for the speed check to say anything.
+const MIN_STEPS: usize = 5;
+
+/// Fewest separate touches, all a single frame long, before that is called implausible.
+const MIN_SINGLE_FRAME_TOUCHES: usize = 3;
+
+/// Every sanity warning for `rec`, whose tared and trimmed frames are `tared`, compiled
+/// with `cfg` at `sampling`.
+pub fn check(
+    rec: &Recording,
+    tared: ArrayView3<f64>,
+    cfg: &Config,
+    sampling: &Sampling,
+) -> Vec<String> {
+    let raw = rec.data();
+    let threshold = cfg.input.touch_threshold_psi;
+    let mut out = Vec::new();
+    let units = [raw_counts(raw), falls_with_touch(raw, threshold)];
+    let units_wrong = units.iter().any(Option::is_some);
+    out.extend(units.into_iter().flatten());
+    if units_wrong {
+        return out;
+    }
+    if cfg.input.baseline == Baseline::Leading {
+        out.extend(touch_in_tare_window(raw, cfg, sampling));
+    }
+    out.extend(implausible_speed(tared, threshold, sampling));
+    out.extend(single_frame_touches(tared, threshold, sampling));
+    out
+}
+
+/// The median of `values` (reordered in place); `None` when empty.
+fn median(values: &mut [f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    let mid = values.len() / 2;
+    let (_, m, _) = values.select_nth_unstable_by(mid, f64::total_cmp);
+    Some(*m)
+}
+
+/// Values in the hundreds or more: raw ADC counts rather than psi.
+pub fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
+    let mut finite: Vec<f64> = raw.iter().copied().filter(|v| v.is_finite()).collect();
+    let m = median(&mut finite)?;
+    (m.abs() >= RAW_COUNTS_MEDIAN).then(|| {
+        format!(
+            "the median reading is {m:.0}, but psi from a skin-touch sensor is rarely above \
+             10: these look like raw ADC counts; convert them to psi before compiling"
+        )
+    })
+}
+
+/// The dominant deviation from each cell's resting level (its median) is negative: a
+/// sensor whose reading falls with pressure (e.g. 10-bit counts near 1020 at rest).
+pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> {
+    let (mut below, mut above) = (0usize, 0usize);
+    let mut deepest = 0.0f64;
+    let mut cell = Vec::new();
+    for lane in raw.lanes(Axis(0)) {
+        cell.clear();
+        cell.extend(lane.iter().copied().filter(|v| v.is_finite()));
+        let Some(rest) = median(&mut cell) else {
+            continue;
+        };
+        for &v in &cell {
+            let d = v - rest;
+            if d < -threshold {
+                below += 1;
+                deepest = deepest.min(d);
+            } else if d > threshold {
+                above += 1;
+            }
+        }
+    }
+    // Noise deviates both ways about equally; touch on a falling sensor only down.
+    (below > 2 * above && below >= 10).then(|| {
+        format!(
+            "pressure seems to fall with touch: {below} readings lie more than {threshold} \
+             below their cell's resting level (down to {deepest:.3}) against {above} above \
+             it; if the sensor's reading falls with pressure, convert it so that touch is \
+             positive psi (e.g. rest minus reading, scaled to psi)"
+        )
+    })
+}
+
+/// The paper's leading baseline averages the first `tare_s`: touch there is subtracted
+/// from the whole recording. Compares each cell's mean in that window with its low
+/// quantile over the whole recording (the `robust` baseline's zero).
+pub fn touch_in_tare_window(
+    raw: ArrayView3<f64>,
+    cfg: &Config,
+    sampling: &Sampling,
+) -> Option<String> {
+    let frames = sampling.frames(cfg.input.tare_s).min(raw.dim().0);
+    if frames == 0 {
+        return None;
+    }
+    let threshold = cfg.input.touch_threshold_psi;
+    let (mut cells, mut highest) = (0usize, 0.0f64);
+    let mut values = Vec::new();
+    for lane in raw.lanes(Axis(0)) {
+        let window = lane.slice(ndarray::s![..frames]);
+        if window.iter().any(|v| !v.is_finite()) {
+            continue; // the leading baseline makes such a cell "no cell" anyway
+        }
+        let mean = window.sum() / frames as f64;
+        values.clear();
+        values.extend(lane.iter().copied().filter(|v| v.is_finite()));
+        values.sort_unstable_by(f64::total_cmp);
+        let q = cfg.input.baseline_quantile.clamp(0.0, 1.0);
+        let rest = values[(q * (values.len() - 1) as f64).round() as usize];
+        let excess = mean - rest;
+        if excess > threshold {
+            cells += 1;
+            highest = highest.max(excess);
+        }
+    }
+    (cells > 0).then(|| {
+        format!(
+            "touch in the tare window: {cells} cell(s) read up to {highest:.3} psi above \
+             their resting level during the first {} s ({frames} frames), which the \
+             leading baseline subtracts from the whole recording; if the recording begins \
+             mid-touch, try --set input.baseline=robust",
+            cfg.input.tare_s
+        )
+    })
+}
+
+/// The pressure-weighted centroid, in cells, of the readings above `threshold` in each
+/// frame (`None` in a frame without touch).
+fn centroids(tared: ArrayView3<f64>, threshold: f64) -> Vec<Option<(f64, f64)>> {
+    tared
+        .axis_iter(Axis(0))
+        .map(|frame| {
+            let (mut w, mut r, mut c) = (0.0, 0.0, 0.0);
+            for ((row, col), &v) in frame.indexed_iter() {
+                if v > threshold {
+                    w += v;
+                    r += v * row as f64;
+                    c += v * col as f64;
+                }
+            }
+            (w > 0.0).then(|| (r / w, c / w))
+        })
+        .collect()
+}
+
+/// Touch whose centroid moves faster than a hand: the rate or the pitch given is
+/// probably too high.
+pub fn implausible_speed(
+    tared: ArrayView3<f64>,
+    threshold: f64,
+    sampling: &Sampling,
+) -> Option<String> {
+    let cs = centroids(tared, threshold);
+    let mut speeds: Vec<f64> = cs
+        .windows(2)
+        .filter_map(|w| match (w[0], w[1]) {
+            (Some(a), Some(b)) => {
+                let cells = (a.0 - b.0).hypot(a.1 - b.1);
+                Some(cells * sampling.pitch_mm * sampling.rate_hz)
+            }
+            _ => None,
+        })
+        .collect();
+    if speeds.len() < MIN_STEPS {
+        return None;
+    }
+    let m = median(&mut speeds)?;
+    (m > MAX_PLAUSIBLE_SPEED_MM_S).then(|| {
+        format!(
+            "the touch moves at a median {:.1} m/s at {} Hz and {} mm cells, while hands \
+             rarely exceed 1.5 m/s: if the recording's rate is lower or its cells are \
+             smaller, give them with --rate / --pitch-mm",
+            m / 1000.0,
+            sampling.rate_hz,
+            sampling.pitch_mm,
+        )
+    })
+}
+
+/// Every touch lasts a single frame: the rate given is probably far too low for the
+/// recording, or the sensor was sampled too slowly to follow touch.
+pub fn single_frame_touches(
+    tared: ArrayView3<f64>,
+    threshold: f64,
+    sampling: &Sampling,
+) -> Option<String> {
+    let touched: Vec<bool> = centroids(tared, threshold)
+        .iter()
+        .map(Option::is_some)
+        .collect();
+    let mut runs = Vec::new();
+    let mut len = 0usize;
+    for &t in touched.iter().chain([false].iter()) {
+        if t {
+            len += 1;
+        } else if len > 0 {
+            runs.push(len);
+            len = 0;
+        }
+    }
+    (runs.len() >= MIN_SINGLE_FRAME_TOUCHES && runs.iter().all(|&n| n == 1)).then(|| {
+        format!(
+            "all {} touches last a single frame ({:.0} ms at {} Hz), while taps last 50 ms \
+             and more: if the recording's rate is higher, give it with --rate",
+            runs.len(),
+            1000.0 / sampling.rate_hz,
+            sampling.rate_hz
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray::Array3;
+
+    /// 100 frames of 6 x 10 cells at rest `rest` with +-0.004 noise and, from frame
+    /// 40 to 70, a 2 x 2 press of `press` (added) sliding one column every `step` frames
+    /// (and back to column 0 after column 8).
+    fn recording(rest: f64, press: f64, step: usize) -> Array3<f64> {
+        let mut a = Array3::<f64>::zeros((100, 6, 10));
+        let mut seed = 1u64;
+        for v in a.iter_mut() {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            *v = rest + 0.004 * ((seed >> 40) as f64 / (1u64 << 24) as f64 * 2.0 - 1.0);
+        }
+        for t in 40..70 {
+            let c = ((t - 40) / step) % 9;
+            for (r, c) in [(2, c), (3, c), (2, c + 1), (3, c + 1)] {
+                a[[t, r, c]] += press;
+            }
+        }
+        a
+    }
+
+    fn run(a: &Array3<f64>, cfg: &Config, sampling: &Sampling) -> Vec<String> {
+        let rec = Recording::from_array("x", a.view()).unwrap();
+        let tared = rec.tare(&cfg.input, sampling).unwrap();
+        check(&rec, tared.view(), cfg, sampling)
+    }
+
+    #[test]
+    fn an_ordinary_recording_gets_no_warning() {
+        let w = run(
+            &recording(0.0, 2.0, 5),
+            &Config::default(),
+            &Sampling::PAPER,
+        );
+        assert!(w.is_empty(), "{w:?}");
+    }
+
+    #[test]
+    fn raw_counts_are_named_with_the_median() {
+        let w = run(
+            &recording(512.0, 40.0, 5),
+            &Config::default(),
+            &Sampling::PAPER,
+        );
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("median reading is 512") && w[0].contains("ADC counts"));
+    }
+
+    #[test]
+    fn a_falling_sensor_is_named() {
+        // 10-bit counts near 1020 at rest that fall by 300 under the press.
+        let w = run(
+            &recording(1020.0, -300.0, 5),
+            &Config::default(),
+            &Sampling::PAPER,
+        );
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(w[1].contains("fall with touch") && w[1].contains("120 readings"));
+        // The same in psi-like units: only the falling warning.
+        let w = run(
+            &recording(5.0, -2.0, 5),
+            &Config::default(),
+            &Sampling::PAPER,
+        );
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("down to -2.0"), "{w:?}");
+    }
+
+    #[test]
+    fn touch_in_the_tare_window_suggests_the_robust_baseline() {
+        let mut a = recording(0.0, 2.0, 5);
+        for t in 0..30 {
+            a[[t, 0, 0]] += 1.5;
+        }
+        let w = run(&a, &Config::default(), &Sampling::PAPER);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains("1 cell(s)")
+                && w[0].contains("1.50")
+                && w[0].contains("input.baseline=robust"),
+            "{w:?}"
+        );
+        let mut robust = Config::default();
+        robust.input.baseline = Baseline::Robust;
+        assert!(run(&a, &robust, &Sampling::PAPER).is_empty());
+    }
+
+    #[test]
+    fn a_rate_too_high_makes_the_touch_too_fast() {
+        // One column per frame: 25.4 mm x 20 Hz = 0.5 m/s; at 200 Hz, 5.1 m/s.
+        let a = recording(0.0, 2.0, 1);
+        assert!(run(&a, &Config::default(), &Sampling::PAPER).is_empty());
+        let fast = Sampling {
+            rate_hz: 200.0,
+            ..Sampling::PAPER
+        };
+        let mut short = Config::default();
+        (short.input.tare_s, short.input.trim_s) = (0.1, 0.1);
+        let w = run(&a, &short, &fast);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("median 5.1 m/s") && w[0].contains("--rate"));
+    }
+
+    #[test]
+    fn single_frame_touches_suggest_the_rate() {
+        let mut a = recording(0.0, 0.0, 5);
+        for t in [30, 45, 60, 75] {
+            a[[t, 3, 3]] += 1.0;
+        }
+        let w = run(&a, &Config::default(), &Sampling::PAPER);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("all 4 touches") && w[0].contains("50 ms at 20 Hz"));
+        // Two frames each: plausible.
+        for t in [31, 46, 61, 76] {
+            a[[t, 3, 3]] += 1.0;
+        }
+        assert!(run(&a, &Config::default(), &Sampling::PAPER).is_empty());
+    }
+}
