@@ -214,7 +214,9 @@ pub struct InputConfig {
     /// Dropped at each end of the recording after the tare, seconds (paper 1 s).
     pub trim_s: f64,
     /// The `robust` baseline: each cell's zero is this quantile of its readings over the
-    /// whole recording (0.1: a cell may be pressed for up to 90 % of the recording).
+    /// whole recording (0.02: a cell may be pressed for up to 98 % of the recording, so a
+    /// press held through a whole capture but for a second at either end keeps its
+    /// pressure; a lower quantile would follow the noise's negative tail).
     pub baseline_quantile: f64,
     /// A recording with at most this many readings above `touch_threshold_psi` is "no touch".
     pub min_touch_readings: usize,
@@ -230,7 +232,7 @@ impl Default for InputConfig {
             baseline: Baseline::Leading,
             tare_s: 1.0,
             trim_s: 1.0,
-            baseline_quantile: 0.1,
+            baseline_quantile: 0.02,
             min_touch_readings: 5,
             touch_threshold_psi: 0.08,
         }

@@ -159,13 +159,14 @@ fn a_recording_that_starts_mid_press_keeps_it_with_the_robust_baseline() {
     let leading = write(dir.path(), "leading.npy", &mid_press());
     warns(
         &leading,
-        &[],
+        &["--preset", "paper"],
         &["touch in the tare window", "input.baseline=robust"],
     );
     let lost = first_second_peak(&render(&leading.with_extension("touch")));
-    // The robust baseline: the press drives an actuator from the start, no warning.
+    // The default preset's robust baseline: the press drives an actuator from the
+    // start, no warning.
     let robust = write(dir.path(), "robust.npy", &mid_press());
-    let (out, err, written, _) = compile(&robust, &["--set", "input.baseline=\"robust\""]);
+    let (out, err, written, _) = compile(&robust, &[]);
     assert!(out.status.success() && written, "{err}");
     assert!(!err.contains("tare window"), "{err}");
     let kept = first_second_peak(&render(&robust.with_extension("touch")));
@@ -310,8 +311,8 @@ fn one_touch_at_20_and_54_hz_lasts_as_long() {
     let d = |r: &serde_json::Value| r["duration_s"].as_f64().unwrap();
     let period = |r: &serde_json::Value| r["keyframe_period_ms"].as_f64().unwrap() / 1000.0;
     let tolerance = period(&r20).max(period(&r54));
-    // The stimulus is the recording's frames after the 1 s trim at each end (6 s at any
-    // rate: tare and trim are in seconds), plus what conditioning adds around them: the
+    // The stimulus is the recording's 8 s (the default preset trims nothing; `paper`'s
+    // trim is in seconds too), plus what conditioning adds around them: the
     // ramps, and the silence the digital low-pass rings out in, whose length depends on
     // the rate (the same 4 Hz Butterworth decays differently at 20 and at 54 Hz).
     // `conditioning(rate)` is that addition, measured on one silent frame.
@@ -323,7 +324,7 @@ fn one_touch_at_20_and_54_hz_lasts_as_long() {
     let kept = |r: &serde_json::Value, rate: f64| d(r) - conditioning(rate);
     for (r, rate) in [(&r20, 20.0), (&r54, 54.0)] {
         assert!(
-            (kept(r, rate) - 6.0).abs() <= tolerance,
+            (kept(r, rate) - 8.0).abs() <= tolerance,
             "{rate} Hz: {} s in total, {} s of recording, keyframes every {tolerance} s",
             d(r),
             kept(r, rate)

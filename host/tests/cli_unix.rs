@@ -347,8 +347,9 @@ fn each_error_is_said_once_without_temporary_paths() {
     ]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert_eq!(err.matches("got 1000").count(), 1, "{err}");
-    assert!(err.contains("stroke.npy") && err.contains("32"), "{err}");
+    // A knob out of range names the knob, its value and its range, once.
+    assert_eq!(err.matches("1000").count(), 1, "{err}");
+    assert!(err.contains("upsample") && err.contains("32"), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
 
     let missing = dir.path().join("no/such/dir/rec.npy");
