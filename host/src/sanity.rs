@@ -312,7 +312,9 @@ mod tests {
         for t in 0..30 {
             a[[t, 0, 0]] += 1.5;
         }
-        let w = run(&a, &Config::default(), &Sampling::PAPER);
+        // The paper's leading baseline is the one the warning is about.
+        let paper = Config::preset(crate::config::Preset::Paper);
+        let w = run(&a, &paper, &Sampling::PAPER);
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(
             w[0].contains("1 cell(s)")
@@ -320,7 +322,7 @@ mod tests {
                 && w[0].contains("input.baseline=robust"),
             "{w:?}"
         );
-        let mut robust = Config::default();
+        let mut robust = paper;
         robust.input.baseline = Baseline::Robust;
         assert!(run(&a, &robust, &Sampling::PAPER).is_empty());
     }
