@@ -8,12 +8,26 @@
 //!   The device is the firmware's own (`output::device_config`).
 //! - `twin_codes limit BANK SLOT PEAK_MA OUT` writes a one-slot bank: that slot
 //!   re-encoded with its peak limit lowered to `PEAK_MA`, so that it trips.
+//! - `twin_codes hot BUDGET_MA2S OUT` writes a bank that heats the coils: slot 0
+//!   holds near-1 A on most channels for [`HOT_MS`], slot 1 the same for
+//!   [`SHORT_MS`]; both carry the sleeve's limits with the I^2 t budget lowered to
+//!   `BUDGET_MA2S` (the stricter of stimulus and device wins), so that a few seconds
+//!   of play use it up.
 use std::io::Write;
 use std::process::ExitCode;
 
-use sleeve_firmware::output::device_config;
+use sleeve_firmware::output::{device_config, FULL_SCALE_MA, LAYOUT_ID};
 use touch_protocol::player::Status;
-use touch_protocol::{bank, stimulus, Bank, Player};
+use touch_protocol::stimulus::OUTPUT_RATE_HZ;
+use touch_protocol::{bank, stimulus, Bank, Limits, Player, CHANNELS};
+
+/// Slot 0 of the `hot` bank: longer than a cold coil can carry at the lowered budget.
+const HOT_MS: u32 = 3000;
+/// Slot 1 of the `hot` bank: short enough to end before it trips.
+const SHORT_MS: u32 = 400;
+/// The `hot` bank's level per channel, Q15 of full scale: near 1 A of both signs,
+/// one channel at 0.5 A (below the 0.6 A rating: it never heats) and one at rest.
+const HOT_LEVELS: [i16; CHANNELS] = [32767, -32768, 32112, -31785, 31129, 16384, 0, 32440];
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -27,7 +41,13 @@ fn main() -> ExitCode {
 }
 
 fn run(args: &[String]) -> Result<(), String> {
-    let usage = "usage: twin_codes play BANK SLOT [STOP_AFTER] | limit BANK SLOT PEAK_MA OUT";
+    let usage = "usage: twin_codes play BANK SLOT [STOP_AFTER] | limit BANK SLOT PEAK_MA OUT \
+                 | hot BUDGET_MA2S OUT";
+    if let [command, budget, out] = args {
+        if command == "hot" {
+            return hot(number(budget)?, out);
+        }
+    }
     let [command, path, slot, rest @ ..] = args else {
         return Err(usage.into());
     };
@@ -50,6 +70,36 @@ fn run(args: &[String]) -> Result<(), String> {
         }
         _ => Err(usage.into()),
     }
+}
+
+/// Writes the `hot` bank (see the module doc) to `out`.
+fn hot(budget_ma2s: u32, out: &str) -> Result<(), String> {
+    let limits = Limits {
+        i2t_budget_ma2s: budget_ma2s,
+        ..Limits::SLEEVE
+    };
+    // Keyframes every 100 ms, flat: the player's ramp in and out shapes the ends.
+    let period_ms = 100u16;
+    let one = |name: &str, ms: u32| {
+        let frames = vec![HOT_LEVELS; (ms / u32::from(period_ms)) as usize + 1];
+        let header = stimulus::Header {
+            channels: CHANNELS as u8,
+            output_rate_hz: OUTPUT_RATE_HZ,
+            keyframe_period_ms: period_ms,
+            keyframe_count: 0,
+            duration_ms: 0,
+            ramp_ms: 40,
+            full_scale_ma: FULL_SCALE_MA,
+            quant_shift: 0,
+            layout_id: LAYOUT_ID,
+            limits,
+            name,
+        };
+        stimulus::encode(header, &frames).map_err(|e| format!("{name}: {e:?}"))
+    };
+    let (long, short) = (one("hot", HOT_MS)?, one("short", SHORT_MS)?);
+    let image = bank::encode(&[&long, &short]).map_err(|e| format!("{e:?}"))?;
+    std::fs::write(out, image).map_err(|e| format!("{out}: {e}"))
 }
 
 fn number<T: std::str::FromStr>(s: &str) -> Result<T, String>
