@@ -1,7 +1,7 @@
 //! Every knob at its extremes (issue 6): each either compiles to a finite stimulus or
 //! refuses with an error that names the parameter. And the presets compile.
 
-mod common;
+use crate::common;
 
 use touchc::compile::{compile, CompileError, CompileOptions, Compiled};
 use touchc::config::{CoarseToFine, Config, Preset};

@@ -1,8 +1,7 @@
 //! Stage 0 input validation: every bad file is a typed error that names the file.
 
-mod common;
-#[path = "common/poison.rs"]
-mod poison;
+use crate::common;
+use crate::poison;
 
 use ndarray::{Array2, Array3, ShapeBuilder};
 use ndarray_npy::WriteNpyExt;

@@ -1,8 +1,7 @@
 //! The real `touchc` binary: `track --json` on a reference file, the table, bad files.
 
-mod common;
-#[path = "common/bin.rs"]
-mod bin;
+use crate::common;
+use crate::bin;
 
 use bin::command as touchc;
 

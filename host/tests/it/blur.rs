@@ -1,6 +1,6 @@
 //! The matrix-product blur against scipy's documented numbers and a direct 2-D oracle.
 
-mod common;
+use crate::common;
 
 use ndarray::{Array2, ArrayView2};
 use proptest::prelude::*;

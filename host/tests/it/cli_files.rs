@@ -1,15 +1,13 @@
 //! Drives the real `touchc` binary on stimulus and bank files built here.
 
-#[path = "common/bin.rs"]
-mod bin;
+use crate::bin;
 
 use bin::touchc;
 use std::path::Path;
 
 use touch_protocol::Bank;
 
-#[path = "common/stimuli.rs"]
-mod stimuli;
+use crate::stimuli;
 
 fn stimulus_file(dir: &Path, name: &str) -> std::path::PathBuf {
     // A 4 Hz-ish swell on channel 2 over a -0.9 A pre-dent elsewhere, 1 s long.

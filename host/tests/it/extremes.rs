@@ -1,6 +1,6 @@
 //! Stages 0-3 on degenerate and extreme recordings.
 
-mod common;
+use crate::common;
 
 use ndarray::{s, Array3};
 use touchc::config::Config;

@@ -7,9 +7,8 @@ use std::process::Command;
 
 use ndarray_npy::WriteNpyExt;
 
-mod common;
-#[path = "common/poison.rs"]
-mod poison;
+use crate::common;
+use crate::poison;
 
 /// Runs `touchc compile ARGS...`.
 fn compile(args: &[&Path]) -> std::process::Output {

@@ -2,7 +2,7 @@
 //! (`tests/data/reference/*.reference.json`): every one of the
 //! 4,200 transform scores, the chosen transform and the selected trajectories.
 
-mod common;
+use crate::common;
 
 use common::Reference;
 use touchc::config::{CoarseToFine, Config, Preset};

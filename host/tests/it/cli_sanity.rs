@@ -2,7 +2,7 @@
 //! written), on knobs that must be refused (exit 1, nothing written), on a recording
 //! that begins mid-press, and on one touch sampled at two rates.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

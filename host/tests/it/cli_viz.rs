@@ -1,7 +1,6 @@
 //! Drives the real `touchc` binary: `plot` (PNG, SVG, bank slots) and `render --wav`.
 
-#[path = "common/bin.rs"]
-mod bin;
+use crate::bin;
 
 use bin::touchc;
 use std::path::{Path, PathBuf};
@@ -9,8 +8,7 @@ use std::process::Output;
 
 use touch_protocol::bank;
 
-#[path = "common/stimuli.rs"]
-mod stimuli;
+use crate::stimuli;
 
 fn ok(out: &Output) {
     assert!(

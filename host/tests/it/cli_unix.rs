@@ -2,10 +2,8 @@
 //! early, full disks, symlinks, FIFOs, the umask, killed runs, exit codes, one message
 //! per error, escaped names, and stimuli too long to hold in memory.
 
-#[path = "common/bin.rs"]
-mod bin;
-#[path = "common/stimuli.rs"]
-mod stimuli;
+use crate::bin;
+use crate::stimuli;
 
 use std::io::{Read, Write};
 use std::os::unix::fs::{FileTypeExt, PermissionsExt};

@@ -1,8 +1,7 @@
 //! The whole chain, recording to stimulus: what a user of `touchc compile` relies on.
 
-mod common;
-#[path = "common/bin.rs"]
-mod bin;
+use crate::common;
+use crate::bin;
 
 use bin::touchc;
 

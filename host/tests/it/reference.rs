@@ -1,6 +1,6 @@
 //! The published Python reference's outputs on its two synthetic recordings.
 
-mod common;
+use crate::common;
 
 use touchc::detect::detect;
 use touchc::recording::Recording;

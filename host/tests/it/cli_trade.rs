@@ -1,7 +1,6 @@
 //! The real binary: `--preset` and the knobs, batch compiles, `touchc trade`.
 
-#[path = "common/bin.rs"]
-mod bin;
+use crate::bin;
 
 use bin::touchc;
 use std::path::{Path, PathBuf};

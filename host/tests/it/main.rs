@@ -1,0 +1,36 @@
+//! The host's integration tests, one binary: a change to the library relinks one test
+//! executable, not one per file. Each module is a group of tests that used to be a file
+//! of its own; `common` and its siblings are the fixtures (`common/mod.rs` is shared with
+//! the benches and examples, `common/poison.rs` with the fuzz targets, so they stay
+//! beside this folder). proptest keeps its regression seeds in `../proptest-regressions/`.
+
+#[path = "../common/bin.rs"]
+mod bin;
+#[path = "../common/mod.rs"]
+mod common;
+#[path = "../common/poison.rs"]
+mod poison;
+#[path = "../common/stimuli.rs"]
+mod stimuli;
+
+mod blur;
+mod bnb_oracle;
+mod cli;
+mod cli_files;
+mod cli_sanity;
+mod cli_trade;
+mod cli_unix;
+mod cli_viz;
+mod compile;
+mod detect;
+mod emoji_bank;
+mod extremes;
+mod flow;
+mod knobs;
+mod placement_oracle;
+mod placement_reference;
+mod poisoned;
+mod recording;
+mod reference;
+mod repository;
+mod touch;
