@@ -1,8 +1,6 @@
-//! Running the real `touchc` binary (`#[path]`-included by the tests that drive it).
+//! Running the real `touchc` binary, for the tests that drive it.
 
-// Each test crate uses a different part of this module.
-#![allow(dead_code)]
-
+use std::path::Path;
 use std::process::{Command, Output};
 
 /// A `touchc` command, to add arguments, a working directory or standard input to.
@@ -18,4 +16,14 @@ pub fn touchc(args: &[&str]) -> Output {
 /// Standard error as text, for assertions and their messages.
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Fails the test with `touchc`'s standard error unless the run succeeded.
+pub fn ok(out: &Output) {
+    assert!(out.status.success(), "{}", stderr(out));
+}
+
+/// A path as a command-line argument (the tests' temporary paths are UTF-8).
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
 }

@@ -1,7 +1,4 @@
-//! Stimulus files built in the tests (`#[path]`-included by the CLI tests).
-
-// Each test crate uses a different part of this module.
-#![allow(dead_code)]
+//! Stimulus files built in the tests that drive the CLI.
 
 use touch_protocol::{stimulus, Limits};
 

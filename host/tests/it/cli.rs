@@ -1,9 +1,9 @@
 //! The real `touchc` binary: `track --json` on a reference file, the table, bad files.
 
-use crate::common;
 use crate::bin;
+use crate::common;
 
-use bin::command as touchc;
+use bin::{command as touchc, ok};
 
 #[test]
 fn track_json_reproduces_the_reference() {
@@ -13,11 +13,7 @@ fn track_json_reproduces_the_reference() {
         .arg(dir.join("tap_pat_200.npy"))
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let text = std::fs::read_to_string(dir.join("tap_pat_200.reference.json")).unwrap();
     let want: serde_json::Value = serde_json::from_str(&text).unwrap();

@@ -2,7 +2,7 @@
 
 use crate::bin;
 
-use bin::touchc;
+use bin::{ok, touchc};
 use std::path::Path;
 
 use touch_protocol::Bank;
@@ -23,11 +23,7 @@ fn inspect_reports_header_size_and_crc() {
     let dir = tempfile::tempdir().unwrap();
     let file = stimulus_file(dir.path(), "love");
     let out = touchc(&["inspect", file.to_str().unwrap(), "--json"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["name"], "love");
     assert_eq!(v["duration_s"], 1.0);
@@ -69,11 +65,7 @@ fn render_csv_is_the_players_output_in_amperes() {
         "-o",
         csv_path.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let csv = std::fs::read_to_string(&csv_path).unwrap();
     let rows: Vec<Vec<f64>> = csv
         .lines()
@@ -109,11 +101,7 @@ fn bank_packs_slots_in_order_and_refuses_bad_input() {
         "-o",
         bank_path.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let image = std::fs::read(&bank_path).unwrap();
     let bank = Bank::decode(&image).unwrap();
     let names: Vec<_> = bank.stimuli().map(|s| s.name()).collect();

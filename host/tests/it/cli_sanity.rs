@@ -2,28 +2,18 @@
 //! written), on knobs that must be refused (exit 1, nothing written), on a recording
 //! that begins mid-press, and on one touch sampled at two rates.
 
+use crate::bin::{s, touchc};
 use crate::common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use ndarray::Array3;
-
-fn touchc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_touchc"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn write(dir: &Path, name: &str, rec: &Array3<f64>) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, touchc::synth::to_npy(rec).unwrap()).unwrap();
     path
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// `frames` x 8 x 21 at `rest` with +-0.004 noise, NaN outside the 142-cell sleeve.

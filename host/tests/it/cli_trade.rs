@@ -2,21 +2,13 @@
 
 use crate::bin;
 
-use bin::touchc;
+use bin::{ok, s, touchc};
 use std::path::{Path, PathBuf};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn synth(dir: &Path, name: &str, gesture: &str) -> PathBuf {
     let path = dir.join(format!("{name}.npy"));
     let out = touchc(&["synth", gesture, "--quiet-frames", "25", "-o", s(&path)]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     path
 }
 
@@ -139,11 +131,7 @@ fn trade_prints_every_preset_against_exact() {
         "--svg",
         s(&svg),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let text = std::fs::read_to_string(&csv).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), 5, "{text}");
@@ -174,19 +162,11 @@ fn trade_measures_recall_against_a_synthetic_truth() {
         "-o",
         s(&rec),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let csv = dir.path().join("t.csv");
     let args = ["trade", s(&rec), "--repeat", "1", "--threads", "1"];
     let out = touchc(&[&args[..], &["--truth", s(&truth), "--csv", s(&csv)]].concat());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let text = std::fs::read_to_string(&csv).unwrap();
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
     let col = header

@@ -11,11 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use bin::{command, stderr, touchc};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use bin::{command, s, stderr, touchc};
 
 /// A 1 s stimulus named `name` in `dir`.
 fn short_stimulus(dir: &Path, name: &str) -> PathBuf {

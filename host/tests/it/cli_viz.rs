@@ -2,21 +2,12 @@
 
 use crate::bin;
 
-use bin::touchc;
+use bin::{ok, touchc};
 use std::path::{Path, PathBuf};
-use std::process::Output;
 
 use touch_protocol::bank;
 
 use crate::stimuli;
-
-fn ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 /// A 1 s stimulus: channel `active` swells to +0.95 A, channel `silent` stays at 0 A,
 /// the others hold the -0.9 A pre-dent.

@@ -1,9 +1,9 @@
 //! The whole chain, recording to stimulus: what a user of `touchc compile` relies on.
 
-use crate::common;
 use crate::bin;
+use crate::common;
 
-use bin::touchc;
+use bin::{ok, touchc};
 
 use touchc::compile::{compile, CompileOptions, Compiled};
 use touchc::layout::Layout;
@@ -226,11 +226,7 @@ fn cli_writes_the_stimulus_and_the_report() {
         "--report",
         report.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&out);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("love.touch") && stderr.contains("B/s"),

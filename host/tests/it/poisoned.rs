@@ -3,24 +3,16 @@
 //! rest of the batch still compiles.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use ndarray_npy::WriteNpyExt;
 
+use crate::bin::{self, s};
 use crate::common;
 use crate::poison;
 
 /// Runs `touchc compile ARGS...`.
 fn compile(args: &[&Path]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_touchc"))
-        .arg("compile")
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    bin::command().arg("compile").args(args).output().unwrap()
 }
 
 /// A valid recording with one moving contact.

@@ -1,4 +1,4 @@
-"""Writes the .npz fixtures of host/tests/recording.rs the way numpy's savez does.
+"""Writes the .npz fixtures of host/tests/it/recording.rs the way numpy's savez does.
 
 numpy is not needed: this repeats numpy.savez's container calls with the standard
 library (ZipFile with allowZip64, each member opened for writing with force_zip64=True,
