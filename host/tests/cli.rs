@@ -119,7 +119,14 @@ fn help_prints_the_defaults_of_config_default() {
     for cmd in ["track", "preview", "trade"] {
         let out = touchc().args([cmd, "--help"]).output().unwrap();
         let text = String::from_utf8(out.stdout).unwrap();
-        for flag in ["preset", "config", "set", "rate", "pitch-mm", "max-speed-mm-s"] {
+        for flag in [
+            "preset",
+            "config",
+            "set",
+            "rate",
+            "pitch-mm",
+            "max-speed-mm-s",
+        ] {
             help_of(&text, flag);
         }
     }

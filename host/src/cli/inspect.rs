@@ -158,8 +158,7 @@ fn write_stimulus(w: &mut impl Write, s: &StimulusReport) -> std::io::Result<()>
         s.keyframes,
         s.keyframe_period_ms,
         s.bytes,
-        s.bytes_per_second
-            .map_or("-".into(), |b| format!("{b:.0}")),
+        s.bytes_per_second.map_or("-".into(), |b| format!("{b:.0}")),
         s.crc,
     )?;
     let l = &s.limits;

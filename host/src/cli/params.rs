@@ -204,7 +204,10 @@ impl Knob {
                 .map(|(x, y)| format!("{x},{y}")),
             // An absent search is `off`.
             Kind::Search => Some(
-                match section.and_then(|s| s.get(self.key)).and_then(toml::Value::as_table) {
+                match section
+                    .and_then(|s| s.get(self.key))
+                    .and_then(toml::Value::as_table)
+                {
                     Some(t) => {
                         let get = |k: &str| t.get(k).map_or_else(|| "?".into(), plain);
                         format!("{},{}", get("stride"), get("keep"))
@@ -275,7 +278,8 @@ impl FromArgMatches for Knobs {
     fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
         for knob in KNOBS {
             for (key, value) in knob.assignments(m) {
-                self.0.retain(|(s, k, _)| !(*s == knob.section && *k == key));
+                self.0
+                    .retain(|(s, k, _)| !(*s == knob.section && *k == key));
                 self.0.push((knob.section, key, value));
             }
         }

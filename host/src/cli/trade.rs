@@ -238,7 +238,13 @@ fn markdown(rows: &[TradeRow]) -> String {
 fn csv(rows: &[TradeRow]) -> String {
     std::iter::once(headers(true))
         .chain(lines(rows, true))
-        .map(|line| line.iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(",") + "\n")
+        .map(|line| {
+            line.iter()
+                .map(|f| csv_field(f))
+                .collect::<Vec<_>>()
+                .join(",")
+                + "\n"
+        })
         .collect()
 }
 
@@ -258,7 +264,7 @@ mod tests {
     fn csv_fields_are_quoted_only_when_they_must_be() {
         assert_eq!(csv_field("tap"), "tap");
         assert_eq!(csv_field("a,b"), "\"a,b\"");
-        assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"\"");
+        assert_eq!(csv_field(r#"say "hi""#), r#""say ""hi""""#);
         assert_eq!(csv_field("two\nlines"), "\"two\nlines\"");
     }
 
