@@ -138,17 +138,10 @@ fn preview_honours_the_preset() {
     let rec = common::reference_dir().join("tap_pat_200.npy");
     let frame = |preset: &str| {
         let png = dir.path().join(format!("{preset}.png"));
-        let out = touchc()
-            .args(["preview", "--frame", "30", "--preset", preset, "-o"])
-            .arg(&png)
-            .arg(&rec)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let (out_path, rec_path) = (png.to_str().unwrap(), rec.to_str().unwrap());
+        let args = ["preview", "--frame", "30", "--preset", preset];
+        let out = bin::touchc(&[&args[..], &["-o", out_path, rec_path]].concat());
+        assert!(out.status.success(), "{}", bin::stderr(&out));
         std::fs::read(&png).unwrap()
     };
     let (paper, touch) = (frame("paper"), frame("touch"));
