@@ -54,20 +54,25 @@ pub struct TradeRow {
     pub recall: Option<f64>,
 }
 
-/// Compiles `rec` under every preset (each `repeats` times, keeping the fastest) and
-/// compares each with `exact`. `base` supplies everything but the config. With the
-/// `truth` of a synthetic recording (`touchc synth --truth`), each row also gets its
-/// recall.
+/// Compiles `rec` under every preset of `configs` with its config (each `repeats`
+/// times, keeping the fastest) and compares each with the `exact` entry; no rows
+/// without one. `base` supplies everything but the config. With the `truth` of a
+/// synthetic recording (`touchc synth --truth`), each row also gets its recall.
+///
+/// `configs` is usually [`Preset::ALL`] with [`Config::preset`]; the command line
+/// lays its `--config` and `--set` over each preset.
 pub fn trade(
     rec: &Recording,
     base: &CompileOptions,
+    configs: &[(Preset, Config)],
     repeats: usize,
     truth: Option<&Truth>,
 ) -> Result<Vec<TradeRow>, CompileError> {
     let mut runs = Vec::new();
-    for preset in Preset::ALL {
+    for (preset, config) in configs {
+        let preset = *preset;
         let opts = CompileOptions {
-            config: Config::preset(preset),
+            config: config.clone(),
             ..base.clone()
         };
         let mut best: Option<Compiled> = None;

@@ -36,12 +36,9 @@ pub struct Args {
     /// directory, whatever the name given).
     #[arg(long)]
     report: Option<PathBuf>,
-    /// Algorithm parameters: preset, config file, individual knobs.
+    /// Algorithm parameters (preset, config file, knobs) and the recordings' sampling.
     #[command(flatten)]
-    params: super::params::ParamArgs,
-    /// The recordings' rate and cell pitch.
-    #[command(flatten)]
-    metadata: super::params::MetadataArgs,
+    config: super::params::ConfigArgs,
     /// Actuator layout TOML (default: the paper's 2 x 4 sleeve).
     #[arg(long)]
     layout: Option<PathBuf>,
@@ -57,7 +54,7 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let config = args.params.resolve()?;
+    let config = args.config.resolve()?;
     let layout = match &args.layout {
         Some(path) => Layout::load(path)?,
         None => Layout::paper(),
@@ -67,7 +64,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         layout,
         fit: args.fit,
         crop: !args.no_crop,
-        metadata: args.metadata.overrides(),
+        metadata: args.config.overrides(),
         ..CompileOptions::default()
     };
     match (&args.out_dir, args.recordings.as_slice()) {

@@ -24,12 +24,9 @@ pub struct Args {
     /// The frame a `.png` shows (after the tare and trim).
     #[arg(long, default_value_t = 0)]
     frame: usize,
-    /// Algorithm parameters: preset, config file, individual knobs.
+    /// Algorithm parameters (preset, config file, knobs) and the recording's sampling.
     #[command(flatten)]
-    params: super::params::ParamArgs,
-    /// The recording's rate and cell pitch.
-    #[command(flatten)]
-    metadata: super::params::MetadataArgs,
+    config: super::params::ConfigArgs,
     /// Actuator layout TOML (default: the paper's 2 x 4 sleeve).
     #[arg(long)]
     layout: Option<PathBuf>,
@@ -54,7 +51,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.every == 0 {
         return Err(super::usage("--every must be at least 1"));
     }
-    let config = args.params.resolve()?;
+    let config = args.config.resolve()?;
     let layout = match &args.layout {
         Some(path) => Layout::load(path)?,
         None => Layout::paper(),
@@ -66,7 +63,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         layout,
         fit: true,
         crop: false,
-        metadata: args.metadata.overrides(),
+        metadata: args.config.overrides(),
         ..CompileOptions::default()
     };
     let name = args.recording.display();

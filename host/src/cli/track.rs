@@ -18,12 +18,9 @@ pub struct TrackArgs {
     /// Where to write (`-`: standard output).
     #[arg(short, long, default_value = "-")]
     pub output: PathBuf,
-    /// Algorithm parameters: preset, config file, individual knobs.
+    /// Algorithm parameters (preset, config file, knobs) and the recording's sampling.
     #[command(flatten)]
-    pub params: super::params::ParamArgs,
-    /// The recording's rate and cell pitch.
-    #[command(flatten)]
-    pub metadata: super::params::MetadataArgs,
+    pub config: super::params::ConfigArgs,
 }
 
 /// The JSON document: global statistics and trajectories in report order.
@@ -45,9 +42,9 @@ struct TrajectoryReport<'a> {
 
 /// Runs the subcommand.
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
-    let cfg = args.params.resolve()?;
+    let cfg = args.config.resolve()?;
     let rec = Recording::load(&args.recording)?;
-    let out = track_with(&rec, &cfg, &args.metadata.overrides())?;
+    let out = track_with(&rec, &cfg, &args.config.overrides())?;
     let mut w = touchc::output::Output::create(&args.output)?;
     if args.json {
         serde_json::to_writer(&mut w, &report(&out))?;

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use touchc::compile::CompileOptions;
+use touchc::config::Preset;
 use touchc::output::write_atomic;
 use touchc::recording::Recording;
 use touchc::synth::Truth;
@@ -13,6 +14,9 @@ use touchc::trade::{plot_svg, trade, TradeRow};
 
 /// Arguments of `touchc trade`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("preset", |a| a.help(
+    "Compare only this preset with `exact` [default: every preset]"
+)))]
 pub struct Args {
     /// Recordings, `.npy` `[frames, rows, cols]` in psi.
     #[arg(required = true)]
@@ -26,6 +30,9 @@ pub struct Args {
     /// Also write the table as CSV.
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Also write the rows as JSON (every field, seconds per stage unrounded).
+    #[arg(long)]
+    json: Option<PathBuf>,
     /// Also draw time against error as SVG.
     #[arg(long)]
     svg: Option<PathBuf>,
@@ -36,9 +43,10 @@ pub struct Args {
     /// the same order: adds each preset's recall.
     #[arg(long)]
     truth: Vec<PathBuf>,
-    /// The recordings' rate and cell pitch.
+    /// Parameters laid over every preset (`--preset P`: compare only P with `exact`)
+    /// and the recordings' sampling.
     #[command(flatten)]
-    metadata: super::params::MetadataArgs,
+    config: super::params::ConfigArgs,
 }
 
 /// The stages of the table, in pipeline order.
@@ -81,15 +89,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             })
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
+    let presets: Vec<Preset> = match args.config.preset {
+        Some(p) if p != Preset::Exact => vec![p, Preset::Exact],
+        Some(p) => vec![p],
+        None => Preset::ALL.to_vec(),
+    };
+    let configs = presets
+        .into_iter()
+        .map(|p| Ok((p, args.config.resolve_on(p)?)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let mut rows = Vec::new();
     let mut failed = 0;
     for (i, path) in args.recordings.iter().enumerate() {
         let rec = Recording::load(path)?;
         let base = CompileOptions {
-            metadata: args.metadata.overrides(),
+            metadata: args.config.overrides(),
             ..CompileOptions::default()
         };
-        match pool.install(|| trade(&rec, &base, args.repeat, truths.get(i))) {
+        match pool.install(|| trade(&rec, &base, &configs, args.repeat, truths.get(i))) {
             Ok(r) => rows.extend(r),
             Err(e) => {
                 failed += 1;
@@ -108,6 +125,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(path) = &args.csv {
         write_atomic(path, csv(&rows).as_bytes())?;
     }
+    if let Some(path) = &args.json {
+        write_atomic(path, &serde_json::to_vec_pretty(&rows)?)?;
+    }
     if let Some(path) = &args.svg {
         let svg = plot_svg(&rows).with_context(|| format!("{}: cannot draw", path.display()))?;
         write_atomic(path, svg.as_bytes())?;
@@ -120,10 +140,16 @@ fn ms(r: &TradeRow, stage: &str) -> f64 {
     1e3 * r.seconds.get(stage).copied().unwrap_or(0.0)
 }
 
-/// The numeric columns after the recording and preset, formatted.
-fn cells(r: &TradeRow) -> Vec<String> {
+/// The numeric columns after the recording and preset, formatted; the transforms as
+/// one `scored/total` cell, or two with `split` (CSV, where every cell is one number).
+fn cells(r: &TradeRow, split: bool) -> Vec<String> {
     let mut out: Vec<String> = STAGES.iter().map(|s| format!("{:.1}", ms(r, s))).collect();
-    out.push(format!("{}/{}", r.transforms.0, r.transforms.1));
+    if split {
+        out.push(r.transforms.0.to_string());
+        out.push(r.transforms.1.to_string());
+    } else {
+        out.push(format!("{}/{}", r.transforms.0, r.transforms.1));
+    }
     out.push(format!("{:.3}", r.score_gap_pct));
     out.push(format!("{:.3}", r.rms_vs_exact_pct));
     out.push(format!("{:.3}", r.max_vs_exact_pct));
@@ -137,12 +163,16 @@ fn cells(r: &TradeRow) -> Vec<String> {
     out
 }
 
-fn headers() -> Vec<String> {
+/// The column names, matching [`cells`] with the same `split`.
+fn headers(split: bool) -> Vec<String> {
     let mut h = vec!["recording".to_string(), "preset".to_string()];
     h.extend(STAGES.iter().map(|s| format!("{s} ms")));
+    h.push("transforms scored".into());
+    if split {
+        h.push("transforms".into());
+    }
     h.extend(
         [
-            "transforms scored",
             "score gap %",
             "rms vs exact % fs",
             "max vs exact % fs",
@@ -156,13 +186,19 @@ fn headers() -> Vec<String> {
     h
 }
 
-fn text(rows: &[TradeRow]) -> String {
-    let mut table = vec![headers()];
-    for r in rows {
+/// One row per line in `[recording, preset, cells...]` form.
+fn lines(rows: &[TradeRow], split: bool) -> impl Iterator<Item = Vec<String>> + '_ {
+    rows.iter().map(move |r| {
         let mut line = vec![r.input.clone(), r.preset.name().to_string()];
-        line.extend(cells(r));
-        table.push(line);
-    }
+        line.extend(cells(r, split));
+        line
+    })
+}
+
+fn text(rows: &[TradeRow]) -> String {
+    let table: Vec<Vec<String>> = std::iter::once(headers(false))
+        .chain(lines(rows, false))
+        .collect();
     let widths: Vec<usize> = (0..table[0].len())
         .map(|c| table.iter().map(|l| l[c].len()).max().unwrap_or(0))
         .collect();
@@ -182,7 +218,7 @@ fn text(rows: &[TradeRow]) -> String {
 }
 
 fn markdown(rows: &[TradeRow]) -> String {
-    let h = headers();
+    let h = headers(false);
     let mut s = format!("| {} |\n", h.join(" | "));
     s += &format!(
         "|{}\n",
@@ -191,27 +227,49 @@ fn markdown(rows: &[TradeRow]) -> String {
             .map(|(i, _)| if i < 2 { "---|" } else { "---:|" })
             .collect::<String>()
     );
-    for r in rows {
-        s += &format!(
-            "| {} | {} | {} |\n",
-            r.input,
-            r.preset.name(),
-            cells(r).join(" | ")
-        );
+    for line in lines(rows, false) {
+        s += &format!("| {} |\n", line.join(" | "));
     }
     s
 }
 
+/// RFC 4180 CSV: one field per value, a field quoted when it holds a comma, a quote or
+/// a line break (a recording's name may).
 fn csv(rows: &[TradeRow]) -> String {
-    let mut s = headers().join(",") + "\n";
-    for r in rows {
-        // Names are quoted: a file name may hold a comma.
-        s += &format!(
-            "\"{}\",{},{}\n",
-            r.input.replace('"', "\"\""),
-            r.preset.name(),
-            cells(r).join(",").replace("/", ",")
-        );
+    std::iter::once(headers(true))
+        .chain(lines(rows, true))
+        .map(|line| {
+            line.iter()
+                .map(|f| csv_field(f))
+                .collect::<Vec<_>>()
+                .join(",")
+                + "\n"
+        })
+        .collect()
+}
+
+fn csv_field(field: &str) -> std::borrow::Cow<'_, str> {
+    if field.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", field.replace('"', "\"\"")).into()
+    } else {
+        field.into()
     }
-    s.replacen("transforms scored", "transforms scored,transforms", 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_fields_are_quoted_only_when_they_must_be() {
+        assert_eq!(csv_field("tap"), "tap");
+        assert_eq!(csv_field("a,b"), "\"a,b\"");
+        assert_eq!(csv_field(r#"say "hi""#), r#""say ""hi""""#);
+        assert_eq!(csv_field("two\nlines"), "\"two\nlines\"");
+    }
+
+    #[test]
+    fn split_headers_match_split_cells() {
+        assert_eq!(headers(true).len(), headers(false).len() + 1);
+    }
 }

@@ -68,3 +68,77 @@ fn bad_files_exit_non_zero_naming_the_file() {
         assert!(err.contains(&p.display().to_string()), "{err}");
     }
 }
+
+/// The line of `help` that documents `--flag`, with the help text on the next line.
+fn help_of(help: &str, flag: &str) -> String {
+    let lines: Vec<&str> = help.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| l.trim_start().starts_with(&format!("--{flag} ")))
+        .unwrap_or_else(|| panic!("no --{flag} in\n{help}"));
+    format!("{} {}", lines[at], lines.get(at + 1).unwrap_or(&""))
+}
+
+#[test]
+fn help_prints_the_defaults_of_config_default() {
+    let out = touchc().args(["compile", "--help"]).output().unwrap();
+    assert!(out.status.success());
+    let help = String::from_utf8(out.stdout).unwrap();
+    let d = touchc::config::Config::default();
+    // The default preset (touch) differs from the paper in these two; the help must
+    // show the default's values, read here from the library.
+    assert_ne!(
+        d.track.max_speed_mm_s,
+        touchc::config::Config::preset(touchc::config::Preset::Paper)
+            .track
+            .max_speed_mm_s
+    );
+    for (flag, value) in [
+        ("max-speed-mm-s", d.track.max_speed_mm_s.to_string()),
+        ("entry-cost", d.track.entry_cost.to_string()),
+        ("upsample", d.preprocess.upsample.to_string()),
+        (
+            "grid",
+            format!("{},{}", d.placement.grid_x, d.placement.grid_y),
+        ),
+        ("rate", d.input.rate_hz.to_string()),
+    ] {
+        let line = help_of(&help, flag);
+        assert!(
+            line.contains(&format!("[default: {value}]")) || line.contains(&format!(", {value})")),
+            "--{flag} should print {value}: {line}"
+        );
+    }
+    assert!(help_of(&help, "preset").contains("[default: touch]"));
+    // Every pipeline command takes the same parameter flags.
+    for cmd in ["track", "preview", "trade"] {
+        let out = touchc().args([cmd, "--help"]).output().unwrap();
+        let text = String::from_utf8(out.stdout).unwrap();
+        for flag in [
+            "preset",
+            "config",
+            "set",
+            "rate",
+            "pitch-mm",
+            "max-speed-mm-s",
+        ] {
+            help_of(&text, flag);
+        }
+    }
+}
+
+#[test]
+fn preview_honours_the_preset() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = common::reference_dir().join("tap_pat_200.npy");
+    let frame = |preset: &str| {
+        let png = dir.path().join(format!("{preset}.png"));
+        let (out_path, rec_path) = (png.to_str().unwrap(), rec.to_str().unwrap());
+        let args = ["preview", "--frame", "30", "--preset", preset];
+        let out = bin::touchc(&[&args[..], &["-o", out_path, rec_path]].concat());
+        assert!(out.status.success(), "{}", bin::stderr(&out));
+        std::fs::read(&png).unwrap()
+    };
+    let (paper, touch) = (frame("paper"), frame("touch"));
+    assert_ne!(paper, touch, "paper and touch preview alike");
+}

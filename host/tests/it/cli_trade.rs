@@ -119,6 +119,7 @@ fn trade_prints_every_preset_against_exact() {
     let rec = synth(dir.path(), "tap", "tap");
     let csv = dir.path().join("t.csv");
     let svg = dir.path().join("t.svg");
+    let json = dir.path().join("t.json");
     let out = touchc(&[
         "trade",
         s(&rec),
@@ -130,6 +131,8 @@ fn trade_prints_every_preset_against_exact() {
         s(&csv),
         "--svg",
         s(&svg),
+        "--json",
+        s(&json),
     ]);
     ok(&out);
     let text = std::fs::read_to_string(&csv).unwrap();
@@ -140,6 +143,16 @@ fn trade_prints_every_preset_against_exact() {
     // Exact against itself: no gap, no difference, full agreement.
     assert_eq!(&exact[12..16], &["0.000", "0.000", "0.000", "100.0"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("fast"));
+    // The JSON holds the same rows as the CSV, typed.
+    let rows = report(&json);
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    assert_eq!(rows[3]["preset"], "exact");
+    assert_eq!(rows[3]["rms_vs_exact_pct"], 0.0);
+    assert_eq!(
+        rows[3]["transforms"][1].as_u64().unwrap().to_string(),
+        exact[11]
+    );
     let svg = std::fs::read_to_string(&svg).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("exact"));
 }
