@@ -101,6 +101,10 @@ pub struct Report {
     pub transforms: usize,
     /// Transforms whose subset was actually solved (the others meet no trajectory).
     pub transforms_evaluated: usize,
+    /// Transforms whose subset search ran out of its node budget (a warning says so).
+    pub transforms_inexact: usize,
+    /// True when the flow used every unit of `track.max_trajectories` (a warning says so).
+    pub trajectory_limit_reached: bool,
     /// Wall seconds per stage, and `total`.
     pub seconds: BTreeMap<&'static str, f64>,
     /// Size of the stimulus file.
@@ -249,6 +253,17 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
         tared.dim().1 * cfg.preprocess.upsample,
         tared.dim().2 * cfg.preprocess.upsample,
     );
+    if tracked.trajectories.len() >= cfg.track.max_trajectories {
+        // The flow stops at this many units: a further contact would have needed one more.
+        warnings.push(format!(
+            "the trajectory limit was reached ({} of track.max_trajectories = {}): \
+             contacts beyond it are not tracked; raise it with --max-trajectories \
+             (coverage {:.2} says how much touch is explained)",
+            tracked.trajectories.len(),
+            cfg.track.max_trajectories,
+            covered.0.ratio(),
+        ));
+    }
     let placement = if tracked.trajectories.is_empty() {
         warnings.push("no trajectory was tracked: every actuator stays at rest".into());
         None
@@ -270,6 +285,17 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
         Some(p) => scene::actuator_signals(&tracked, p, &crop, frames),
         None => ChannelSignals::silent(frames),
     };
+    if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {
+        warnings.push(format!(
+            "placement: the trajectory-subset search ran out of its budget of {} nodes on \
+             {} of {} transforms ({} trajectories; a scene this dense is usually noise): \
+             those transforms kept the best subset found, which may not be optimal",
+            crate::bnb::NODE_BUDGET,
+            p.transforms_inexact,
+            p.transforms_evaluated,
+            tracked.trajectories.len(),
+        ));
+    }
     if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
         warnings.push("no trajectory passes through an actuator's workspace: silent".into());
     }
@@ -423,6 +449,10 @@ fn finish(
         trajectories: tracked.as_ref().map_or(0, |t| t.trajectories.len()),
         transforms: placement.as_ref().map_or(0, |p| p.scores.len()),
         transforms_evaluated: placement.as_ref().map_or(0, |p| p.transforms_evaluated),
+        transforms_inexact: placement.as_ref().map_or(0, |p| p.transforms_inexact),
+        trajectory_limit_reached: tracked
+            .as_ref()
+            .is_some_and(|t| t.trajectories.len() >= opts.config.track.max_trajectories),
         seconds: clock.finish(),
         bytes,
         duration_s,

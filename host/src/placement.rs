@@ -85,6 +85,10 @@ pub struct Placement {
     pub scores: Vec<f64>,
     /// Transforms whose circles met a point and so needed a subset choice.
     pub transforms_evaluated: usize,
+    /// Transforms whose subset search ran out of its node budget
+    /// ([`crate::bnb::NODE_BUDGET`]) and kept the best subset found by then: their
+    /// score may be worse than the optimum. 0 on every published and shipped scene.
+    pub transforms_inexact: usize,
 }
 
 /// Why placement could not run: bad parameters or malformed trajectories.
@@ -390,6 +394,8 @@ struct Scratch {
     chosen: Vec<bool>,
     /// Per trajectory: local index in the subset problem, or `usize::MAX`.
     local: Vec<usize>,
+    /// Set when the last subset search ran out of its node budget.
+    inexact: bool,
 }
 
 /// Finds the best transform of `layout` over the frame and the trajectories it renders.
@@ -436,6 +442,7 @@ pub fn place(
         layout,
         cfg,
         scene: &scene,
+        inexact: std::sync::atomic::AtomicUsize::new(0),
     };
     let mut state = Scores {
         score: vec![0.0; grid.len()],
@@ -476,6 +483,7 @@ pub fn place(
         circles,
         scores,
         transforms_evaluated: state.evaluated,
+        transforms_inexact: search.inexact.into_inner(),
     })
 }
 
@@ -544,6 +552,8 @@ struct Search<'a> {
     layout: &'a Layout,
     cfg: &'a PlacementConfig,
     scene: &'a Scene,
+    /// Transforms scored with a subset search that ran out of budget (all threads).
+    inexact: std::sync::atomic::AtomicUsize,
 }
 
 /// Scores found so far (0 for a transform that meets no point or was not scored).
@@ -613,7 +623,12 @@ impl Search<'_> {
                 if ranges.iter().all(|&(lo, hi)| lo == hi) {
                     return None;
                 }
-                score_transform(&circles, &ranges, scene, self.cfg, &mut scratch, None)
+                let score = score_transform(&circles, &ranges, scene, self.cfg, &mut scratch, None);
+                if std::mem::take(&mut scratch.inexact) {
+                    self.inexact
+                        .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                }
+                score
             })
             .collect()
     }
@@ -658,6 +673,7 @@ impl Scratch {
             hits: Vec::new(),
             chosen: vec![false; trajectories],
             local: vec![usize::MAX; trajectories],
+            inexact: false,
         }
     }
 }
@@ -742,10 +758,13 @@ fn score_transform(
     }
     match &problem {
         None => candidates.iter().for_each(|&t| s.chosen[t] = true),
-        Some(p) => p
-            .solve()
-            .into_iter()
-            .for_each(|l| s.chosen[candidates[l]] = true),
+        Some(p) => {
+            let solution = p.solve_within(crate::bnb::NODE_BUDGET);
+            s.inexact |= !solution.exact;
+            for l in solution.chosen {
+                s.chosen[candidates[l]] = true;
+            }
+        }
     }
 
     let mut score = 0.0;

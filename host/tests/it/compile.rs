@@ -241,6 +241,7 @@ fn cli_writes_the_stimulus_and_the_report() {
         "score",
         "selected",
         "transforms_evaluated",
+        "transforms_inexact",
         "seconds",
         "bytes",
         "duration_s",
@@ -275,4 +276,57 @@ fn cli_refuses_bad_input_and_writes_nothing() {
     let out = touchc(&["compile", missing.to_str().unwrap()]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("missing.npy"));
+}
+
+/// The flow stops at `track.max_trajectories` units: when a scene uses all of them the
+/// compile says so, in a warning and in the report, instead of dropping contacts quietly.
+#[test]
+fn reaching_the_trajectory_limit_is_a_warning_with_the_figure() {
+    let rec = Recording::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/reference/tap_pat_200.npy"
+    ))
+    .unwrap();
+    let mut config = touchc::config::Config::preset(touchc::config::Preset::Paper);
+    let roomy = compile(
+        &rec,
+        &CompileOptions {
+            config: config.clone(),
+            ..CompileOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(
+        roomy.report.trajectories >= 2,
+        "{}",
+        roomy.report.trajectories
+    );
+    assert!(!roomy.report.trajectory_limit_reached);
+    assert!(!roomy
+        .report
+        .warnings
+        .iter()
+        .any(|w| w.contains("trajectory limit")));
+
+    config.track.max_trajectories = 1;
+    let capped = compile(
+        &rec,
+        &CompileOptions {
+            config,
+            ..CompileOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(capped.report.trajectories, 1);
+    assert!(capped.report.trajectory_limit_reached);
+    let warning = capped
+        .report
+        .warnings
+        .iter()
+        .find(|w| w.contains("trajectory limit was reached"))
+        .expect("a warning names the limit");
+    assert!(
+        warning.contains("1 of track.max_trajectories = 1"),
+        "{warning}"
+    );
 }
