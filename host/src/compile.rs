@@ -8,17 +8,17 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::condition::{self, ConditionError, LimitViolation};
 use crate::config::Config;
 use crate::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
-use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
-use crate::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
-use crate::layout::Layout;
+use crate::encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
+use crate::input::recording::{Recording, RecordingError};
+use crate::measure::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
+use crate::placement::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
-use crate::recording::{Recording, RecordingError};
-use crate::scene::{self, Crop};
-use crate::signals::ChannelSignals;
-use crate::track::{TrackError, TrackOutput};
+use crate::rendering::condition::{self, ConditionError, LimitViolation};
+use crate::rendering::signals::ChannelSignals;
+use crate::tracking::scene::{self, Crop};
+use crate::tracking::track::{TrackError, TrackOutput};
 use touch_protocol::{Limits, CHANNELS};
 
 /// Everything `compile` needs besides the recording.
@@ -125,7 +125,7 @@ pub struct Report {
     /// The crop applied: frames `[start, end)`, cells rows/cols `[start, end)`.
     pub crop: Option<Crop>,
     /// Share of the touch pressure within two cells of a tracked contact (1 without
-    /// touch; see [`crate::coverage`]).
+    /// touch; see [`crate::measure::coverage`]).
     pub coverage: f64,
     /// The figures behind `coverage`: touch and explained pressure, touch readings.
     pub coverage_detail: Coverage,
@@ -221,7 +221,12 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
 
     // Stage 0: tare and trim, and the paper's "no touch" filter.
     let tared = rec.tare(&cfg.input, &sampling)?;
-    warnings.extend(crate::sanity::check(rec, tared.view(), cfg, &sampling));
+    warnings.extend(crate::input::sanity::check(
+        rec,
+        tared.view(),
+        cfg,
+        &sampling,
+    ));
     let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
     clock.stage("tare");
     if touched <= cfg.input.min_touch_readings {
@@ -357,7 +362,7 @@ fn measure_coverage(
 
 /// What the config's tracking can follow, in the units of [`Tracking`].
 fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
-    let strongest = -crate::detect::detection_cost(1e6, &cfg.detect);
+    let strongest = -crate::tracking::detect::detection_cost(1e6, &cfg.detect);
     let pay = cfg.track.entry_cost + cfg.track.exit_cost;
     let min_frames = if strongest > 0.0 {
         (pay / strongest).floor() as usize + 1

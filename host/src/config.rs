@@ -17,8 +17,8 @@
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::detect::Split;
-pub use crate::track::Bridge;
+pub use crate::tracking::detect::Split;
+pub use crate::tracking::track::Bridge;
 
 mod sampling;
 mod validate;
@@ -253,7 +253,7 @@ pub enum Baseline {
     Robust,
 }
 
-/// The crop of the active scene (see [`crate::scene`]).
+/// The crop of the active scene (see [`crate::tracking::scene`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CropConfig {
@@ -440,7 +440,7 @@ impl Default for SignalConfig {
 ///
 /// The signal is band-limited by the low-pass, so the file holds keyframes the player
 /// interpolates; every candidate period and quantisation is played through the real
-/// player and compared with the compiler's f64 signal (see [`crate::keyframes`]).
+/// player and compared with the compiler's f64 signal (see [`crate::encoding::keyframes`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct KeyframeConfig {

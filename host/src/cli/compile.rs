@@ -9,13 +9,13 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+use crate::cli::output::write_atomic;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use touchc::compile::{compile, CompileOptions, Report};
-use touchc::layout::Layout;
-use touchc::output::write_atomic;
-use touchc::recording::Recording;
+use touchc::input::recording::Recording;
+use touchc::placement::layout::Layout;
 
 /// Arguments of `touchc compile`.
 #[derive(Debug, clap::Args)]
@@ -186,7 +186,7 @@ fn batch(
     for (input, w) in warnings.into_inner().unwrap_or_default() {
         super::warn(&input, &w);
     }
-    let mut w = touchc::output::Output::stdout();
+    let mut w = crate::cli::output::Output::stdout();
     write_summary(&mut w, recordings, &results)?;
     w.finish()?;
     let failed = results.iter().filter(|r| r.is_err()).count();

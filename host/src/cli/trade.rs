@@ -1,15 +1,15 @@
 //! `touchc trade REC.npy... [--csv FILE] [--svg FILE]`: every preset on every recording, compared
-//! with `exact` (see [`touchc::trade`]).
+//! with `exact` (see [`touchc::measure::trade`]).
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::compile::CompileOptions;
-use touchc::output::write_atomic;
-use touchc::recording::Recording;
-use touchc::synth::Truth;
-use touchc::trade::{plot_svg, trade, TradeRow};
+use touchc::input::recording::Recording;
+use touchc::input::synth::Truth;
+use touchc::measure::trade::{plot_svg, trade, TradeRow};
 
 /// Arguments of `touchc trade`.
 #[derive(Debug, clap::Args)]

@@ -47,7 +47,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::config::SignalConfig;
-use crate::signals::CHANNELS;
+use crate::rendering::signals::CHANNELS;
 
 /// Update rate of the sleeve's outputs, Hz (docs/hardware.md): the rate of
 /// [`Conditioned::output`] and the time step of [`check_limits`].
@@ -372,7 +372,7 @@ fn validate(cfg: &SignalConfig, frame_rate_hz: f64) -> Result<(), ConditionError
 /// `condition(&signals.psi, &config.signal, config.input.frame_rate_hz)`.
 ///
 /// ```
-/// use touchc::condition::condition;
+/// use touchc::rendering::condition::condition;
 /// use touchc::config::SignalConfig;
 ///
 /// // One second of silence on all eight channels at 20 Hz.
@@ -383,7 +383,7 @@ fn validate(cfg: &SignalConfig, frame_rate_hz: f64) -> Result<(), ConditionError
 /// assert_eq!(c.output[c.output.len() - 1], [0.0; 8]); // ...and ends there
 /// assert_eq!(c.output[c.output.len() / 2], [-0.9; 8]); // silence is the pre-dent
 /// assert_eq!(c.output.len(), 2 * 500 + (c.frames_a.len() - 1) * 50 + 1);
-/// # Ok::<(), touchc::condition::ConditionError>(())
+/// # Ok::<(), touchc::rendering::condition::ConditionError>(())
 /// ```
 pub fn condition(
     psi: &[Vec<f64>; CHANNELS],
@@ -689,7 +689,7 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 /// was checked. Errors only for non-finite samples or invalid limits.
 ///
 /// ```
-/// use touchc::condition::{check_limits, fit, Limits};
+/// use touchc::rendering::condition::{check_limits, fit, Limits};
 ///
 /// // 1.5 A on channel 0 after a gentle 100 ms rise: over the 1 A peak.
 /// let mut signal: Vec<[f64; 8]> = (0..=100)
@@ -700,7 +700,7 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 /// let scale = fit(&mut signal, &Limits::default())?;
 /// assert!((scale - 1.0 / 1.5).abs() < 1e-12);
 /// assert_eq!(check_limits(&signal, &Limits::default()), Ok(()));
-/// # Ok::<(), touchc::condition::LimitViolation>(())
+/// # Ok::<(), touchc::rendering::condition::LimitViolation>(())
 /// ```
 pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, LimitViolation> {
     validate_limits(limits)?;

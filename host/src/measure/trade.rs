@@ -17,12 +17,12 @@ use serde::Serialize;
 
 use crate::compile::{compile, CompileError, CompileOptions, Compiled};
 use crate::config::{Config, Preset};
-use crate::evaluate::evaluate_compiled;
+use crate::encoding::keyframes::KeyframeOptions;
 use crate::geometry::pixel_centre_mm;
-use crate::keyframes::KeyframeOptions;
-use crate::recording::Recording;
-use crate::synth::Truth;
-use crate::track::TrackOutput;
+use crate::input::recording::Recording;
+use crate::input::synth::Truth;
+use crate::measure::evaluate::evaluate_compiled;
+use crate::tracking::track::TrackOutput;
 use touch_protocol::CHANNELS;
 
 /// One preset's row of the trade table.

@@ -3,7 +3,7 @@
 //!
 //! For every transform of the published grid this stage finds which trajectory points lie
 //! in which workspace circle, chooses the best compatible subset of trajectories
-//! ([`crate::bnb`]), and scores the transform; the lowest score wins, ties going to the
+//! ([`crate::placement::bnb`]), and scores the transform; the lowest score wins, ties going to the
 //! first transform in grid order. It reproduces the authors' published code score for
 //! score (pinned against its outputs in `tests/placement_reference.rs`), with two
 //! deliberate differences: the subset is exact (the published code uses ECOS_BB, which
@@ -18,13 +18,16 @@
 //! `PlacementConfig::coarse_to_fine` (the `fast` preset) scores a sub-grid first and the
 //! full grid only near its best transforms; every score it computes is the full grid's.
 
+pub mod bnb;
+pub mod layout;
+
 use thiserror::Error;
 
-use crate::bnb::SubsetProblem;
 use crate::config::PlacementConfig;
 use crate::geometry::{pixel_centre_mm, Circle};
-use crate::layout::{Layout, CHANNELS};
-use crate::trajectory::Trajectory;
+use crate::placement::bnb::SubsetProblem;
+use crate::placement::layout::{Layout, CHANNELS};
+use crate::tracking::trajectory::Trajectory;
 
 /// One placement of the layout on the frame.
 ///
@@ -402,7 +405,7 @@ struct Scratch {
 /// # Example
 /// ```
 /// use touchc::{config::PlacementConfig, layout::Layout, placement::place};
-/// use touchc::trajectory::Trajectory;
+/// use touchc::tracking::trajectory::Trajectory;
 ///
 /// // One strong contact held still for three frames on a 56 x 147 px (8 x 21 cell) frame.
 /// let touch = Trajectory {

@@ -823,13 +823,13 @@ mod tests {
                 &[Gesture::Stroke],
                 7,
                 Mask::Cells142,
-                include_bytes!("../../examples/stroke.npy"),
+                include_bytes!("../../../examples/stroke.npy"),
             ),
             (
                 &[Gesture::Tap, Gesture::Pat],
                 11,
                 Mask::Cells142,
-                include_bytes!("../../examples/tap_pat.npy"),
+                include_bytes!("../../../examples/tap_pat.npy"),
             ),
         ];
         for (gestures, seed, mask, bytes) in cases {

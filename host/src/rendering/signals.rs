@@ -14,7 +14,7 @@
 use ndarray::ArrayView3;
 
 use crate::geometry::{pixel_centre_mm, Circle};
-use crate::trajectory::Trajectory;
+use crate::tracking::trajectory::Trajectory;
 
 /// Actuator rows on the sleeve.
 pub const ROWS: usize = 2;

@@ -23,11 +23,11 @@ use ndarray::{ArrayView3, Axis, Slice};
 use serde::Serialize;
 
 use crate::config::{Config, Sampling};
-use crate::detect::{detect_with, detection_cost, Detections};
 use crate::placement::Placement;
-use crate::preprocess::{preprocess, Blurred};
-use crate::signals::{self, ChannelSignals, Source};
-use crate::track::{link, TrackError, TrackOutput};
+use crate::rendering::signals::{self, ChannelSignals, Source};
+use crate::tracking::detect::{detect_with, detection_cost, Detections};
+use crate::tracking::preprocess::{preprocess, Blurred};
+use crate::tracking::track::{link, TrackError, TrackOutput};
 use touch_protocol::CHANNELS;
 
 /// The part of a tared recording the heavy stages look at, in frames and sensor cells.
