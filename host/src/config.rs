@@ -61,7 +61,8 @@ impl Default for Config {
 /// keeps the signal model (stages 5-6) of the paper; `fast` and `exact` differ from
 /// `paper` only in how finely the touch is sampled in space and how thoroughly the
 /// placement is searched, `touch` only in which touch is tracked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
     /// Real touch, the default: the paper's algorithm, with tracking that keeps what

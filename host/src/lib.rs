@@ -29,4 +29,5 @@ pub mod encoding;
 pub mod compile;
 pub mod measure;
 
+#[cfg(feature = "viz")]
 pub mod viz;

@@ -203,6 +203,7 @@ pub fn track_agreement(a: Option<&TrackOutput>, b: Option<&TrackOutput>) -> f64 
 
 /// An SVG of time against error: total compile time (log scale) against the signal's
 /// RMS difference to `exact`, one colour per preset, one point per recording and preset.
+#[cfg(feature = "viz")]
 pub fn plot_svg(rows: &[TradeRow]) -> Result<String, crate::viz::VizError> {
     use crate::viz::{register_font, VizError, FAMILY};
     use plotters::prelude::*;
