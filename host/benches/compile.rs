@@ -127,7 +127,7 @@ fn bench(c: &mut Criterion) {
         }
     }
     c.bench_function("stage/signals", |b| {
-        b.iter(|| scene::actuator_signals(black_box(tracked), placement, &crop, frames))
+        b.iter(|| scene::padded_actuator_signals(black_box(tracked), placement, &crop, frames))
     });
     c.bench_function("stage/condition", |b| {
         b.iter(|| {

@@ -272,7 +272,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     // Stage 5.
     let frames = tared.dim().0;
     let signals = match &placement {
-        Some(p) => scene::actuator_signals(&tracked, p, &crop, frames),
+        Some(p) => scene::padded_actuator_signals(&tracked, p, &crop, frames),
         None => ChannelSignals::silent(frames),
     };
     if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
@@ -412,7 +412,7 @@ fn finish(
         &KeyframeOptions::new(&opts.config.keyframes),
     )?;
     clock.stage("keyframes");
-    let duration_s = (signal.len().saturating_sub(1)) as f64 / 1000.0;
+    let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
     let bytes = encoded.bytes.len();
     let report = Report {
         input: rec.name().to_string(),

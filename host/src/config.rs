@@ -228,8 +228,8 @@ pub struct InputConfig {
 impl Default for InputConfig {
     fn default() -> Self {
         Self {
-            rate_hz: 20.0,
-            pitch_mm: 25.4,
+            rate_hz: Sampling::PAPER.rate_hz,
+            pitch_mm: Sampling::PAPER.pitch_mm,
             baseline: Baseline::Leading,
             tare_s: 1.0,
             trim_s: 1.0,
@@ -288,7 +288,7 @@ pub struct PreprocessConfig {
 }
 
 /// The paper's pixel: a one-inch cell upsampled x7, mm.
-const PAPER_PIXEL_MM: f64 = 25.4 / 7.0;
+const PAPER_PIXEL_MM: f64 = Sampling::PAPER.pitch_mm / Sampling::PAPER.upsample as f64;
 
 impl Default for PreprocessConfig {
     fn default() -> Self {
@@ -356,7 +356,8 @@ impl Default for TrackConfig {
 
 /// The paper's link gate, `d^2 < 50` pixels^2 per frame at 20 Hz on 25.4/7 mm pixels, as
 /// a speed. [`Sampling::gate_px2`] turns it back into exactly 50.
-const PAPER_MAX_SPEED_MM_S: f64 = 7.071_067_811_865_475_5 * PAPER_PIXEL_MM * 20.0;
+const PAPER_MAX_SPEED_MM_S: f64 =
+    7.071_067_811_865_475_5 * PAPER_PIXEL_MM * Sampling::PAPER.rate_hz;
 
 /// Stage 4 parameters: the transform grid of the published code.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -50,7 +50,7 @@ use crate::rendering::signals::CHANNELS;
 
 /// Update rate of the sleeve's outputs, Hz (docs/hardware.md): the rate of
 /// [`Conditioned::output`] and the time step of [`check_limits`].
-pub const OUTPUT_RATE_HZ: f64 = 1000.0;
+pub const OUTPUT_RATE_HZ: f64 = touch_protocol::stimulus::OUTPUT_RATE_HZ as f64;
 
 /// Highest Butterworth order accepted; far beyond anything a 20 Hz touch signal needs,
 /// and a bound that keeps the design numerically tame.

@@ -202,8 +202,9 @@ fn shift_and_clip(
     Detections { all, frame_start }
 }
 
-/// Stage 5 on the crop's frames, padded with silence to `frames` frames.
-pub fn actuator_signals(
+/// Stage 5 ([`signals::actuator_signals`]) on the crop's frames, padded with silence to
+/// `frames` frames: the signals of the whole recording.
+pub fn padded_actuator_signals(
     tracked: &TrackOutput,
     placement: &Placement,
     crop: &Crop,

@@ -127,14 +127,15 @@ impl Sensor {
     /// Frame rate, Hz.
     pub fn rate_hz(self) -> f64 {
         match self {
-            Sensor::Sleeve => 20.0,
+            Sensor::Sleeve => crate::config::Sampling::PAPER.rate_hz,
             Sensor::Grid10 => 54.0,
         }
     }
 
     /// Cell pitch, mm.
     pub fn pitch_mm(self) -> f64 {
-        25.4
+        // Both sensors have the paper's one-inch cells.
+        crate::config::Sampling::PAPER.pitch_mm
     }
 
     /// The sensor's name on the command line.
