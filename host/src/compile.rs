@@ -17,6 +17,7 @@ use crate::placement::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
 use crate::rendering::condition::{self, ConditionError, LimitViolation};
 use crate::rendering::signals::ChannelSignals;
+use crate::stage::Stage;
 use crate::tracking::scene::{self, Crop};
 use crate::tracking::track::{TrackError, TrackOutput};
 use touch_protocol::{Limits, CHANNELS};
@@ -101,7 +102,7 @@ pub struct Report {
     pub transforms: usize,
     /// Transforms whose subset was actually solved (the others meet no trajectory).
     pub transforms_evaluated: usize,
-    /// Wall seconds per stage, and `total`.
+    /// Wall seconds per stage, keyed by [`Stage::name`], and `total`.
     pub seconds: BTreeMap<&'static str, f64>,
     /// Size of the stimulus file.
     pub bytes: usize,
@@ -194,15 +195,15 @@ impl Clock {
         }
     }
 
-    fn stage(&mut self, name: &'static str) {
+    fn stage(&mut self, stage: Stage) {
         let now = Instant::now();
-        *self.seconds.entry(name).or_insert(0.0) += (now - self.lap).as_secs_f64();
+        *self.seconds.entry(stage.name()).or_insert(0.0) += (now - self.lap).as_secs_f64();
         self.lap = now;
     }
 
     fn finish(mut self) -> BTreeMap<&'static str, f64> {
         self.seconds
-            .insert("total", self.start.elapsed().as_secs_f64());
+            .insert(Stage::Total.name(), self.start.elapsed().as_secs_f64());
         self.seconds
     }
 }
@@ -228,7 +229,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
         &sampling,
     ));
     let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
-    clock.stage("tare");
+    clock.stage(Stage::Tare);
     if touched <= cfg.input.min_touch_readings {
         warnings.push(format!(
             "no touch: {touched} readings above {} psi (needs more than {}); the stimulus is silent",
@@ -247,7 +248,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     let (tracked, crop) =
         scene::track_cropped(tared.view(), &crop, cfg, &sampling, &mut |s| clock.stage(s))?;
     let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
-    clock.stage("coverage");
+    clock.stage(Stage::Coverage);
 
     // Stage 4.
     let (rows_px, cols_px) = (
@@ -267,7 +268,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
             &cfg.placement,
         )?)
     };
-    clock.stage("placement");
+    clock.stage(Stage::Placement);
 
     // Stage 5.
     let frames = tared.dim().0;
@@ -278,7 +279,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
         warnings.push("no trajectory passes through an actuator's workspace: silent".into());
     }
-    clock.stage("signals");
+    clock.stage(Stage::Signals);
 
     // Stage 6.
     let conditioned = condition::condition(&signals.psi, &cfg.signal, sampling.rate_hz)?;
@@ -296,7 +297,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
             20.0 * fit_scale.log10()
         ));
     }
-    clock.stage("condition");
+    clock.stage(Stage::Condition);
 
     let scene = Scene {
         tracked,
@@ -411,7 +412,7 @@ fn finish(
         fields,
         &KeyframeOptions::new(&opts.config.keyframes),
     )?;
-    clock.stage("keyframes");
+    clock.stage(Stage::Keyframes);
     let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
     let bytes = encoded.bytes.len();
     let report = Report {

@@ -27,6 +27,7 @@ pub mod rendering;
 pub mod encoding;
 
 pub mod compile;
+pub mod stage;
 pub mod measure;
 
 #[cfg(feature = "viz")]

@@ -25,6 +25,7 @@ use serde::Serialize;
 use crate::config::{Config, Sampling};
 use crate::placement::Placement;
 use crate::rendering::signals::{self, ChannelSignals, Source};
+use crate::stage::Stage;
 use crate::tracking::detect::{detect_with, detection_cost, Detections};
 use crate::tracking::preprocess::{preprocess, Blurred};
 use crate::tracking::track::{link, TrackError, TrackOutput};
@@ -93,13 +94,13 @@ pub fn active_crop(tared: ArrayView3<f64>, cfg: &Config, sampling: &Sampling) ->
 ///
 /// The crop is first checked against the blurred movie and widened where it would drop
 /// a pixel that could score a negative detection cost (see [`exact_crop`]); the crop
-/// actually used is returned. `lap` is called after each stage with its name.
+/// actually used is returned. `lap` is called after each stage with the stage.
 pub fn track_cropped(
     tared: ArrayView3<f64>,
     crop: &Crop,
     cfg: &Config,
     sampling: &Sampling,
-    lap: &mut dyn FnMut(&'static str),
+    lap: &mut dyn FnMut(Stage),
 ) -> Result<(TrackOutput, Crop), TrackError> {
     let mut window = preprocess(tared, &cfg.preprocess, sampling)?;
     let crop = exact_crop(crop, &window, cfg);
@@ -107,7 +108,7 @@ pub fn track_cropped(
     window
         .frames
         .slice_axis_inplace(Axis(0), Slice::from(crop.frames.clone()));
-    lap("preprocess");
+    lap(Stage::Preprocess);
     let k = sampling.upsample;
     let (rows, cols) = (
         crop.rows.start * k..crop.rows.end * k,
@@ -115,9 +116,9 @@ pub fn track_cropped(
     );
     let found = detect_with(&window, &cfg.detect, k);
     let detections = shift_and_clip(&found, crop.frames.start, tared.dim().0, &rows, &cols);
-    lap("detect");
+    lap(Stage::Detect);
     let trajectories = link(&detections, &cfg.track, sampling)?;
-    lap("track");
+    lap(Stage::Track);
     let tracked = TrackOutput {
         blurred: window,
         detections,
