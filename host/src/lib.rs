@@ -13,9 +13,11 @@
 //! | 6 conditioning | [`rendering::condition`] | 8 currents at 1 kHz |
 //! | 7 keyframes | [`encoding::keyframes`] | the stimulus file |
 //!
-//! [`compile`] runs them in order on the active scene; [`measure`] says how much of the
+//! [`compile`] runs them in order on the active scene, timing each [`stage::Stage`]; [`measure`] says how much of the
 //! touch a compile kept ([`measure::coverage`], [`measure::evaluate`]) and measures the
 //! presets of [`config::Preset`] against each other ([`measure::trade`]).
+
+#![warn(missing_docs)]
 
 pub mod config;
 pub mod geometry;
