@@ -25,6 +25,9 @@ cargo clippy -p touch-protocol --target thumbv7em-none-eabihf --features defmt -
 step "host tests (protocol, touchc, end-to-end)"
 cargo test --locked
 
+step "pipeline library without the CLI and the pictures (no clap, plotters, gif, png, indicatif)"
+cargo build -p touchc --lib --no-default-features --locked
+
 step "no_std check of protocol for the MCU"
 cargo build -p touch-protocol --target thumbv7em-none-eabihf --release --locked
 

@@ -7,12 +7,13 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion};
 use touchc::compile::{compile, layout_tag, CompileOptions};
 use touchc::config::{Config, Preset};
-use touchc::keyframes::{encode, HeaderFields, KeyframeOptions};
-use touchc::layout::Layout;
+use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
+use touchc::input::recording::Recording;
+use touchc::input::synth::{generate, Gesture, Mask, SynthSpec};
+use touchc::placement::layout::Layout;
 use touchc::placement::place;
-use touchc::recording::Recording;
-use touchc::synth::{generate, Gesture, Mask, SynthSpec};
-use touchc::{condition, detect, preprocess, scene, track};
+use touchc::rendering::condition;
+use touchc::tracking::{detect, preprocess, scene, track};
 
 /// `touchc synth stroke tap pat squeeze shake (x3) stroke --seed 5 --quiet-frames 30`:
 /// 698 frames.
@@ -126,7 +127,7 @@ fn bench(c: &mut Criterion) {
         }
     }
     c.bench_function("stage/signals", |b| {
-        b.iter(|| scene::actuator_signals(black_box(tracked), placement, &crop, frames))
+        b.iter(|| scene::padded_actuator_signals(black_box(tracked), placement, &crop, frames))
     });
     c.bench_function("stage/condition", |b| {
         b.iter(|| {

@@ -34,10 +34,10 @@ impl std::ops::Sub for Instant {
 }
 
 use ndarray_npy::WriteNpyExt;
-use touchc::detect::detect;
-use touchc::preprocess::preprocess;
-use touchc::recording::Recording;
-use touchc::track::{link, track};
+use touchc::input::recording::Recording;
+use touchc::tracking::detect::detect;
+use touchc::tracking::preprocess::preprocess;
+use touchc::tracking::track::{link, track};
 
 fn main() -> anyhow::Result<()> {
     let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);

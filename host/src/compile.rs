@@ -8,17 +8,18 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::condition::{self, ConditionError, LimitViolation};
 use crate::config::Config;
 use crate::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
-use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
-use crate::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
-use crate::layout::Layout;
+use crate::encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
+use crate::input::recording::{Recording, RecordingError};
+use crate::measure::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
+use crate::placement::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
-use crate::recording::{Recording, RecordingError};
-use crate::scene::{self, Crop};
-use crate::signals::ChannelSignals;
-use crate::track::{TrackError, TrackOutput};
+use crate::rendering::condition::{self, ConditionError, LimitViolation};
+use crate::rendering::signals::ChannelSignals;
+use crate::stage::Stage;
+use crate::tracking::scene::{self, Crop};
+use crate::tracking::track::{TrackError, TrackOutput};
 use touch_protocol::{Limits, CHANNELS};
 
 /// Everything `compile` needs besides the recording.
@@ -105,7 +106,7 @@ pub struct Report {
     pub transforms_inexact: usize,
     /// True when the flow used every unit of `track.max_trajectories` (a warning says so).
     pub trajectory_limit_reached: bool,
-    /// Wall seconds per stage, and `total`.
+    /// Wall seconds per stage, keyed by [`Stage::name`], and `total`.
     pub seconds: BTreeMap<&'static str, f64>,
     /// Size of the stimulus file.
     pub bytes: usize,
@@ -129,7 +130,7 @@ pub struct Report {
     /// The crop applied: frames `[start, end)`, cells rows/cols `[start, end)`.
     pub crop: Option<Crop>,
     /// Share of the touch pressure within two cells of a tracked contact (1 without
-    /// touch; see [`crate::coverage`]).
+    /// touch; see [`crate::measure::coverage`]).
     pub coverage: f64,
     /// The figures behind `coverage`: touch and explained pressure, touch readings.
     pub coverage_detail: Coverage,
@@ -198,15 +199,15 @@ impl Clock {
         }
     }
 
-    fn stage(&mut self, name: &'static str) {
+    fn stage(&mut self, stage: Stage) {
         let now = Instant::now();
-        *self.seconds.entry(name).or_insert(0.0) += (now - self.lap).as_secs_f64();
+        *self.seconds.entry(stage.name()).or_insert(0.0) += (now - self.lap).as_secs_f64();
         self.lap = now;
     }
 
     fn finish(mut self) -> BTreeMap<&'static str, f64> {
         self.seconds
-            .insert("total", self.start.elapsed().as_secs_f64());
+            .insert(Stage::Total.name(), self.start.elapsed().as_secs_f64());
         self.seconds
     }
 }
@@ -225,9 +226,14 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
 
     // Stage 0: tare and trim, and the paper's "no touch" filter.
     let tared = rec.tare(&cfg.input, &sampling)?;
-    warnings.extend(crate::sanity::check(rec, tared.view(), cfg, &sampling));
+    warnings.extend(crate::input::sanity::check(
+        rec,
+        tared.view(),
+        cfg,
+        &sampling,
+    ));
     let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
-    clock.stage("tare");
+    clock.stage(Stage::Tare);
     if touched <= cfg.input.min_touch_readings {
         warnings.push(format!(
             "no touch: {touched} readings above {} psi (needs more than {}); the stimulus is silent",
@@ -246,7 +252,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     let (tracked, crop) =
         scene::track_cropped(tared.view(), &crop, cfg, &sampling, &mut |s| clock.stage(s))?;
     let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
-    clock.stage("coverage");
+    clock.stage(Stage::Coverage);
 
     // Stage 4.
     let (rows_px, cols_px) = (
@@ -277,12 +283,12 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
             &cfg.placement,
         )?)
     };
-    clock.stage("placement");
+    clock.stage(Stage::Placement);
 
     // Stage 5.
     let frames = tared.dim().0;
     let signals = match &placement {
-        Some(p) => scene::actuator_signals(&tracked, p, &crop, frames),
+        Some(p) => scene::padded_actuator_signals(&tracked, p, &crop, frames),
         None => ChannelSignals::silent(frames),
     };
     if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {
@@ -290,7 +296,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
             "placement: the trajectory-subset search ran out of its budget of {} nodes on \
              {} of {} transforms ({} trajectories; a scene this dense is usually noise): \
              those transforms kept the best subset found, which may not be optimal",
-            crate::bnb::NODE_BUDGET,
+            crate::placement::bnb::NODE_BUDGET,
             p.transforms_inexact,
             p.transforms_evaluated,
             tracked.trajectories.len(),
@@ -299,7 +305,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
         warnings.push("no trajectory passes through an actuator's workspace: silent".into());
     }
-    clock.stage("signals");
+    clock.stage(Stage::Signals);
 
     // Stage 6.
     let conditioned = condition::condition(&signals.psi, &cfg.signal, sampling.rate_hz)?;
@@ -317,7 +323,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
             20.0 * fit_scale.log10()
         ));
     }
-    clock.stage("condition");
+    clock.stage(Stage::Condition);
 
     let scene = Scene {
         tracked,
@@ -383,7 +389,7 @@ fn measure_coverage(
 
 /// What the config's tracking can follow, in the units of [`Tracking`].
 fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
-    let strongest = -crate::detect::detection_cost(1e6, &cfg.detect);
+    let strongest = -crate::tracking::detect::detection_cost(1e6, &cfg.detect);
     let pay = cfg.track.entry_cost + cfg.track.exit_cost;
     let min_frames = if strongest > 0.0 {
         (pay / strongest).floor() as usize + 1
@@ -432,8 +438,8 @@ fn finish(
         fields,
         &KeyframeOptions::new(&opts.config.keyframes),
     )?;
-    clock.stage("keyframes");
-    let duration_s = (signal.len().saturating_sub(1)) as f64 / 1000.0;
+    clock.stage(Stage::Keyframes);
+    let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
     let bytes = encoded.bytes.len();
     let report = Report {
         input: rec.name().to_string(),

@@ -17,8 +17,8 @@
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::detect::Split;
-pub use crate::track::Bridge;
+pub use crate::tracking::detect::Split;
+pub use crate::tracking::track::Bridge;
 
 mod sampling;
 mod validate;
@@ -61,7 +61,8 @@ impl Default for Config {
 /// keeps the signal model (stages 5-6) of the paper; `fast` and `exact` differ from
 /// `paper` only in how finely the touch is sampled in space and how thoroughly the
 /// placement is searched, `touch` only in which touch is tracked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
     /// Real touch, the default: the paper's algorithm, with tracking that keeps what
@@ -227,8 +228,8 @@ pub struct InputConfig {
 impl Default for InputConfig {
     fn default() -> Self {
         Self {
-            rate_hz: 20.0,
-            pitch_mm: 25.4,
+            rate_hz: Sampling::PAPER.rate_hz,
+            pitch_mm: Sampling::PAPER.pitch_mm,
             baseline: Baseline::Leading,
             tare_s: 1.0,
             trim_s: 1.0,
@@ -253,7 +254,7 @@ pub enum Baseline {
     Robust,
 }
 
-/// The crop of the active scene (see [`crate::scene`]).
+/// The crop of the active scene (see [`crate::tracking::scene`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CropConfig {
@@ -287,7 +288,7 @@ pub struct PreprocessConfig {
 }
 
 /// The paper's pixel: a one-inch cell upsampled x7, mm.
-const PAPER_PIXEL_MM: f64 = 25.4 / 7.0;
+const PAPER_PIXEL_MM: f64 = Sampling::PAPER.pitch_mm / Sampling::PAPER.upsample as f64;
 
 impl Default for PreprocessConfig {
     fn default() -> Self {
@@ -355,7 +356,8 @@ impl Default for TrackConfig {
 
 /// The paper's link gate, `d^2 < 50` pixels^2 per frame at 20 Hz on 25.4/7 mm pixels, as
 /// a speed. [`Sampling::gate_px2`] turns it back into exactly 50.
-const PAPER_MAX_SPEED_MM_S: f64 = 7.071_067_811_865_475_5 * PAPER_PIXEL_MM * 20.0;
+const PAPER_MAX_SPEED_MM_S: f64 =
+    7.071_067_811_865_475_5 * PAPER_PIXEL_MM * Sampling::PAPER.rate_hz;
 
 /// Stage 4 parameters: the transform grid of the published code.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -440,7 +442,7 @@ impl Default for SignalConfig {
 ///
 /// The signal is band-limited by the low-pass, so the file holds keyframes the player
 /// interpolates; every candidate period and quantisation is played through the real
-/// player and compared with the compiler's f64 signal (see [`crate::keyframes`]).
+/// player and compared with the compiler's f64 signal (see [`crate::encoding::keyframes`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct KeyframeConfig {

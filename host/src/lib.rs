@@ -1,46 +1,36 @@
 //! touchc: recorded touch -> trajectories -> actuator placement -> stimulus file.
 //!
-//! One module per pipeline stage, in data-flow order:
+//! One folder per step of the pipeline, in data-flow order:
 //!
 //! | stage | module | hands on |
 //! |---|---|---|
-//! | 0 load, tare | [`recording`] | tared frames |
-//! | 1 upsample, blur | [`preprocess`] | blurred frames, mean, std |
-//! | 2 detections | [`detect`] | detections with costs |
-//! | 3 trajectories | [`track`] (on [`flow`]) | [`trajectory::Trajectory`] |
-//! | 4 placement | [`placement`] (on [`layout`], [`bnb`]) | circles, chosen trajectories |
-//! | 5 actuator signals | [`signals`] | 8 pressures at the frame rate |
-//! | 6 conditioning | [`condition`] | 8 currents at 1 kHz |
-//! | 7 keyframes | [`keyframes`] | the stimulus file |
+//! | 0 load, tare | [`input`] ([`input::recording`]) | tared frames |
+//! | 1 crop, upsample, blur | [`tracking`] ([`tracking::scene`], [`tracking::preprocess`]) | blurred frames, mean, std |
+//! | 2 detections | [`tracking::detect`] | detections with costs |
+//! | 3 trajectories | [`tracking::track`] (on [`tracking::flow`]) | [`tracking::trajectory::Trajectory`] |
+//! | 4 placement | [`placement`] (on [`placement::layout`], [`placement::bnb`]) | circles, chosen trajectories |
+//! | 5 actuator signals | [`rendering::signals`] | 8 pressures at the frame rate |
+//! | 6 conditioning | [`rendering::condition`] | 8 currents at 1 kHz |
+//! | 7 keyframes | [`encoding::keyframes`] | the stimulus file |
 //!
-//! [`compile`] runs them in order on the active scene ([`scene`]); [`trade`] measures
-//! the presets of [`config::Preset`] against each other.
+//! [`compile`] runs them in order on the active scene, timing each [`stage::Stage`]; [`measure`] says how much of the
+//! touch a compile kept ([`measure::coverage`], [`measure::evaluate`]) and measures the
+//! presets of [`config::Preset`] against each other ([`measure::trade`]).
+
+#![warn(missing_docs)]
 
 pub mod config;
 pub mod geometry;
-pub mod trajectory;
 
-pub mod recording;
-pub mod preprocess;
-pub mod detect;
-pub mod flow;
-pub mod track;
-
-pub mod layout;
-pub mod bnb;
+pub mod input;
+pub mod tracking;
 pub mod placement;
+pub mod rendering;
+pub mod encoding;
 
-pub mod signals;
-pub mod condition;
-pub mod keyframes;
-
-pub mod scene;
-pub mod sanity;
 pub mod compile;
-pub mod coverage;
-pub mod evaluate;
-pub mod trade;
+pub mod stage;
+pub mod measure;
 
-pub mod output;
-pub mod synth;
+#[cfg(feature = "viz")]
 pub mod viz;

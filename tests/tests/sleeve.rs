@@ -15,7 +15,7 @@ use sleeve_firmware::output::{device_config, Frame, IDLE_FRAME};
 use touch_protocol::player::code_to_amps;
 use touch_protocol::{bank, OutputSink, Player, Status, Stimulus};
 use touchc::compile::{compile, CompileOptions, Compiled};
-use touchc::recording::Recording;
+use touchc::input::recording::Recording;
 
 struct Recorder(Vec<Frame>);
 

@@ -8,7 +8,7 @@ use libfuzzer_sys::fuzz_target;
 use ndarray::Array3;
 use touch_protocol::{DeviceConfig, Player, Stimulus};
 use touchc::compile::{compile, CompileOptions};
-use touchc::recording::Recording;
+use touchc::input::recording::Recording;
 
 fuzz_target!(|data: &[u8]| {
     let [t, r, c, scale, cells @ ..] = data else {

@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use touchc::recording::{Recording, PITCH_MM_RANGE, RATE_HZ_RANGE};
+use touchc::input::recording::{Recording, PITCH_MM_RANGE, RATE_HZ_RANGE};
 
 #[path = "../../tests/common/poison.rs"]
 mod poison;

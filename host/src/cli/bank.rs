@@ -7,10 +7,10 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::cli::output::write_atomic;
 use anyhow::{bail, Context};
 use touch_protocol::{bank, container, layout_id, Error, Stimulus, CHANNELS};
-use touchc::layout::Layout;
-use touchc::output::write_atomic;
+use touchc::placement::layout::Layout;
 
 /// Arguments of `touchc bank`.
 #[derive(Debug, clap::Args)]

@@ -9,13 +9,13 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+use crate::cli::output::write_atomic;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use touchc::compile::{compile, CompileOptions, Report};
-use touchc::layout::Layout;
-use touchc::output::write_atomic;
-use touchc::recording::Recording;
+use touchc::input::recording::Recording;
+use touchc::placement::layout::Layout;
 
 /// Arguments of `touchc compile`.
 #[derive(Debug, clap::Args)]
@@ -127,7 +127,7 @@ fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
         r.trajectories,
         r.coverage,
         r.metadata.describe(),
-        1e3 * r.seconds.get("total").copied().unwrap_or(0.0),
+        1e3 * r.seconds.get(touchc::stage::Stage::Total.name()).copied().unwrap_or(0.0),
     )
 }
 
@@ -183,7 +183,7 @@ fn batch(
     for (input, w) in warnings.into_inner().unwrap_or_default() {
         super::warn(&input, &w);
     }
-    let mut w = touchc::output::Output::stdout();
+    let mut w = crate::cli::output::Output::stdout();
     write_summary(&mut w, recordings, &results)?;
     w.finish()?;
     let failed = results.iter().filter(|r| r.is_err()).count();
@@ -220,7 +220,11 @@ fn write_summary(
                 r.bytes,
                 100.0 * r.rms_error_fs,
                 format!("{}/{}", r.selected.len(), r.trajectories),
-                1e3 * r.seconds.get("total").copied().unwrap_or(0.0)
+                1e3 * r
+                    .seconds
+                    .get(touchc::stage::Stage::Total.name())
+                    .copied()
+                    .unwrap_or(0.0)
             )?,
             Err(_) => writeln!(w, "{name:<32} {:>6}", "FAILED")?,
         }

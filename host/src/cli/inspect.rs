@@ -91,7 +91,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Err(e) => bail!("{name}: not a valid stimulus: {e}"),
         }
     };
-    let mut out = touchc::output::Output::create(&args.output)?;
+    let mut out = crate::cli::output::Output::create(&args.output)?;
     if args.json {
         serde_json::to_writer_pretty(&mut out, &report)?;
         writeln!(out)?;

@@ -5,6 +5,7 @@
 mod bank;
 mod compile;
 mod inspect;
+mod output;
 mod params;
 mod plot;
 mod preview;
@@ -86,7 +87,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             // Generated into memory: clap_complete panics on a write error.
             let mut script = Vec::new();
             clap_complete::generate(shell, &mut Cli::command(), "touchc", &mut script);
-            Ok(touchc::output::write_atomic(Path::new("-"), &script)?)
+            Ok(crate::cli::output::write_atomic(Path::new("-"), &script)?)
         }
     }
 }
@@ -109,8 +110,8 @@ pub fn report(err: &anyhow::Error) -> ExitCode {
             .downcast_ref::<std::io::Error>()
             .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
             || cause
-                .downcast_ref::<touchc::output::WriteError>()
-                .is_some_and(touchc::output::WriteError::is_broken_pipe)
+                .downcast_ref::<crate::cli::output::WriteError>()
+                .is_some_and(crate::cli::output::WriteError::is_broken_pipe)
     });
     if broken_pipe {
         return ExitCode::SUCCESS;
@@ -170,7 +171,7 @@ pub(crate) fn warn(file: &Path, message: &str) {
 
 /// How an input path is named in messages (`-` is standard input).
 pub(crate) fn input_name(path: &Path) -> String {
-    if touchc::output::is_stdio(path) {
+    if crate::cli::output::is_stdio(path) {
         "standard input".into()
     } else {
         path.display().to_string()
@@ -179,7 +180,7 @@ pub(crate) fn input_name(path: &Path) -> String {
 
 /// Reads a whole input file, `-` being standard input, naming it in the error.
 pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
-    if touchc::output::is_stdio(path) {
+    if crate::cli::output::is_stdio(path) {
         let mut bytes = Vec::new();
         std::io::stdin()
             .lock()

@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
+use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touch_protocol::DeviceConfig;
-use touchc::output::write_atomic;
 use touchc::viz::plot::{self, Format, Size};
 
 /// Arguments of `touchc plot`.

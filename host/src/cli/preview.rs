@@ -3,11 +3,11 @@
 
 use std::path::PathBuf;
 
+use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::compile::{compile, CompileOptions};
-use touchc::layout::Layout;
-use touchc::output::write_atomic;
-use touchc::recording::Recording;
+use touchc::input::recording::Recording;
+use touchc::placement::layout::Layout;
 use touchc::viz::preview;
 
 /// Arguments of `touchc preview`.

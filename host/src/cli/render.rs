@@ -6,9 +6,9 @@
 use std::io::Write;
 use std::path::PathBuf;
 
+use crate::cli::output::Output;
 use anyhow::Context;
 use touch_protocol::{DeviceConfig, Stimulus};
-use touchc::output::Output;
 use touchc::viz::{describe_fault, play, wav, Ticks};
 
 /// Arguments of `touchc render`.
@@ -39,7 +39,7 @@ pub struct Args {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let csv_out = args.csv.then(|| args.output.clone().unwrap_or("-".into()));
     if let (Some(csv), Some(wav)) = (&csv_out, &args.wav) {
-        if touchc::output::is_stdio(csv) && touchc::output::is_stdio(wav) {
+        if crate::cli::output::is_stdio(csv) && crate::cli::output::is_stdio(wav) {
             return Err(super::usage(
                 "the CSV and the WAV cannot both go to standard output: give -o FILE or --wav FILE",
             ));
@@ -51,7 +51,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut fault = None;
     if let Some(path) = &args.wav {
         fault = write_wav(&stimulus, &device, path, args.rate)
-            .with_context(|| format!("{}: cannot write a WAV", touchc::output::shown(path)))?;
+            .with_context(|| format!("{}: cannot write a WAV", crate::cli::output::shown(path)))?;
     }
     if let Some(path) = &csv_out {
         let mut out = Output::create(path)?;

@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
+use crate::cli::output::write_atomic;
 use anyhow::Context;
-use touchc::output::write_atomic;
-use touchc::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
+use touchc::input::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
 
 /// Arguments of `touchc synth`.
 #[derive(Debug, clap::Args)]
@@ -123,7 +123,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (frames, rows, cols) = recording.dim();
     eprintln!(
         "touchc: wrote {} ({frames} frames of {rows}x{cols} at {} Hz, {} contacts)",
-        super::escaped(&touchc::output::shown(&args.output)),
+        super::escaped(&crate::cli::output::shown(&args.output)),
         spec.sensor.rate_hz(),
         truth.contacts.len()
     );

@@ -4,8 +4,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use serde::Serialize;
-use touchc::recording::Recording;
-use touchc::track::{track_with, TrackOutput};
+use touchc::input::recording::Recording;
+use touchc::tracking::track::{track_with, TrackOutput};
 
 /// Arguments of `touchc track`.
 #[derive(Debug, clap::Args)]
@@ -45,7 +45,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let cfg = args.config.resolve()?;
     let rec = Recording::load(&args.recording)?;
     let out = track_with(&rec, &cfg, &args.config.overrides())?;
-    let mut w = touchc::output::Output::create(&args.output)?;
+    let mut w = crate::cli::output::Output::create(&args.output)?;
     if args.json {
         serde_json::to_writer(&mut w, &report(&out))?;
         writeln!(w)?;

@@ -1,16 +1,17 @@
 //! `touchc trade REC.npy... [--csv FILE] [--svg FILE]`: every preset on every recording, compared
-//! with `exact` (see [`touchc::trade`]).
+//! with `exact` (see [`touchc::measure::trade`]).
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::compile::CompileOptions;
 use touchc::config::Preset;
-use touchc::output::write_atomic;
-use touchc::recording::Recording;
-use touchc::synth::Truth;
-use touchc::trade::{plot_svg, trade, TradeRow};
+use touchc::input::recording::Recording;
+use touchc::input::synth::Truth;
+use touchc::measure::trade::{plot_svg, trade, TradeRow};
+use touchc::stage::Stage;
 
 /// Arguments of `touchc trade`.
 #[derive(Debug, clap::Args)]
@@ -50,15 +51,15 @@ pub struct Args {
 }
 
 /// The stages of the table, in pipeline order.
-const STAGES: [&str; 8] = [
-    "preprocess",
-    "detect",
-    "track",
-    "placement",
-    "signals",
-    "condition",
-    "keyframes",
-    "total",
+const STAGES: [Stage; 8] = [
+    Stage::Preprocess,
+    Stage::Detect,
+    Stage::Track,
+    Stage::Placement,
+    Stage::Signals,
+    Stage::Condition,
+    Stage::Keyframes,
+    Stage::Total,
 ];
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -136,14 +137,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn ms(r: &TradeRow, stage: &str) -> f64 {
-    1e3 * r.seconds.get(stage).copied().unwrap_or(0.0)
+/// Milliseconds of `stage`; 0 for a stage that did not run (no touch: no placement).
+fn ms(r: &TradeRow, stage: Stage) -> f64 {
+    1e3 * r.seconds.get(stage.name()).copied().unwrap_or(0.0)
 }
 
 /// The numeric columns after the recording and preset, formatted; the transforms as
 /// one `scored/total` cell, or two with `split` (CSV, where every cell is one number).
 fn cells(r: &TradeRow, split: bool) -> Vec<String> {
-    let mut out: Vec<String> = STAGES.iter().map(|s| format!("{:.1}", ms(r, s))).collect();
+    let mut out: Vec<String> = STAGES.iter().map(|s| format!("{:.1}", ms(r, *s))).collect();
     if split {
         out.push(r.transforms.0.to_string());
         out.push(r.transforms.1.to_string());
@@ -166,7 +168,7 @@ fn cells(r: &TradeRow, split: bool) -> Vec<String> {
 /// The column names, matching [`cells`] with the same `split`.
 fn headers(split: bool) -> Vec<String> {
     let mut h = vec!["recording".to_string(), "preset".to_string()];
-    h.extend(STAGES.iter().map(|s| format!("{s} ms")));
+    h.extend(STAGES.iter().map(|s| format!("{} ms", s.name())));
     h.push("transforms scored".into());
     if split {
         h.push("transforms".into());

@@ -15,7 +15,7 @@
 use serde::Serialize;
 
 use super::Config;
-use crate::recording::Recording;
+use crate::input::recording::Recording;
 
 /// How a recording was sampled, and how finely stage 1 resamples it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

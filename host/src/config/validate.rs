@@ -8,9 +8,9 @@
 //! third-party routine.
 
 use super::{Config, Sampling};
+use crate::input::recording::{PITCH_MM_RANGE, RATE_HZ_RANGE};
 use crate::placement::{grid_size, MAX_TRANSFORMS};
-use crate::preprocess::MAX_UPSAMPLE;
-use crate::recording::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+use crate::tracking::preprocess::MAX_UPSAMPLE;
 
 /// A knob outside its range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -17,6 +17,8 @@ use std::sync::OnceLock;
 use touch_protocol::player::{code_to_amps, Fault};
 use touch_protocol::{DeviceConfig, Player, Status, Stimulus, CHANNELS};
 
+use crate::rendering::condition::OUTPUT_RATE_HZ;
+
 /// Why a picture or sound could not be made.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -123,6 +125,6 @@ pub fn describe_fault((t, f): (usize, Fault)) -> String {
         "{:?} limit hit on channel {} at {:.3} s; the player ramped to 0 A",
         f.kind,
         f.channel,
-        t as f64 / 1000.0
+        t as f64 / OUTPUT_RATE_HZ
     )
 }

@@ -15,6 +15,7 @@ use touch_protocol::player::Fault;
 use touch_protocol::{DeviceConfig, Stimulus, CHANNELS};
 
 use super::{describe_fault, play, register_font, VizError, FAMILY};
+use crate::rendering::condition::OUTPUT_RATE_HZ;
 
 /// Actuator rows on the sleeve (`channel = row * COLUMNS + column`).
 const ROWS: usize = 2;
@@ -104,14 +105,14 @@ pub fn plot(
     let trace = Traced {
         points: trace.points.map(|p| {
             p.into_iter()
-                .map(|(t, code)| (t as f64 / 1000.0, ticks.amps(code)))
+                .map(|(t, code)| (t as f64 / OUTPUT_RATE_HZ, ticks.amps(code)))
                 .collect()
         }),
         biggest: [trace.low, trace.high]
             .iter()
             .map(|&code| ticks.amps(code).abs())
             .fold(0.0, f64::max),
-        seconds: trace.ticks as f64 / 1000.0,
+        seconds: trace.ticks as f64 / OUTPUT_RATE_HZ,
         fault: ticks.fault(),
     };
     let dims = (size.width, size.height);

@@ -34,10 +34,10 @@ use super::plot::{draw_error, encode_png};
 use super::{register_font, VizError, FAMILY};
 use crate::compile::Compiled;
 use crate::config::Sampling;
-use crate::coverage::{self, Cell, Coverage, DEFAULT_RADIUS_CELLS};
 use crate::geometry::Circle;
-use crate::recording::{Recording, RecordingError};
-use crate::signals::Source;
+use crate::input::recording::{Recording, RecordingError};
+use crate::measure::coverage::{self, Cell, Coverage, DEFAULT_RADIUS_CELLS};
+use crate::rendering::signals::Source;
 use touch_protocol::CHANNELS;
 
 /// Frames of trail drawn behind a trajectory's current point (1 s at 20 Hz).

@@ -68,7 +68,7 @@ pub fn reference_dir() -> std::path::PathBuf {
 }
 
 use serde::Deserialize;
-use touchc::trajectory::Trajectory;
+use touchc::tracking::trajectory::Trajectory;
 
 /// One trajectory as the reference stores it.
 #[derive(Deserialize)]

@@ -6,7 +6,7 @@ use ndarray::{Array2, ArrayView2};
 use proptest::prelude::*;
 use touchc::config::PreprocessConfig;
 use touchc::config::Sampling;
-use touchc::preprocess::{gaussian_kernel, Blur, BlurOperator};
+use touchc::tracking::preprocess::{gaussian_kernel, Blur, BlurOperator};
 
 /// scipy 'reflect', by bouncing off the ends until inside (independent of the crate's
 /// modular formula).

@@ -5,7 +5,7 @@
 
 use good_lp::{microlp, variable, variables, Expression, Solution, SolverModel};
 use proptest::prelude::*;
-use touchc::bnb::{has_matching, SubsetProblem};
+use touchc::placement::bnb::{has_matching, SubsetProblem};
 
 /// Hall's condition by brute force: every subset needs as many workspaces as members.
 fn hall(masks: &[u32]) -> bool {

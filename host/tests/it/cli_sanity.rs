@@ -12,7 +12,7 @@ use ndarray::Array3;
 
 fn write(dir: &Path, name: &str, rec: &Array3<f64>) -> PathBuf {
     let path = dir.join(name);
-    std::fs::write(&path, touchc::synth::to_npy(rec).unwrap()).unwrap();
+    std::fs::write(&path, touchc::input::synth::to_npy(rec).unwrap()).unwrap();
     path
 }
 
@@ -308,7 +308,7 @@ fn one_touch_at_20_and_54_hz_lasts_as_long() {
     // `conditioning(rate)` is that addition, measured on one silent frame.
     let conditioning = |rate: f64| {
         let psi: [Vec<f64>; 8] = std::array::from_fn(|_| vec![0.0; 1]);
-        let c = touchc::condition::condition(&psi, &Default::default(), rate).unwrap();
+        let c = touchc::rendering::condition::condition(&psi, &Default::default(), rate).unwrap();
         (c.output.len() - 1) as f64 / 1000.0 - 1.0 / rate
     };
     let kept = |r: &serde_json::Value, rate: f64| d(r) - conditioning(rate);

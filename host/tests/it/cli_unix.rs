@@ -372,7 +372,7 @@ fn the_thermal_limit_is_reported_once() {
         on * 2.0 * (-d2 / 4.0).exp()
     });
     let npy = dir.path().join("hold.npy");
-    std::fs::write(&npy, touchc::synth::to_npy(&rec).unwrap()).unwrap();
+    std::fs::write(&npy, touchc::input::synth::to_npy(&rec).unwrap()).unwrap();
     let out = touchc(&["compile", s(&npy), "-o", s(&dir.path().join("hold.touch"))]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");

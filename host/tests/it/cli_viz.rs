@@ -256,7 +256,7 @@ fn decode_gif(path: &Path) -> (u16, u16, Vec<Vec<u8>>, Vec<u16>) {
 #[test]
 fn preview_animates_every_frame_with_the_trajectories() {
     use touchc::compile::{compile, CompileOptions};
-    use touchc::recording::Recording;
+    use touchc::input::recording::Recording;
     use touchc::viz::preview;
 
     let dir = tempfile::tempdir().unwrap();
@@ -381,7 +381,7 @@ fn preview_png_shows_one_frame_and_refuses_frames_past_the_end() {
     // The colour bar runs from the heat scale's 0 psi end (bottom row) to its maximum
     // (top row), brightening all the way.
     use touchc::viz::{palette::heat, preview};
-    let rec = touchc::recording::Recording::load(&rec_path).unwrap();
+    let rec = touchc::input::recording::Recording::load(&rec_path).unwrap();
     let opts = touchc::compile::CompileOptions {
         fit: true,
         crop: false,
@@ -430,7 +430,7 @@ fn preview_of_a_recording_without_touch_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let rec_path = dir.path().join("still.npy");
     let still = ndarray::Array3::<f64>::zeros((60, 8, 21));
-    std::fs::write(&rec_path, touchc::synth::to_npy(&still).unwrap()).unwrap();
+    std::fs::write(&rec_path, touchc::input::synth::to_npy(&still).unwrap()).unwrap();
     let gif_path = dir.path().join("still.gif");
     let out = touchc(&[
         "preview",
@@ -454,7 +454,7 @@ fn preview_gif_and_compile(
 ) -> (
     u16,
     Vec<Vec<u8>>,
-    touchc::recording::Recording,
+    touchc::input::recording::Recording,
     touchc::compile::Compiled,
     touchc::viz::preview::FrameLayout,
 ) {
@@ -468,7 +468,7 @@ fn preview_gif_and_compile(
         gif_path.to_str().unwrap(),
     ]));
     let (w, _, frames, _) = decode_gif(&gif_path);
-    let rec = touchc::recording::Recording::load(rec_path).unwrap();
+    let rec = touchc::input::recording::Recording::load(rec_path).unwrap();
     let opts = touchc::compile::CompileOptions {
         fit: true,
         crop: false,
@@ -499,12 +499,16 @@ fn press_and_blip() -> ndarray::Array3<f64> {
 
 #[test]
 fn preview_marks_touch_no_contact_explains_and_only_that() {
-    use touchc::coverage::{self, Cell};
+    use touchc::measure::coverage::{self, Cell};
     use touchc::viz::preview;
 
     let dir = tempfile::tempdir().unwrap();
     let rec_path = dir.path().join("blip.npy");
-    std::fs::write(&rec_path, touchc::synth::to_npy(&press_and_blip()).unwrap()).unwrap();
+    std::fs::write(
+        &rec_path,
+        touchc::input::synth::to_npy(&press_and_blip()).unwrap(),
+    )
+    .unwrap();
     let (w, frames, rec, compiled, layout) = preview_gif_and_compile(&rec_path);
 
     // What the picture must show, from the coverage module on the compile's own

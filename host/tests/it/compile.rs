@@ -6,9 +6,9 @@ use crate::common;
 use bin::{ok, touchc};
 
 use touchc::compile::{compile, CompileOptions, Compiled};
-use touchc::layout::Layout;
-use touchc::recording::Recording;
-use touchc::synth::{self, Gesture, SynthSpec};
+use touchc::input::recording::Recording;
+use touchc::input::synth::{self, Gesture, SynthSpec};
+use touchc::placement::layout::Layout;
 
 fn synth_recording(gestures: &[Gesture], seed: u64) -> Recording {
     let spec = SynthSpec {

@@ -2,7 +2,7 @@
 
 use ndarray::Array2;
 use proptest::prelude::*;
-use touchc::detect::local_maxima;
+use touchc::tracking::detect::local_maxima;
 
 fn naive(f: &Array2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
     let (h, w) = f.dim();

@@ -4,8 +4,8 @@ use crate::common;
 
 use ndarray::{s, Array3};
 use touchc::config::Config;
-use touchc::recording::{Recording, RecordingError};
-use touchc::track::{track, TrackError, TrackOutput};
+use touchc::input::recording::{Recording, RecordingError};
+use touchc::tracking::track::{track, TrackError, TrackOutput};
 
 fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
     track(&Recording::from_array("synthetic", a.view()).unwrap(), cfg).unwrap()

@@ -1,7 +1,7 @@
 //! The successive-shortest-path solver against brute force on small random DAGs.
 
 use proptest::prelude::*;
-use touchc::flow::{min_cost_flow, FlowGraph};
+use touchc::tracking::flow::{min_cost_flow, FlowGraph};
 
 /// Cheapest feasible unit-capacity flow of value <= max_units, by trying every edge set.
 fn brute_force(n: usize, edges: &[(usize, usize, f64)], max_units: usize) -> f64 {

@@ -5,8 +5,8 @@ use crate::common;
 
 use touchc::compile::{compile, CompileError, CompileOptions, Compiled};
 use touchc::config::{CoarseToFine, Config, Preset};
+use touchc::input::recording::Recording;
 use touchc::placement::grid_size;
-use touchc::recording::Recording;
 
 /// 100 frames, one contact sliding along the arm: short enough for debug builds.
 fn recording() -> Recording {

@@ -5,12 +5,12 @@
 //! so that sums are exact and ties between subsets (common in real data) are exercised.
 
 use proptest::prelude::*;
-use touchc::bnb::SubsetProblem;
 use touchc::config::PlacementConfig;
 use touchc::geometry::pixel_centre_mm;
-use touchc::layout::Layout;
+use touchc::placement::bnb::SubsetProblem;
+use touchc::placement::layout::Layout;
 use touchc::placement::{place, transform_grid};
-use touchc::trajectory::Trajectory;
+use touchc::tracking::trajectory::Trajectory;
 
 const ROWS: usize = 56;
 const COLS: usize = 147;

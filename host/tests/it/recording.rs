@@ -6,8 +6,8 @@ use crate::poison;
 use ndarray::{Array2, Array3, ShapeBuilder};
 use ndarray_npy::WriteNpyExt;
 
-use touchc::recording::{Recording, RecordingError};
-use touchc::track::track;
+use touchc::input::recording::{Recording, RecordingError};
+use touchc::tracking::track::track;
 
 fn write<T: WriteNpyExt>(dir: &tempfile::TempDir, name: &str, a: &T) -> std::path::PathBuf {
     let p = dir.path().join(name);

@@ -2,9 +2,9 @@
 
 use crate::common;
 
-use touchc::detect::detect;
-use touchc::recording::Recording;
-use touchc::track::track;
+use touchc::input::recording::Recording;
+use touchc::tracking::detect::detect;
+use touchc::tracking::track::track;
 
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs().max(f64::MIN_POSITIVE)

@@ -1,12 +1,12 @@
 //! Real touch, measured: every case of issue 12 on both sensors, under each preset,
-//! against the truth of where each contact was (`touchc::evaluate`).
+//! against the truth of where each contact was (`touchc::measure::evaluate`).
 
 use touchc::compile::{compile, CompileOptions, Compiled};
 use touchc::config::{Config, MetadataOverrides, Preset};
-use touchc::evaluate::{evaluate_compiled, Evaluation};
-use touchc::recording::Recording;
-use touchc::signals::Source;
-use touchc::synth::{self, Gesture, Sensor, SynthSpec, Tuning};
+use touchc::input::recording::Recording;
+use touchc::input::synth::{self, Gesture, Sensor, SynthSpec, Tuning};
+use touchc::measure::evaluate::{evaluate_compiled, Evaluation};
+use touchc::rendering::signals::Source;
 
 /// One synthetic case: a name and its spec on `sensor`.
 struct Case {

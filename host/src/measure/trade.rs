@@ -17,12 +17,12 @@ use serde::Serialize;
 
 use crate::compile::{compile, CompileError, CompileOptions, Compiled};
 use crate::config::{Config, Preset};
-use crate::evaluate::evaluate_compiled;
+use crate::encoding::keyframes::KeyframeOptions;
 use crate::geometry::pixel_centre_mm;
-use crate::keyframes::KeyframeOptions;
-use crate::recording::Recording;
-use crate::synth::Truth;
-use crate::track::TrackOutput;
+use crate::input::recording::Recording;
+use crate::input::synth::Truth;
+use crate::measure::evaluate::evaluate_compiled;
+use crate::tracking::track::TrackOutput;
 use touch_protocol::CHANNELS;
 
 /// One preset's row of the trade table.
@@ -208,13 +208,20 @@ pub fn track_agreement(a: Option<&TrackOutput>, b: Option<&TrackOutput>) -> f64 
 
 /// An SVG of time against error: total compile time (log scale) against the signal's
 /// RMS difference to `exact`, one colour per preset, one point per recording and preset.
+#[cfg(feature = "viz")]
 pub fn plot_svg(rows: &[TradeRow]) -> Result<String, crate::viz::VizError> {
     use crate::viz::{register_font, VizError, FAMILY};
     use plotters::prelude::*;
 
     register_font()?;
     let draw = |e: &dyn std::fmt::Display| VizError::Draw(e.to_string());
-    let ms = |r: &TradeRow| 1e3 * r.seconds.get("total").copied().unwrap_or(0.0);
+    let ms = |r: &TradeRow| {
+        1e3 * r
+            .seconds
+            .get(crate::stage::Stage::Total.name())
+            .copied()
+            .unwrap_or(0.0)
+    };
     let (lo, hi) = rows
         .iter()
         .map(ms)

@@ -16,11 +16,11 @@ use ndarray::Array3;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, Metadata, MetadataOverrides, Sampling, TrackConfig};
-use crate::detect::{frame_points, score, Detections};
-use crate::flow::{min_cost_flow, FlowError, FlowGraph};
-use crate::preprocess::{preprocess_with, Blurred, PreprocessError};
-use crate::recording::{Recording, RecordingError};
-use crate::trajectory::Trajectory;
+use crate::input::recording::{Recording, RecordingError};
+use crate::tracking::detect::{frame_points, score, Detections};
+use crate::tracking::flow::{min_cost_flow, FlowError, FlowGraph};
+use crate::tracking::preprocess::{preprocess_with, Blurred, PreprocessError};
+use crate::tracking::trajectory::Trajectory;
 
 /// Any failure of stages 0 to 3.
 #[derive(Debug, thiserror::Error)]

@@ -15,7 +15,7 @@
 use ndarray::{Array3, ArrayView3, Axis};
 use serde::{Deserialize, Serialize};
 
-use crate::trajectory::Trajectory;
+use crate::tracking::trajectory::Trajectory;
 
 /// The radius of the coverage definition, in sensor cells.
 pub const DEFAULT_RADIUS_CELLS: f64 = 2.0;

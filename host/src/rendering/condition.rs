@@ -43,15 +43,14 @@ use sci_rs::signal::filter::design::{
     butter_dyn, DigitalFilter, FilterBandType, FilterOutputType, Sos,
 };
 use sci_rs::signal::filter::sosfilt_dyn;
-use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::config::SignalConfig;
-use crate::signals::CHANNELS;
+use crate::rendering::signals::CHANNELS;
 
 /// Update rate of the sleeve's outputs, Hz (docs/hardware.md): the rate of
 /// [`Conditioned::output`] and the time step of [`check_limits`].
-pub const OUTPUT_RATE_HZ: f64 = 1000.0;
+pub const OUTPUT_RATE_HZ: f64 = touch_protocol::stimulus::OUTPUT_RATE_HZ as f64;
 
 /// Highest Butterworth order accepted; far beyond anything a 20 Hz touch signal needs,
 /// and a bound that keeps the design numerically tame.
@@ -372,7 +371,7 @@ fn validate(cfg: &SignalConfig, frame_rate_hz: f64) -> Result<(), ConditionError
 /// `condition(&signals.psi, &config.signal, config.input.frame_rate_hz)`.
 ///
 /// ```
-/// use touchc::condition::condition;
+/// use touchc::rendering::condition::condition;
 /// use touchc::config::SignalConfig;
 ///
 /// // One second of silence on all eight channels at 20 Hz.
@@ -383,7 +382,7 @@ fn validate(cfg: &SignalConfig, frame_rate_hz: f64) -> Result<(), ConditionError
 /// assert_eq!(c.output[c.output.len() - 1], [0.0; 8]); // ...and ends there
 /// assert_eq!(c.output[c.output.len() / 2], [-0.9; 8]); // silence is the pre-dent
 /// assert_eq!(c.output.len(), 2 * 500 + (c.frames_a.len() - 1) * 50 + 1);
-/// # Ok::<(), touchc::condition::ConditionError>(())
+/// # Ok::<(), touchc::rendering::condition::ConditionError>(())
 /// ```
 pub fn condition(
     psi: &[Vec<f64>; CHANNELS],
@@ -494,237 +493,9 @@ fn raised_cosine(j: usize, n: usize) -> f64 {
     0.5 * (1.0 - (std::f64::consts::PI * j as f64 / n as f64).cos())
 }
 
-/// Safety limits for a 1 kHz current signal, per channel (docs/hardware.md, "Safety"). The
-/// firmware enforces the lower of its own and the stimulus's; the compiler checks here
-/// first so that a stimulus never depends on being cut off.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Limits {
-    /// Largest absolute current, A.
-    pub peak_a: f64,
-    /// Largest change between consecutive 1 kHz samples, A per ms.
-    pub slew_a_per_ms: f64,
-    /// Current the coil carries indefinitely, A (the thermal bucket leaks at its square).
-    pub continuous_a: f64,
-    /// Thermal budget, A^2 s: the bucket (integral of `I^2 - continuous_a^2`, never below
-    /// 0) may not exceed it.
-    pub thermal_budget_a2s: f64,
-}
+mod limits;
 
-impl Default for Limits {
-    /// The sleeve's hard limits, [`touch_protocol::Limits::SLEEVE`], in amperes: the
-    /// compiler checks against the same numbers the firmware enforces.
-    fn default() -> Self {
-        touch_protocol::Limits::SLEEVE.into()
-    }
-}
-
-impl From<touch_protocol::Limits> for Limits {
-    fn from(l: touch_protocol::Limits) -> Self {
-        Self {
-            peak_a: f64::from(l.peak_ma) / 1e3,
-            slew_a_per_ms: f64::from(l.slew_ma_per_ms) / 1e3,
-            continuous_a: f64::from(l.continuous_ma) / 1e3,
-            thermal_budget_a2s: f64::from(l.i2t_budget_ma2s) / 1e6,
-        }
-    }
-}
-
-/// The first limit a signal breaks (earliest sample, then lowest channel), or why the
-/// check could not run.
-#[derive(Debug, Error, Clone, PartialEq)]
-#[non_exhaustive]
-pub enum LimitViolation {
-    /// |I| above `peak_a`.
-    #[error("channel {channel}, sample {sample}: {current_a} A exceeds the {limit_a} A peak")]
-    Peak {
-        /// Channel.
-        channel: usize,
-        /// 1 kHz sample index.
-        sample: usize,
-        /// The current, A.
-        current_a: f64,
-        /// The limit, A.
-        limit_a: f64,
-    },
-    /// A step between samples above `slew_a_per_ms`.
-    #[error(
-        "channel {channel}, sample {sample}: step of {step_a} A exceeds {limit_a_per_ms} A/ms"
-    )]
-    Slew {
-        /// Channel.
-        channel: usize,
-        /// 1 kHz sample index the step arrives at (`len` for the final step to 0 A).
-        sample: usize,
-        /// Size of the step, A (absolute).
-        step_a: f64,
-        /// The limit, A per ms.
-        limit_a_per_ms: f64,
-    },
-    /// The thermal bucket above `thermal_budget_a2s`.
-    #[error(
-        "channel {channel}, sample {sample}: thermal load {bucket_a2s} A^2 s \
-         exceeds {budget_a2s} A^2 s"
-    )]
-    Thermal {
-        /// Channel.
-        channel: usize,
-        /// 1 kHz sample index.
-        sample: usize,
-        /// Bucket content, A^2 s.
-        bucket_a2s: f64,
-        /// The budget, A^2 s.
-        budget_a2s: f64,
-    },
-    /// The signal holds a NaN or an infinity: no limit can vouch for it.
-    #[error("channel {channel}, sample {sample}: current is not finite")]
-    NotFinite {
-        /// Channel.
-        channel: usize,
-        /// 1 kHz sample index.
-        sample: usize,
-    },
-    /// A limit is negative, NaN or infinite.
-    #[error("limit `{name}` = {value} is not a finite, non-negative number")]
-    InvalidLimits {
-        /// Field name.
-        name: &'static str,
-        /// Its value.
-        value: f64,
-    },
-}
-
-fn validate_limits(limits: &Limits) -> Result<(), LimitViolation> {
-    let fields = [
-        ("peak_a", limits.peak_a),
-        ("slew_a_per_ms", limits.slew_a_per_ms),
-        ("continuous_a", limits.continuous_a),
-        ("thermal_budget_a2s", limits.thermal_budget_a2s),
-    ];
-    for (name, value) in fields {
-        if !(value.is_finite() && value >= 0.0) {
-            return Err(LimitViolation::InvalidLimits { name, value });
-        }
-    }
-    Ok(())
-}
-
-/// The limit check of `scale * signal`, shared by [`check_limits`] (scale 1) and [`fit`]
-/// so that the factor `fit` returns is checked on exactly the numbers it produces.
-fn check_scaled(
-    signal: &[[f64; CHANNELS]],
-    scale: f64,
-    limits: &Limits,
-) -> Result<(), LimitViolation> {
-    let dt_s = 1.0 / OUTPUT_RATE_HZ;
-    let leak = limits.continuous_a * limits.continuous_a;
-    let mut previous = [0.0_f64; CHANNELS];
-    let mut bucket = [0.0_f64; CHANNELS];
-    for (sample, frame) in signal.iter().enumerate() {
-        for channel in 0..CHANNELS {
-            let current = scale * frame[channel];
-            if !current.is_finite() {
-                return Err(LimitViolation::NotFinite { channel, sample });
-            }
-            if current.abs() > limits.peak_a {
-                return Err(LimitViolation::Peak {
-                    channel,
-                    sample,
-                    current_a: current,
-                    limit_a: limits.peak_a,
-                });
-            }
-            let step = (current - previous[channel]).abs();
-            if step > limits.slew_a_per_ms {
-                return Err(LimitViolation::Slew {
-                    channel,
-                    sample,
-                    step_a: step,
-                    limit_a_per_ms: limits.slew_a_per_ms,
-                });
-            }
-            previous[channel] = current;
-            bucket[channel] = (bucket[channel] + (current * current - leak) * dt_s).max(0.0);
-            if bucket[channel] > limits.thermal_budget_a2s {
-                return Err(LimitViolation::Thermal {
-                    channel,
-                    sample,
-                    bucket_a2s: bucket[channel],
-                    budget_a2s: limits.thermal_budget_a2s,
-                });
-            }
-        }
-    }
-    // The device rests at 0 A after playback: the last step is to 0 A.
-    for (channel, &current) in previous.iter().enumerate() {
-        if current.abs() > limits.slew_a_per_ms {
-            return Err(LimitViolation::Slew {
-                channel,
-                sample: signal.len(),
-                step_a: current.abs(),
-                limit_a_per_ms: limits.slew_a_per_ms,
-            });
-        }
-    }
-    Ok(())
-}
-
-/// Checks a 1 kHz current signal (amperes, one `[f64; 8]` per ms) against `limits`.
-///
-/// The device sits at 0 A before and after playback, so the step from 0 A to the first
-/// sample and from the last sample back to 0 A count as slew. The thermal bucket of each
-/// channel starts empty, grows by `(I^2 - continuous_a^2) * 1 ms` per sample and never
-/// drops below 0; it may not exceed `thermal_budget_a2s`.
-pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), LimitViolation> {
-    validate_limits(limits)?;
-    check_scaled(signal, 1.0, limits)
-}
-
-/// Scales `signal` down, in place, by the largest factor in `[0, 1]` that makes it pass
-/// [`check_limits`], and returns the factor (1 and no change when it already passes).
-///
-/// All three limits get monotonically easier as the scale shrinks (the thermal bucket
-/// too, by induction over samples), and scale 0 always passes, so a bisection on the
-/// factor finds the largest passing one to within 2^-60; the returned factor is one that
-/// was checked. Errors only for non-finite samples or invalid limits.
-///
-/// ```
-/// use touchc::condition::{check_limits, fit, Limits};
-///
-/// // 1.5 A on channel 0 after a gentle 100 ms rise: over the 1 A peak.
-/// let mut signal: Vec<[f64; 8]> = (0..=100)
-///     .map(|t| { let mut f = [0.0; 8]; f[0] = 0.015 * t as f64; f })
-///     .chain((0..=100).rev().map(|t| { let mut f = [0.0; 8]; f[0] = 0.015 * t as f64; f }))
-///     .collect();
-/// assert!(check_limits(&signal, &Limits::default()).is_err());
-/// let scale = fit(&mut signal, &Limits::default())?;
-/// assert!((scale - 1.0 / 1.5).abs() < 1e-12);
-/// assert_eq!(check_limits(&signal, &Limits::default()), Ok(()));
-/// # Ok::<(), touchc::condition::LimitViolation>(())
-/// ```
-pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, LimitViolation> {
-    validate_limits(limits)?;
-    match check_scaled(signal, 1.0, limits) {
-        Ok(()) => return Ok(1.0),
-        Err(e @ LimitViolation::NotFinite { .. }) => return Err(e),
-        Err(_) => {}
-    }
-    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if check_scaled(signal, mid, limits).is_ok() {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    for frame in signal.iter_mut() {
-        for v in frame.iter_mut() {
-            *v *= lo;
-        }
-    }
-    Ok(lo)
-}
+pub use limits::{check_limits, fit, LimitViolation, Limits};
 
 #[cfg(test)]
 mod tests;

@@ -223,7 +223,7 @@ fn validate(cfg: &Blur) -> Result<(), PreprocessError> {
 
 /// Upsamples and blurs every tared frame and computes the global mean and std.
 ///
-/// `tared` must be NaN-free (see [`crate::recording::Recording::tare`]); `sampling` gives
+/// `tared` must be NaN-free (see [`crate::input::recording::Recording::tare`]); `sampling` gives
 /// the cell pitch and upsampling factor.
 pub fn preprocess(
     tared: ArrayView3<f64>,

@@ -11,7 +11,7 @@
 use ndarray::{ArrayView3, Axis};
 
 use crate::config::{Baseline, Config, Sampling};
-use crate::recording::Recording;
+use crate::input::recording::Recording;
 
 /// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
 /// and looks like raw ADC counts.

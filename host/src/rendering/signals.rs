@@ -14,14 +14,11 @@
 use ndarray::ArrayView3;
 
 use crate::geometry::{pixel_centre_mm, Circle};
-use crate::trajectory::Trajectory;
+use crate::tracking::trajectory::Trajectory;
 
-/// Actuator rows on the sleeve.
-pub const ROWS: usize = 2;
-/// Actuator columns per row; column 0 is nearest the elbow.
-pub const COLUMNS: usize = 4;
-/// Output channels, numbered `row * COLUMNS + column` (docs/hardware.md).
-pub const CHANNELS: usize = ROWS * COLUMNS;
+/// Actuator rows, columns per row (column 0 nearest the elbow) and channels, numbered
+/// `row * COLUMNS + column` (docs/hardware.md): the layout's, which are the protocol's.
+pub use crate::placement::layout::{CHANNELS, COLUMNS, ROWS};
 
 /// Why an actuator renders what it renders at one frame; kept next to the pressure so
 /// plots and tests can tell a trajectory from neighbour fill from silence.

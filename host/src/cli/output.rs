@@ -155,11 +155,6 @@ impl Output {
         }
     }
 
-    /// The path given to [`Output::create`].
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// Wraps an I/O error with this output's name.
     pub fn error(&self, source: io::Error) -> WriteError {
         WriteError {

@@ -17,15 +17,18 @@ use thiserror::Error;
 
 use crate::geometry::Circle;
 
-/// Actuator channels on the sleeve (and in the stimulus file).
-pub const CHANNELS: usize = 8;
+/// Actuator channels on the sleeve (and in the stimulus file): the protocol's count.
+pub const CHANNELS: usize = touch_protocol::CHANNELS;
 /// Rows of workspaces; the vertical split moves row `r` by `r * split`.
 pub const ROWS: usize = 2;
 /// Workspaces per row; `channel = row * COLUMNS + column`.
 pub const COLUMNS: usize = 4;
 
+// The grid of workspaces covers every channel of the protocol once.
+const _: () = assert!(ROWS * COLUMNS == CHANNELS);
+
 /// The built-in paper layout, kept as a file so that users can copy and edit it.
-const PAPER_TOML: &str = include_str!("../layouts/paper.toml");
+const PAPER_TOML: &str = include_str!("../../layouts/paper.toml");
 /// Name used in error messages for the built-in layout.
 const PAPER_ORIGIN: &str = "<built-in layouts/paper.toml>";
 

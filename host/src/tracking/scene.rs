@@ -14,7 +14,7 @@
 //! then checked against the blurred movie ([`exact_crop`]): where it would drop a pixel
 //! strong enough for a negative detection cost, it is widened to the whole recording in
 //! that dimension. What it drops can only score costs of 0 or more, which the min-cost
-//! flow never starts or ends a trajectory on. `host/tests/compile.rs` shows the compiled
+//! flow never starts or ends a trajectory on. `host/tests/it/compile.rs` shows the compiled
 //! stimulus byte-identical with and without the crop.
 
 use std::ops::Range;
@@ -23,11 +23,12 @@ use ndarray::{ArrayView3, Axis, Slice};
 use serde::Serialize;
 
 use crate::config::{Config, Sampling};
-use crate::detect::{detect_with, detection_cost, Detections};
 use crate::placement::Placement;
-use crate::preprocess::{preprocess, Blurred};
-use crate::signals::{self, ChannelSignals, Source};
-use crate::track::{link, TrackError, TrackOutput};
+use crate::rendering::signals::{self, ChannelSignals, Source};
+use crate::stage::Stage;
+use crate::tracking::detect::{detect_with, detection_cost, Detections};
+use crate::tracking::preprocess::{preprocess, Blurred};
+use crate::tracking::track::{link, TrackError, TrackOutput};
 use touch_protocol::CHANNELS;
 
 /// The part of a tared recording the heavy stages look at, in frames and sensor cells.
@@ -93,13 +94,13 @@ pub fn active_crop(tared: ArrayView3<f64>, cfg: &Config, sampling: &Sampling) ->
 ///
 /// The crop is first checked against the blurred movie and widened where it would drop
 /// a pixel that could score a negative detection cost (see [`exact_crop`]); the crop
-/// actually used is returned. `lap` is called after each stage with its name.
+/// actually used is returned. `lap` is called after each stage with the stage.
 pub fn track_cropped(
     tared: ArrayView3<f64>,
     crop: &Crop,
     cfg: &Config,
     sampling: &Sampling,
-    lap: &mut dyn FnMut(&'static str),
+    lap: &mut dyn FnMut(Stage),
 ) -> Result<(TrackOutput, Crop), TrackError> {
     let mut window = preprocess(tared, &cfg.preprocess, sampling)?;
     let crop = exact_crop(crop, &window, cfg);
@@ -107,7 +108,7 @@ pub fn track_cropped(
     window
         .frames
         .slice_axis_inplace(Axis(0), Slice::from(crop.frames.clone()));
-    lap("preprocess");
+    lap(Stage::Preprocess);
     let k = sampling.upsample;
     let (rows, cols) = (
         crop.rows.start * k..crop.rows.end * k,
@@ -115,9 +116,9 @@ pub fn track_cropped(
     );
     let found = detect_with(&window, &cfg.detect, k);
     let detections = shift_and_clip(&found, crop.frames.start, tared.dim().0, &rows, &cols);
-    lap("detect");
+    lap(Stage::Detect);
     let trajectories = link(&detections, &cfg.track, sampling)?;
-    lap("track");
+    lap(Stage::Track);
     let tracked = TrackOutput {
         blurred: window,
         detections,
@@ -202,8 +203,9 @@ fn shift_and_clip(
     Detections { all, frame_start }
 }
 
-/// Stage 5 on the crop's frames, padded with silence to `frames` frames.
-pub fn actuator_signals(
+/// Stage 5 ([`signals::actuator_signals`]) on the crop's frames, padded with silence to
+/// `frames` frames: the signals of the whole recording.
+pub fn padded_actuator_signals(
     tracked: &TrackOutput,
     placement: &Placement,
     crop: &Crop,

@@ -13,7 +13,7 @@ use ndarray::ArrayView2;
 use serde::{Deserialize, Serialize};
 
 use crate::config::DetectConfig;
-use crate::preprocess::Blurred;
+use crate::tracking::preprocess::Blurred;
 
 /// One local maximum of one blurred frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,0 +1,404 @@
+//! The contacts of a synthetic recording: how each gesture moves and presses, frame by
+//! frame, with the sensor's flicker.
+
+use super::*;
+
+/// Pause between gestures, seconds (10 frames at the sleeve's 20 Hz).
+pub(super) const PAUSE_S: f64 = 0.5;
+/// Amplitude factor of a flickering frame: a 1 psi contact reads 0.03 psi.
+pub(super) const FLICKER_FACTOR: f64 = 0.03;
+/// Shortest and longest dropout of a flickering contact, seconds.
+pub(super) const FLICKER_S: (f64, f64) = (0.019, 0.037);
+/// Least time between two dropouts of one contact, seconds.
+pub(super) const FLICKER_SPACING_S: f64 = 0.1;
+/// A contact's radius is where it falls to this share of its peak.
+pub(super) const RADIUS_LEVEL: f64 = 0.1;
+
+/// How a contact's pressure falls off from its centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Profile {
+    /// `exp(-d^2 / 2)` in units of the blob's sigmas: a fingertip, a heel.
+    Gaussian,
+    /// `exp(-d^4 / 2)`: flat on top, falling fast at the rim (a flat hand).
+    Flat,
+}
+
+/// One contact: where it is and how hard it presses at a given time.
+pub(super) struct Contact {
+    pub(super) gesture: Gesture,
+    pub(super) start: f64,
+    pub(super) length: f64,
+    pub(super) peak_psi: f64,
+    /// Blob size along the arm and across it, in cells.
+    pub(super) sigma: (f64, f64),
+    pub(super) profile: Profile,
+    /// Rise and fall time, seconds; `None` rises and falls over the whole contact
+    /// (the shipped examples).
+    pub(super) ramp_s: Option<f64>,
+    /// Centre (col, row) at relative time `u` in [0, 1], cell edges at integers.
+    pub(super) path: Box<dyn Fn(f64) -> (f64, f64)>,
+}
+
+impl Contact {
+    /// The share of the peak pressed at time `t` (0 outside the contact).
+    pub(super) fn envelope(&self, t: f64) -> f64 {
+        let u = (t - self.start) / self.length;
+        if !(0.0..=1.0).contains(&u) {
+            return 0.0;
+        }
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        match self.ramp_s {
+            // A raised-cosine envelope: no step at touch-down or lift-off.
+            None => (std::f64::consts::PI * u).sin().powi(2),
+            Some(ramp) => {
+                let edge = (t - self.start).min(self.start + self.length - t);
+                if edge >= ramp {
+                    1.0
+                } else {
+                    (half_pi * edge / ramp).sin().powi(2)
+                }
+            }
+        }
+    }
+
+    /// Centre (col, row) at time `t`, cell edges at integers.
+    pub(super) fn centre(&self, t: f64) -> (f64, f64) {
+        (self.path)(((t - self.start) / self.length).clamp(0.0, 1.0))
+    }
+
+    pub(super) fn pressure(&self, t: f64, r: usize, c: usize) -> f64 {
+        let envelope = self.envelope(t);
+        if envelope == 0.0 {
+            return 0.0;
+        }
+        let u = (t - self.start) / self.length;
+        let (x, y) = (self.path)(u);
+        let dx = (c as f64 + 0.5 - x) / self.sigma.0;
+        let dy = (r as f64 + 0.5 - y) / self.sigma.1;
+        let d2 = dx * dx + dy * dy;
+        let fall = match self.profile {
+            Profile::Gaussian => (-0.5 * d2).exp(),
+            Profile::Flat => (-0.5 * d2 * d2).exp(),
+        };
+        self.peak_psi * envelope * fall
+    }
+
+    /// Distance from the centre, in cells along the longer axis, where the pressure
+    /// falls to [`RADIUS_LEVEL`] of the peak.
+    pub(super) fn radius_cells(&self) -> f64 {
+        let d2 = 2.0 * (1.0 / RADIUS_LEVEL).ln();
+        let d = match self.profile {
+            Profile::Gaussian => d2.sqrt(),
+            Profile::Flat => d2.sqrt().sqrt(),
+        };
+        d * self.sigma.0.max(self.sigma.1)
+    }
+}
+
+/// SplitMix64: a small, well-mixed generator, so recordings are reproducible
+/// everywhere without a dependency.
+pub(super) struct Rng(pub(super) u64);
+
+impl Rng {
+    pub(super) fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub(super) fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in [lo, hi).
+    pub(super) fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.uniform()
+    }
+
+    /// Standard normal, by Box-Muller.
+    pub(super) fn normal(&mut self) -> f64 {
+        let u1 = 1.0 - self.uniform();
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+/// Where gestures happen: the shipped gestures are laid out on the sleeve's 21 x 8
+/// cells; another frame scales their positions (not their sizes) to its own.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Frame {
+    /// Scale of positions along the arm and across it.
+    pub(super) sx: f64,
+    pub(super) sy: f64,
+    pub(super) rate_hz: f64,
+    pub(super) pitch_mm: f64,
+    pub(super) cols: f64,
+    pub(super) rows: f64,
+}
+
+impl Frame {
+    pub(super) fn of(sensor: Sensor) -> Frame {
+        Frame {
+            sx: sensor.cols() as f64 / COLS as f64,
+            sy: sensor.rows() as f64 / ROWS as f64,
+            rate_hz: sensor.rate_hz(),
+            pitch_mm: sensor.pitch_mm(),
+            cols: sensor.cols() as f64,
+            rows: sensor.rows() as f64,
+        }
+    }
+
+    /// Seconds to travel `cells` at `mps`.
+    pub(super) fn travel_s(&self, cells: f64, mps: f64) -> f64 {
+        cells.abs() * self.pitch_mm / 1000.0 / mps
+    }
+}
+
+/// Contacts of one gesture starting at `t0` seconds; returns them and the gesture length.
+///
+/// The random draws of the shipped gestures come first and in their original order, so
+/// that an untuned gesture on the sleeve is the same as ever.
+pub(super) fn gesture(
+    kind: Gesture,
+    t0: f64,
+    rng: &mut Rng,
+    tuning: &Tuning,
+    fr: Frame,
+) -> (Vec<Contact>, f64) {
+    let mut contacts = Vec::new();
+    let (sx, sy) = (fr.sx, fr.sy);
+    let blob =
+        |gesture, start, length, peak_psi, sigma, path: Box<dyn Fn(f64) -> (f64, f64)>| Contact {
+            gesture,
+            start,
+            length,
+            peak_psi,
+            sigma,
+            profile: Profile::Gaussian,
+            ramp_s: None,
+            path,
+        };
+    let length = match kind {
+        Gesture::Stroke => {
+            let row = rng.range(2.5, 5.5);
+            let (from, to) = (rng.range(1.5, 3.5), rng.range(15.5, 18.0));
+            let drift = rng.range(-1.0, 1.0);
+            let mut length = rng.range(1.0, 1.4);
+            let mut ramp_s = None;
+            if let Some(v) = tuning.stroke_speed_mps {
+                length = fr.travel_s((to - from) * sx, v);
+                ramp_s = Some((0.05f64).min(length / 4.0));
+            }
+            let mut c = blob(
+                kind,
+                t0,
+                length,
+                rng.range(1.0, 1.3),
+                (0.9, 0.8),
+                Box::new(move |u| (sx * (from + (to - from) * u), sy * (row + drift * u))),
+            );
+            c.ramp_s = ramp_s;
+            contacts.push(c);
+            length
+        }
+        Gesture::Tap => {
+            let (x, y) = (rng.range(4.0, 16.0), rng.range(2.5, 5.5));
+            let (tap, every) = match tuning.tap_s {
+                None => (0.2, 0.4),
+                Some(s) => (s, (s + 0.3).max(0.4)),
+            };
+            for k in 0..3 {
+                let mut start = t0 + every * k as f64;
+                let mut ramp_s = None;
+                if tuning.tap_s.is_some() {
+                    // A brief tap still shows in a frame: its middle falls within a
+                    // quarter frame of a frame time, inside the plateau.
+                    let ramp = (tap / 5.0).min(0.01);
+                    let period = 1.0 / fr.rate_hz;
+                    let frame = (start * fr.rate_hz).ceil() / fr.rate_hz;
+                    let jitter = rng.range(-0.25, 0.25) * period.min(tap - 2.0 * ramp);
+                    start = frame - tap / 2.0 + jitter;
+                    ramp_s = Some(ramp);
+                }
+                let mut c = blob(
+                    kind,
+                    start,
+                    tap,
+                    rng.range(0.9, 1.4),
+                    (0.7, 0.7),
+                    Box::new(move |_| (sx * x, sy * y)),
+                );
+                c.ramp_s = ramp_s;
+                contacts.push(c);
+            }
+            every * 2.0 + tap + 0.2
+        }
+        Gesture::Pat => {
+            let mut x = rng.range(3.0, 7.0);
+            for k in 0..4 {
+                let y = rng.range(3.0, 5.0);
+                let here = x;
+                contacts.push(blob(
+                    kind,
+                    t0 + 0.5 * k as f64,
+                    0.3,
+                    rng.range(0.6, 1.0),
+                    (1.6, 1.4),
+                    Box::new(move |_| (sx * here, sy * y)),
+                ));
+                x += rng.range(2.5, 4.0);
+            }
+            2.0
+        }
+        Gesture::Squeeze => {
+            // A grip: four fingertips in a line along one side of the forearm and the
+            // heel of the hand on the other, rising, held and released together.
+            let x = rng.range(5.0, 9.0);
+            let peak = rng.range(0.7, 1.0);
+            for k in 0..4 {
+                let (fx, fy) = (
+                    x + 2.2 * k as f64 + rng.range(-0.3, 0.3),
+                    rng.range(1.6, 2.4),
+                );
+                contacts.push(blob(
+                    kind,
+                    t0,
+                    1.8,
+                    peak * rng.range(0.85, 1.0),
+                    (0.8, 0.8),
+                    Box::new(move |_| (sx * fx, sy * fy)),
+                ));
+            }
+            let (px, py) = (x + 3.3, rng.range(5.6, 6.4));
+            contacts.push(blob(
+                kind,
+                t0,
+                1.8,
+                peak * 0.8,
+                (2.0, 1.0),
+                Box::new(move |_| (sx * px, sy * py)),
+            ));
+            1.8
+        }
+        Gesture::Shake => {
+            let x = rng.range(6.0, 15.0);
+            let c = match (tuning.shake_hz, tuning.shake_amplitude_mm) {
+                (None, None) => blob(
+                    kind,
+                    t0,
+                    1.5,
+                    rng.range(0.8, 1.2),
+                    (1.0, 1.0),
+                    Box::new(move |u| {
+                        (
+                            sx * x,
+                            sy * (4.0 + 2.0 * (2.0 * std::f64::consts::PI * 3.0 * 1.5 * u).sin()),
+                        )
+                    }),
+                ),
+                (hz, amp) => {
+                    let hz = hz.unwrap_or(3.0);
+                    let amp = amp.unwrap_or(2.0 * fr.pitch_mm) / fr.pitch_mm;
+                    let cy = fr.rows / 2.0;
+                    // A fingertip the size of a stroke's.
+                    let mut c = blob(
+                        kind,
+                        t0,
+                        1.5,
+                        rng.range(0.8, 1.2),
+                        (0.9, 0.8),
+                        Box::new(move |u| {
+                            let phase = 2.0 * std::f64::consts::PI * hz * 1.5 * u;
+                            (sx * x, cy + amp * phase.sin())
+                        }),
+                    );
+                    c.ramp_s = Some(0.15);
+                    c
+                }
+            };
+            contacts.push(c);
+            1.5
+        }
+        Gesture::Palm => {
+            let (x, y) = (fr.cols / 2.0 + rng.range(-1.5, 1.5), fr.rows / 2.0);
+            contacts.push(Contact {
+                gesture: kind,
+                start: t0,
+                length: 1.5,
+                peak_psi: rng.range(0.4, 0.7),
+                sigma: (3.0, 2.0),
+                profile: Profile::Flat,
+                ramp_s: Some(0.15),
+                path: Box::new(move |_| (x, y)),
+            });
+            1.5
+        }
+        Gesture::Strokes => {
+            let v = tuning.stroke_speed_mps.unwrap_or(0.3);
+            let gap = tuning.gap_s.unwrap_or(0.15);
+            let row = fr.rows / 2.0 + rng.range(-1.0, 1.0);
+            let (a, b) = (fr.cols * 0.15, fr.cols * 0.85);
+            let each = fr.travel_s(b - a, v);
+            for k in 0..3 {
+                let (from, to) = if k % 2 == 0 { (a, b) } else { (b, a) };
+                let mut c = blob(
+                    kind,
+                    t0 + (each + gap) * k as f64,
+                    each,
+                    rng.range(0.8, 1.2),
+                    (0.9, 0.8),
+                    Box::new(move |u| (from + (to - from) * u, row)),
+                );
+                c.ramp_s = Some((0.04f64).min(each / 4.0));
+                contacts.push(c);
+            }
+            3.0 * each + 2.0 * gap
+        }
+        Gesture::Rest => 2.0,
+    };
+    (contacts, length)
+}
+
+/// Per contact and frame: true where the contact flickers (reads almost nothing).
+///
+/// Dropouts arrive at `spec.flicker` per second while the contact presses fully, last
+/// [`FLICKER_S`] (one or two frames at 54 Hz, as measured on real captures) and are at
+/// least [`FLICKER_SPACING_S`] apart; a frame flickers when its time falls inside one.
+/// So a 20 Hz recording of the same touch sees fewer, single-frame dropouts.
+pub(super) fn flicker_frames(
+    contacts: &[Contact],
+    frames: usize,
+    rate: f64,
+    spec: &SynthSpec,
+) -> Vec<Vec<bool>> {
+    let mut dim = vec![vec![false; frames]; contacts.len()];
+    if spec.flicker.is_nan() || spec.flicker <= 0.0 {
+        return dim;
+    }
+    let mut rng = Rng(spec.seed ^ 0xF11C_4E42_D0D0_5EED);
+    for (k, c) in contacts.iter().enumerate() {
+        let full = |t: f64| c.envelope(t) >= 0.999;
+        let mut t = c.start;
+        loop {
+            t += -(1.0 - rng.uniform()).ln() / spec.flicker;
+            let d = rng.range(FLICKER_S.0, FLICKER_S.1);
+            if t + d + FLICKER_SPACING_S / 2.0 > c.start + c.length {
+                break;
+            }
+            // Only while pressing fully, with full pressure on both sides.
+            if full(t - 1.0 / rate) && full(t + d + 1.0 / rate) {
+                let first = (t * rate).ceil() as usize;
+                let last = ((t + d) * rate).floor() as usize;
+                let last = last.min(frames.saturating_sub(1));
+                if first <= last {
+                    dim[k][first..=last].fill(true);
+                }
+            }
+            t += d + FLICKER_SPACING_S;
+        }
+    }
+    dim
+}

@@ -1,0 +1,92 @@
+//! What [`super::place`] refuses before searching: inputs that would make the grid or
+//! the scores meaningless.
+
+use super::*;
+
+pub(super) fn check_inputs(
+    trajs: &[Trajectory],
+    rows: usize,
+    cols: usize,
+    pitch_mm: f64,
+    cfg: &PlacementConfig,
+) -> Result<(), PlacementError> {
+    for (field, value) in [("grid_x", cfg.grid_x), ("grid_y", cfg.grid_y)] {
+        if value == 0 {
+            return Err(PlacementError::InvalidConfig {
+                field,
+                value: value.to_string(),
+                reason: "the grid needs at least one point",
+            });
+        }
+    }
+    if grid_size(cfg).is_none_or(|n| n > MAX_TRANSFORMS) {
+        return Err(PlacementError::InvalidConfig {
+            field: "grid_x * grid_y * (grid_y + 1) / 2",
+            value: format!("{} x {}", cfg.grid_x, cfg.grid_y),
+            reason: "at most 20,000,000 transforms",
+        });
+    }
+    if let Some(c) = &cfg.coarse_to_fine {
+        if c.stride == 0 || c.keep == 0 {
+            return Err(PlacementError::InvalidConfig {
+                field: "coarse_to_fine",
+                value: format!("stride {}, keep {}", c.stride, c.keep),
+                reason: "stride and keep must be at least 1",
+            });
+        }
+    }
+    if !(cfg.centre_bonus.is_finite() && cfg.centre_bonus >= 0.0) {
+        return Err(PlacementError::InvalidConfig {
+            field: "centre_bonus",
+            value: cfg.centre_bonus.to_string(),
+            reason: "must be finite and >= 0 so that every point inside a circle weighs > 0",
+        });
+    }
+    if rows == 0 || cols == 0 {
+        return Err(PlacementError::EmptyFrame { rows, cols });
+    }
+    if !(pitch_mm.is_finite() && pitch_mm > 0.0) {
+        return Err(PlacementError::BadPitch(pitch_mm));
+    }
+    for (t, traj) in trajs.iter().enumerate() {
+        let n = traj.frames.len();
+        if traj.rows.len() != n || traj.cols.len() != n || traj.costs.len() != n {
+            return Err(PlacementError::LengthMismatch {
+                trajectory: t,
+                frames: n,
+                rows: traj.rows.len(),
+                cols: traj.cols.len(),
+                costs: traj.costs.len(),
+            });
+        }
+        for d in 0..n {
+            let (row, col, cost) = (traj.rows[d], traj.cols[d], traj.costs[d]);
+            if !cost.is_finite() {
+                return Err(PlacementError::NonFiniteCost {
+                    trajectory: t,
+                    detection: d,
+                    cost,
+                });
+            }
+            if d > 0 && traj.frames[d] <= traj.frames[d - 1] {
+                return Err(PlacementError::FramesNotIncreasing {
+                    trajectory: t,
+                    detection: d,
+                    frame: traj.frames[d],
+                    previous: traj.frames[d - 1],
+                });
+            }
+            if row >= rows || col >= cols {
+                return Err(PlacementError::OutsideFrame {
+                    trajectory: t,
+                    detection: d,
+                    row,
+                    col,
+                    rows,
+                    cols,
+                });
+            }
+        }
+    }
+    Ok(())
+}
