@@ -1,7 +1,7 @@
 //! The successive-shortest-path solver against brute force on small random DAGs.
 
 use proptest::prelude::*;
-use touchc::tracking::flow::{min_cost_flow, FlowGraph};
+use touchc::tracking::flow::{min_cost_flow, min_cost_flow_by_parts, FlowGraph};
 
 /// Cheapest feasible unit-capacity flow of value <= max_units, by trying every edge set.
 fn brute_force(n: usize, edges: &[(usize, usize, f64)], max_units: usize) -> f64 {
@@ -67,5 +67,82 @@ proptest! {
             }
         }
         prop_assert_eq!(covered, sol.used.clone());
+    }
+}
+
+/// Several small DAGs side by side between one source and one sink: the parts that
+/// `min_cost_flow_by_parts` solves one by one.
+fn parts_strategy() -> impl Strategy<Value = (usize, Vec<(usize, usize, f64)>, usize)> {
+    (
+        prop::collection::vec(
+            (2usize..6, prop::collection::vec(any::<u32>(), 2..10)),
+            1..5,
+        ),
+        1usize..7,
+    )
+        .prop_map(|(parts, max_units)| {
+            // Inner nodes 1..=total; each part owns a consecutive block, interleaved
+            // edge by edge so the parts' edges are mixed in insertion order.
+            let total: usize = parts.iter().map(|p| p.0).sum();
+            let sink = total + 1;
+            let mut blocks = Vec::new();
+            let mut first = 1;
+            for (size, picks) in &parts {
+                let mut edges = Vec::new();
+                for (i, &r) in picks.iter().enumerate() {
+                    let a = (r as usize) % (size + 1); // 0 = the source
+                    let b = a + 1 + (r as usize / 7) % (size + 1 - a); // size + 1 = the sink
+                    let cost = ((r % 17) as f64 - 11.0) * 0.5 + i as f64 * 1e-3;
+                    let node = |v: usize| match v {
+                        0 => 0,
+                        v if v > *size => sink,
+                        v => first + v - 1,
+                    };
+                    edges.push((node(a), node(b), cost));
+                }
+                blocks.push(edges);
+                first += size;
+            }
+            let longest = blocks.iter().map(Vec::len).max().unwrap_or(0);
+            let mut edges = Vec::new();
+            for i in 0..longest {
+                edges.extend(blocks.iter().filter_map(|b| b.get(i).copied()));
+            }
+            (sink + 1, edges, max_units)
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(600))]
+    #[test]
+    fn solving_by_parts_is_solving_the_whole((n, edges, max_units) in parts_strategy()) {
+        let mut g = FlowGraph::new(n);
+        for &(a, b, c) in &edges {
+            g.add_edge(a, b, c).unwrap();
+        }
+        let whole = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
+        let parts = min_cost_flow_by_parts(&g, 0, n - 1, max_units).unwrap();
+        prop_assert!((whole.total_cost - parts.total_cost).abs() < 1e-9,
+            "whole {} vs parts {}", whole.total_cost, parts.total_cost);
+        prop_assert_eq!(whole.units, parts.units);
+        let used_cost: f64 = edges.iter().zip(&parts.used).filter(|(_, &u)| u).map(|(e, _)| e.2).sum();
+        prop_assert!((used_cost - parts.total_cost).abs() < 1e-9);
+        prop_assert_eq!(parts.paths.len(), parts.units);
+        // Paths come in the order one solver finds them: by the cost of their augmentation.
+        prop_assert!(parts.found_at.iter().map(|&a| parts.marginals[a]).collect::<Vec<_>>()
+            .windows(2).all(|w| w[0] <= w[1]));
+        let mut covered = vec![false; edges.len()];
+        for path in &parts.paths {
+            prop_assert_eq!(edges[path[0]].0, 0);
+            prop_assert_eq!(edges[*path.last().unwrap()].1, n - 1);
+            for w in path.windows(2) {
+                prop_assert_eq!(edges[w[0]].1, edges[w[1]].0);
+            }
+            for &e in path {
+                prop_assert!(parts.used[e] && !covered[e]);
+                covered[e] = true;
+            }
+        }
+        prop_assert_eq!(covered, parts.used.clone());
     }
 }
