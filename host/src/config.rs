@@ -161,11 +161,11 @@ impl Config {
                     entry_cost: 1.5,
                     exit_cost: 1.5,
                     max_speed_mm_s: 2000.0,
+                    max_trajectories: MAX_TRAJECTORIES,
                     bridge: Some(Bridge {
                         max_missing_s: 0.06,
                         cost_per_missing: 0.5,
                     }),
-                    ..paper.track
                 },
                 ..paper
             },
@@ -336,7 +336,11 @@ pub struct TrackConfig {
     /// Links join detections in consecutive frames that moved less than this speed,
     /// mm/s (paper: 50 squared pixels per frame, sqrt(50) x 25.4/7 mm x 20 Hz = 513 mm/s).
     pub max_speed_mm_s: f64,
-    /// At most this many units of flow (trajectories).
+    /// At most this many units of flow (trajectories). The paper's 200 is a count from
+    /// its short recordings; the `touch` preset sets [`MAX_TRAJECTORIES`], no limit in
+    /// practice: the flow ends by itself when no further contact pays for its entry and
+    /// exit, so the number of trajectories follows the touch, however long the
+    /// recording. Reaching the limit is a warning.
     pub max_trajectories: usize,
     /// Links across frames where a contact is unseen (`touch`; the paper: none).
     pub bridge: Option<Bridge>,
@@ -353,6 +357,9 @@ impl Default for TrackConfig {
         }
     }
 }
+
+/// The largest `track.max_trajectories` a config may set, and the `touch` preset's.
+pub const MAX_TRAJECTORIES: usize = 1_000_000;
 
 /// The paper's link gate, `d^2 < 50` pixels^2 per frame at 20 Hz on 25.4/7 mm pixels, as
 /// a speed. [`Sampling::gate_px2`] turns it back into exactly 50.

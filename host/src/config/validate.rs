@@ -156,7 +156,12 @@ impl Config {
             20_000.0,
             " mm/s",
         )?;
-        count("track.max_trajectories", t.max_trajectories, 1, 1_000_000)?;
+        count(
+            "track.max_trajectories",
+            t.max_trajectories,
+            1,
+            super::MAX_TRAJECTORIES,
+        )?;
         let pl = &self.placement;
         count("placement.grid_x", pl.grid_x, 1, MAX_TRANSFORMS)?;
         count("placement.grid_y", pl.grid_y, 1, MAX_TRANSFORMS)?;
