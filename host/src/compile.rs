@@ -293,10 +293,10 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     };
     if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {
         warnings.push(format!(
-            "placement: the trajectory-subset search ran out of its budget of {} nodes on \
+            "placement: the trajectory-subset search ran out of its budget of {} nodes per transform on \
              {} of {} transforms ({} trajectories; a scene this dense is usually noise): \
              those transforms kept the best subset found, which may not be optimal",
-            crate::placement::bnb::NODE_BUDGET,
+            p.node_budget,
             p.transforms_inexact,
             p.transforms_evaluated,
             tracked.trajectories.len(),
@@ -401,6 +401,7 @@ fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
         cell_mm: sampling.pitch_mm,
         gate_mm_s: cfg.track.max_speed_mm_s,
         min_frames,
+        touch_tracking: cfg.track.bridge.is_some() && cfg.detect.split.is_some(),
     }
 }
 

@@ -78,10 +78,26 @@ fn augment(i: usize, mask: u32, masks: &[u32], owner: &mut [usize; 32], seen: &m
     false
 }
 
-/// Nodes the subset search may visit per connected component before it keeps the best
-/// subset found so far: 650 times what the published workloads and the shipped examples
-/// need (at most 50), and a bound of a few milliseconds per transform on any scene.
-pub const NODE_BUDGET: u64 = 1 << 15;
+/// Nodes the subset search of one transform may visit, over all its connected
+/// components, before it keeps the best subset found so far: 80 times what the
+/// published workloads and the shipped examples need (at most 50 per component).
+pub const NODE_BUDGET: u64 = 1 << 12;
+
+/// Nodes the subset searches of one whole placement may visit: each transform gets an
+/// equal share, at most [`NODE_BUDGET`] and at least [`MIN_NODE_BUDGET`]. A dense
+/// scene (noise tracked as hundreds of crossing trajectories, found by fuzzing) then
+/// costs a bounded time per compile, whatever the grid: 16.8 M nodes on the paper's
+/// 4,200 transforms, 61 M on `exact`'s 60,060 (about a second and a few seconds).
+pub const COMPILE_NODE_BUDGET: u64 = 1 << 24;
+
+/// The least share of [`COMPILE_NODE_BUDGET`] a transform gets on a very fine grid.
+pub const MIN_NODE_BUDGET: u64 = 1 << 10;
+
+/// The node budget of each transform's subset search on a grid of `transforms`.
+pub fn transform_budget(transforms: usize) -> u64 {
+    let share = COMPILE_NODE_BUDGET / (transforms.max(1) as u64);
+    share.clamp(MIN_NODE_BUDGET, NODE_BUDGET)
+}
 
 /// What [`SubsetProblem::solve_within`] found.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -174,8 +190,8 @@ impl SubsetProblem {
         self.solve_within(u64::MAX).chosen
     }
 
-    /// The optimum when the search proves it within `node_budget` nodes per connected
-    /// component, else the best subset found by then (always feasible), with
+    /// The optimum when the search proves it within `node_budget` nodes over all its
+    /// connected components, else the best subset found by then (always feasible), with
     /// [`Solution::exact`] false. The search is exponential in the worst case: a scene of
     /// a hundred trajectories all crossing the same workspaces (noise, found by fuzzing)
     /// took 24 M nodes for one transform, while the published workloads and the shipped
@@ -219,13 +235,17 @@ impl SubsetProblem {
         }
         let mut chosen = Vec::new();
         let mut exact = true;
+        let mut remaining = node_budget;
         for comp in components {
             if comp.len() == 1 {
                 chosen.extend(comp);
             } else {
+                // Components share the budget: once it is spent, each later one keeps
+                // its first (greedy) leaf.
                 let mut search = Search::new(self, &comp);
-                search.budget = node_budget;
-                let (best, proved) = search.run();
+                search.budget = remaining;
+                let (best, proved, nodes) = search.run();
+                remaining = remaining.saturating_sub(nodes);
                 chosen.extend(best);
                 exact &= proved;
             }
@@ -319,11 +339,11 @@ impl<'a> Search<'a> {
         }
     }
 
-    /// The best subset found, and whether the search proved it optimal (it did not when
-    /// the node budget ran out first).
-    fn run(mut self) -> (Vec<usize>, bool) {
+    /// The best subset found, whether the search proved it optimal (it did not when
+    /// the node budget ran out first), and the nodes it visited.
+    fn run(mut self) -> (Vec<usize>, bool, u64) {
         self.descend(0, 0.0);
-        (self.best, self.nodes <= self.budget)
+        (self.best, self.nodes <= self.budget, self.nodes)
     }
 
     fn weight(&self, l: usize) -> f64 {

@@ -100,9 +100,12 @@ pub struct Placement {
     pub scores: Vec<f64>,
     /// Transforms whose circles met a point and so needed a subset choice.
     pub transforms_evaluated: usize,
-    /// Transforms whose subset search ran out of its node budget
-    /// ([`bnb::NODE_BUDGET`]) and kept the best subset found by then: their score may be
-    /// worse than the optimum. 0 on every published and shipped scene.
+    /// Nodes each transform's subset search could visit: the compile's budget
+    /// ([`bnb::COMPILE_NODE_BUDGET`]) shared over the grid ([`bnb::transform_budget`]).
+    pub node_budget: u64,
+    /// Transforms whose subset search ran out of its node budget and kept the best
+    /// subset found by then: their score may be worse than the optimum. 0 on every
+    /// published and shipped scene.
     pub transforms_inexact: usize,
 }
 
@@ -234,6 +237,7 @@ pub fn place(
         cfg,
         scene: &scene,
         inexact: std::sync::atomic::AtomicUsize::new(0),
+        node_budget: bnb::transform_budget(grid.len()),
     };
     let mut state = Scores {
         score: vec![0.0; grid.len()],
@@ -257,7 +261,7 @@ pub fn place(
     let circles = transform.circles(layout);
     let all = [(0, scene.by_x.len()); CHANNELS];
     let mut selected = Vec::new();
-    let mut scratch = Scratch::new(&scene, trajs.len());
+    let mut scratch = Scratch::new(&scene, trajs.len(), search.node_budget);
     score_transform(
         &circles,
         &all,
@@ -274,6 +278,7 @@ pub fn place(
         circles,
         scores,
         transforms_evaluated: state.evaluated,
+        node_budget: search.node_budget,
         transforms_inexact: search.inexact.into_inner(),
     })
 }

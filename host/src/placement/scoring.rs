@@ -41,6 +41,8 @@ pub(super) struct Scratch {
     pub(super) local: Vec<usize>,
     /// Set when the last subset search ran out of its node budget.
     pub(super) inexact: bool,
+    /// Nodes each transform's subset search may visit ([`super::bnb::transform_budget`]).
+    pub(super) node_budget: u64,
 }
 
 impl Scene {
@@ -74,7 +76,7 @@ impl Scene {
 }
 
 impl Scratch {
-    pub(super) fn new(scene: &Scene, trajectories: usize) -> Scratch {
+    pub(super) fn new(scene: &Scene, trajectories: usize, node_budget: u64) -> Scratch {
         Scratch {
             mask: vec![0; scene.points.len()],
             weight: vec![0.0; scene.points.len()],
@@ -83,6 +85,7 @@ impl Scratch {
             chosen: vec![false; trajectories],
             local: vec![usize::MAX; trajectories],
             inexact: false,
+            node_budget,
         }
     }
 }
@@ -168,7 +171,7 @@ pub(super) fn score_transform(
     match &problem {
         None => candidates.iter().for_each(|&t| s.chosen[t] = true),
         Some(p) => {
-            let solution = p.solve_within(super::bnb::NODE_BUDGET);
+            let solution = p.solve_within(s.node_budget);
             s.inexact |= !solution.exact;
             for l in solution.chosen {
                 s.chosen[candidates[l]] = true;

@@ -69,6 +69,8 @@ pub(super) struct Search<'a> {
     pub(super) scene: &'a Scene,
     /// Transforms scored with a subset search that ran out of budget (all threads).
     pub(super) inexact: std::sync::atomic::AtomicUsize,
+    /// Nodes each transform's subset search may visit.
+    pub(super) node_budget: u64,
 }
 
 /// Scores found so far (0 for a transform that meets no point or was not scored).
@@ -112,7 +114,7 @@ impl Search<'_> {
     /// Scores `ks` one after another with one set of buffers; `None` = meets no point.
     pub(super) fn score_seq(&self, ks: &[usize]) -> Vec<Option<f64>> {
         let scene = self.scene;
-        let mut scratch = Scratch::new(scene, scene.gains.len());
+        let mut scratch = Scratch::new(scene, scene.gains.len(), self.node_budget);
         let mut ranges = [(0usize, 0usize); CHANNELS];
         let mut current_x = f64::NAN;
         ks.iter()
