@@ -175,6 +175,9 @@ pub struct Tracking {
     /// The fewest frames a trajectory of strong detections needs to pay its entry and
     /// exit costs.
     pub min_frames: usize,
+    /// The `touch` preset's tracking is on already (links across missing frames and
+    /// contact splitting), so advice does not suggest it.
+    pub touch_tracking: bool,
 }
 
 /// Where the touch no contact explains lies, as shares of the unexplained pressure, and
@@ -201,11 +204,17 @@ impl Misses {
     pub fn advice(&self, t: &Tracking) -> Vec<String> {
         let mut out: Vec<(f64, String)> = Vec::new();
         let pct = |v: f64| (100.0 * v).round();
+        // "try --preset touch, or ..." where that preset would change something.
+        let touch_or = if t.touch_tracking {
+            "try"
+        } else {
+            "try --preset touch, or"
+        };
         if self.brief > 0.0 {
             out.push((
                 self.brief,
                 format!(
-                    "{}% of the missed touch is in touches shorter than {} frames ({:.0} ms), the least a trajectory needs to pay its entry and exit costs: try --preset touch, or lower --entry-cost and --exit-cost",
+                    "{}% of the missed touch is in touches shorter than {} frames ({:.0} ms), the least a trajectory needs to pay its entry and exit costs: {touch_or} lower --entry-cost and --exit-cost",
                     pct(self.brief),
                     t.min_frames,
                     1000.0 * t.min_frames as f64 / t.rate_hz
@@ -216,18 +225,17 @@ impl Misses {
             let fast = self.speed_p90_mm_s > t.gate_mm_s;
             let why = if fast {
                 format!(
-                    "the touch moves at up to {:.2} m/s (90th percentile), the link gate follows {:.2} m/s: try --preset touch, or a wider link gate",
+                    "the touch moves at up to {:.2} m/s (90th percentile), the link gate follows {:.2} m/s: {touch_or} a wider link gate (--max-speed-mm-s)",
                     self.speed_p90_mm_s / 1000.0,
                     t.gate_mm_s / 1000.0
                 )
-            } else if self.dropouts > 0 {
+            } else if self.dropouts > 0 && !t.touch_tracking {
                 format!(
                     "the touch drops out for one or two frames {} times (flicker) and the pieces are too short to track: try --preset touch (links across missing frames)",
                     self.dropouts
                 )
             } else {
-                "its detections are too weak to start a trajectory: try --preset touch, or lower --entry-cost and --exit-cost"
-                    .to_string()
+                format!("its detections are too weak to start a trajectory: {touch_or} lower --entry-cost and --exit-cost")
             };
             out.push((
                 self.untracked,
@@ -241,8 +249,13 @@ impl Misses {
             out.push((
                 self.beside,
                 format!(
-                    "{}% of the missed touch lies more than {DEFAULT_RADIUS_CELLS} cells from the contact tracked in its frame: a large contact (a flat hand) or a second one; try --preset touch (contact splitting)",
-                    pct(self.beside)
+                    "{}% of the missed touch lies more than {DEFAULT_RADIUS_CELLS} cells from the contact tracked in its frame: a large contact (a flat hand) or a second one; {}",
+                    pct(self.beside),
+                    if t.touch_tracking {
+                        "contact splitting is on: try a finer lattice (--set detect.split.spacing_cells=1)"
+                    } else {
+                        "try --preset touch (contact splitting)"
+                    }
                 ),
             ));
         }
@@ -427,6 +440,7 @@ mod tests {
             cell_mm: 25.4,
             gate_mm_s: 500.0,
             min_frames: 3,
+            touch_tracking: false,
         };
         // 1 x 20 cells, 12 frames: a one-frame tap at frame 1 (missed); frames 4-9 a
         // contact moving 3 cells a frame (untracked); frames 4-9 also a second reading
@@ -455,5 +469,16 @@ mod tests {
         let advice = m.advice(&t);
         assert!(advice[0].contains("no contact was tracked") && advice[0].contains("gate"));
         assert!(advice[1].contains("2 cells") && advice[2].contains("shorter than 3 frames"));
+        assert!(advice.iter().all(|a| a.contains("--preset touch")));
+        // Under the touch preset's tracking the advice names what else to try instead.
+        let on_touch = m.advice(&Tracking {
+            touch_tracking: true,
+            ..t
+        });
+        assert!(
+            on_touch.iter().all(|a| !a.contains("--preset touch")),
+            "{on_touch:?}"
+        );
+        assert!(on_touch[0].contains("--max-speed-mm-s") && on_touch[1].contains("spacing_cells"));
     }
 }
