@@ -15,7 +15,7 @@ use std::fs::{File, OpenOptions};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use std::time::SystemTime;
+use std::time::{Duration, SystemTime};
 
 use tempfile::NamedTempFile;
 
@@ -277,10 +277,20 @@ fn run_start() -> SystemTime {
     *START.get_or_init(SystemTime::now)
 }
 
-/// Removes `.touchc-*.tmp` files in `dir` left by killed runs: last written before
-/// `start` and not locked (a live writer holds its temporary's lock until it closes
-/// it). Failures are ignored: cleaning is a courtesy, never a reason to refuse a write.
+/// How much older than this run a temporary must be to count as another run's. File
+/// times come from the kernel's coarse clock, which can lag `SystemTime::now()` by a
+/// tick: without a margin a sibling thread's temporary, created just after the run
+/// began and not yet locked, could look old and be removed under it.
+const STALE_MARGIN: Duration = Duration::from_secs(2);
+
+/// Removes `.touchc-*.tmp` files in `dir` left by killed runs: last written at least
+/// [`STALE_MARGIN`] before `start` and not locked (a live writer holds its temporary's
+/// lock until it closes it). Failures are ignored: cleaning is a courtesy, never a
+/// reason to refuse a write.
 fn remove_stale_temporaries(dir: &Path, start: SystemTime) {
+    let Some(cutoff) = start.checked_sub(STALE_MARGIN) else {
+        return;
+    };
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
@@ -291,7 +301,7 @@ fn remove_stale_temporaries(dir: &Path, start: SystemTime) {
             continue;
         }
         let Ok(meta) = entry.metadata() else { continue };
-        let old = meta.modified().is_ok_and(|m| m < start);
+        let old = meta.modified().is_ok_and(|m| m < cutoff);
         if !meta.is_file() || !old {
             continue;
         }
@@ -349,10 +359,16 @@ mod tests {
         for p in [&live, &dead, &other] {
             std::fs::write(p, b"partial").unwrap();
         }
+        let fresh = dir.path().join(".touchc-fresh.tmp");
+        std::fs::write(&fresh, b"just created").unwrap();
+        // Both temporaries must predate the run by the margin to be candidates at all.
+        let long_ago = SystemTime::now() - 10 * STALE_MARGIN;
+        for p in [&live, &dead, &other] {
+            let f = OpenOptions::new().write(true).open(p).unwrap();
+            f.set_modified(long_ago).unwrap();
+        }
         let held = File::open(&live).unwrap();
         held.lock().unwrap();
-        // Both temporaries must predate the run to be candidates at all.
-        std::thread::sleep(std::time::Duration::from_millis(20));
         remove_stale_temporaries(dir.path(), SystemTime::now());
         assert!(live.exists(), "a locked temporary belongs to a live run");
         assert!(
@@ -360,5 +376,9 @@ mod tests {
             "an unlocked old temporary is a killed run's"
         );
         assert!(other.exists(), "only our own pattern is touched");
+        assert!(
+            fresh.exists(),
+            "a temporary younger than the margin may be a sibling's, not yet locked"
+        );
     }
 }

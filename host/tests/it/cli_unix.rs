@@ -289,7 +289,9 @@ fn a_killed_runs_temporary_is_removed_by_the_next_run() {
     child.wait().unwrap();
     assert!(partial.exists(), "the killed run left its temporary");
     assert!(!csv.exists(), "and no output");
-    // The next run writing into the directory cleans up after it.
+    // The next run writing into the directory cleans up after it, once the temporary
+    // is older than the 2 s margin that protects a sibling's not-yet-locked one.
+    std::thread::sleep(Duration::from_millis(2500));
     let out = touchc(&["synth", "tap", "-o", s(&dir.path().join("rec.npy"))]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(temporaries(dir.path()), Vec::<PathBuf>::new());
