@@ -63,6 +63,8 @@ fn bench(c: &mut Criterion) {
     // Stage by stage, on the inputs the paper preset's compile hands each stage.
     let opts = CompileOptions {
         config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+        // The detect stage below runs on the blurred movie the compile otherwise drops.
+        keep_movie: true,
         ..CompileOptions::default()
     };
     let cfg = &opts.config;
@@ -73,9 +75,8 @@ fn bench(c: &mut Criterion) {
         compiled.placement.as_ref().expect("trajectories"),
         compiled.signals.as_ref().expect("touch"),
     );
-    let crop = compiled.report.crop.clone().expect("cropped");
     let tared = rec.tare(&cfg.input, &paper).expect("long enough");
-    let (frames, rows, cols) = tared.dim();
+    let (_, rows, cols) = tared.dim();
     c.bench_function("stage/tare", |b| {
         b.iter(|| rec.tare(black_box(&cfg.input), &paper).expect("tare"))
     });
@@ -89,7 +90,7 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
-    c.bench_function("stage/detect (crop)", |b| {
+    c.bench_function("stage/detect (whole)", |b| {
         b.iter(|| detect::detect(black_box(&tracked.blurred), &cfg.detect))
     });
     c.bench_function("stage/track (crop)", |b| {
@@ -127,7 +128,10 @@ fn bench(c: &mut Criterion) {
         }
     }
     c.bench_function("stage/signals", |b| {
-        b.iter(|| scene::padded_actuator_signals(black_box(tracked), placement, &crop, frames))
+        b.iter(|| {
+            scene::padded_actuator_signals(black_box(tracked), placement, tared.view(), cfg, &paper)
+                .expect("signals")
+        })
     });
     c.bench_function("stage/condition", |b| {
         b.iter(|| {

@@ -35,6 +35,10 @@ pub struct CompileOptions {
     pub fit: bool,
     /// Crop time and space to the active scene before the heavy stages.
     pub crop: bool,
+    /// Keep the blurred movie in [`Compiled::tracked`] (what a preview draws; with
+    /// `crop` off, the whole recording's). Off, the compile streams through the frames
+    /// and keeps none: memory follows the touch, not the recording's length.
+    pub keep_movie: bool,
     /// The recording's rate and pitch from the command line (over the file's, over the
     /// config's `input.rate_hz` / `input.pitch_mm`).
     pub metadata: MetadataOverrides,
@@ -50,6 +54,7 @@ impl Default for CompileOptions {
             limits: Limits::SLEEVE,
             fit: false,
             crop: true,
+            keep_movie: false,
             metadata: MetadataOverrides::default(),
             name: String::from("touch"),
         }
@@ -249,8 +254,14 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     } else {
         Crop::whole(tared.dim())
     };
-    let (tracked, crop) =
-        scene::track_cropped(tared.view(), &crop, cfg, &sampling, &mut |s| clock.stage(s))?;
+    let (tracked, crop) = scene::track_cropped(
+        tared.view(),
+        &crop,
+        cfg,
+        &sampling,
+        opts.keep_movie,
+        &mut |s| clock.stage(s),
+    )?;
     let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
     clock.stage(Stage::Coverage);
 
@@ -288,7 +299,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     // Stage 5.
     let frames = tared.dim().0;
     let signals = match &placement {
-        Some(p) => scene::padded_actuator_signals(&tracked, p, &crop, frames),
+        Some(p) => scene::padded_actuator_signals(&tracked, p, tared.view(), cfg, &sampling)?,
         None => ChannelSignals::silent(frames),
     };
     if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {
@@ -317,12 +328,6 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
         condition::check_limits(&signal, &limits)?;
         1.0
     };
-    if fit_scale < 1.0 {
-        warnings.push(format!(
-            "scaled by {fit_scale:.4} ({:.1} dB) to pass the limits",
-            20.0 * fit_scale.log10()
-        ));
-    }
     clock.stage(Stage::Condition);
 
     let scene = Scene {
@@ -405,6 +410,11 @@ fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
     }
 }
 
+/// With `--fit`: the factor by which a fitted signal is scaled again when its encoding
+/// still trips a limit in the player, and how many times at most (0.99^20 = 0.82).
+const REFIT_STEP: f64 = 0.99;
+const MAX_REFITS: u32 = 20;
+
 /// Stage 7 and the report; `scene` is `None` for a recording without touch.
 #[allow(clippy::too_many_arguments)]
 fn finish(
@@ -412,9 +422,9 @@ fn finish(
     opts: &CompileOptions,
     metadata: &Metadata,
     mut clock: Clock,
-    warnings: Vec<String>,
-    signal: Vec<[f64; CHANNELS]>,
-    fit_scale: f64,
+    mut warnings: Vec<String>,
+    mut signal: Vec<[f64; CHANNELS]>,
+    mut fit_scale: f64,
     scene: Option<Scene>,
 ) -> Result<Compiled, CompileError> {
     let no_touch = scene.is_none();
@@ -434,11 +444,34 @@ fn finish(
         layout_id: layout_tag(&opts.layout),
         limits: opts.limits,
     };
-    let encoded = keyframes::encode(
-        &signal,
-        fields,
-        &KeyframeOptions::new(&opts.config.keyframes),
-    )?;
+    let options = KeyframeOptions::new(&opts.config.keyframes);
+    let mut refits = 0;
+    let encoded = loop {
+        match keyframes::encode(&signal, fields, &options) {
+            // A signal fitted to the limits in f64 sits on them; the player's
+            // interpolation and rounding can land it just over (a long touch fitted to
+            // the thermal budget). Step down until the played codes pass too.
+            Err(KeyframeError::LimitHit(_)) if opts.fit && refits < MAX_REFITS => {
+                for v in signal.iter_mut().flatten() {
+                    *v *= REFIT_STEP;
+                }
+                fit_scale *= REFIT_STEP;
+                refits += 1;
+            }
+            result => break result?,
+        }
+    };
+    if fit_scale < 1.0 {
+        warnings.push(format!(
+            "scaled by {fit_scale:.4} ({:.1} dB) to pass the limits{}",
+            20.0 * fit_scale.log10(),
+            if refits > 0 {
+                format!(" ({refits} steps of {REFIT_STEP} after the fit, for the played codes)")
+            } else {
+                String::new()
+            }
+        ));
+    }
     clock.stage(Stage::Keyframes);
     let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
     let bytes = encoded.bytes.len();

@@ -168,9 +168,11 @@ pub fn encode(
             b.candidates_tried = tried;
             Ok(b)
         }
+        // When the player refused a candidate and none passed, report the limit: it is
+        // the obstacle a smaller signal (`--fit`) removes, where finer keyframes do not.
         None => match limit_hit {
-            Some(kind) if !closest.0.is_finite() => Err(KeyframeError::LimitHit(kind)),
-            _ => Err(KeyframeError::Unfaithful {
+            Some(kind) => Err(KeyframeError::LimitHit(kind)),
+            None => Err(KeyframeError::Unfaithful {
                 rms: closest.0,
                 max: closest.1,
             }),

@@ -11,7 +11,7 @@
 //! Frames stay in time order: sample `t` of every channel is frame `t` of the recording
 //! (the published code appends silent frames after the active ones; that is a bug).
 
-use ndarray::ArrayView3;
+use ndarray::{ArrayView2, ArrayView3, Axis};
 
 use crate::geometry::{pixel_centre_mm, Circle};
 use crate::tracking::trajectory::Trajectory;
@@ -122,7 +122,30 @@ pub fn actuator_signals(
     blurred: ArrayView3<f64>,
     pitch_mm: f64,
 ) -> ChannelSignals {
-    let (frames, rows, cols) = blurred.dim();
+    actuator_signals_with(
+        trajs,
+        selected,
+        circles,
+        blurred.dim(),
+        pitch_mm,
+        |t, read| read(blurred.index_axis(Axis(0), t)),
+    )
+}
+
+/// [`actuator_signals`] without the blurred movie: `dim` is its shape `[T, rows_px,
+/// cols_px]`, and `frame(t, read)` calls `read` with blurred frame `t`. Only the
+/// neighbour fill reads pixels, so `frame` is asked only for the frames where some
+/// channel fills, once each, in increasing order: a caller can recompute just those
+/// frames instead of keeping every one.
+pub fn actuator_signals_with(
+    trajs: &[Trajectory],
+    selected: &[usize],
+    circles: &[Circle; CHANNELS],
+    dim: (usize, usize, usize),
+    pitch_mm: f64,
+    mut frame: impl FnMut(usize, &mut dyn FnMut(ArrayView2<f64>)),
+) -> ChannelSignals {
+    let (frames, rows, cols) = dim;
     let mut psi: [Vec<f64>; CHANNELS] = std::array::from_fn(|_| vec![0.0; frames]);
     let mut source: [Vec<Source>; CHANNELS] = std::array::from_fn(|_| vec![Source::Silent; frames]);
 
@@ -176,15 +199,19 @@ pub fn actuator_signals(
             let right = col + 1 < COLUMNS && renders(&source, row * COLUMNS + col + 1, t);
             *f = left || right;
         }
-        for ch in (0..CHANNELS).filter(|&ch| fill[ch]) {
-            let frame = blurred.index_axis(ndarray::Axis(0), t);
-            let max = pixels[ch]
-                .iter()
-                .map(|&(r, c)| frame[[r, c]])
-                .fold(f64::NEG_INFINITY, f64::max);
-            psi[ch][t] = max;
-            source[ch][t] = Source::NeighbourFill;
+        if !fill.contains(&true) {
+            continue;
         }
+        frame(t, &mut |blurred| {
+            for ch in (0..CHANNELS).filter(|&ch| fill[ch]) {
+                let max = pixels[ch]
+                    .iter()
+                    .map(|&(r, c)| blurred[[r, c]])
+                    .fold(f64::NEG_INFINITY, f64::max);
+                psi[ch][t] = max;
+                source[ch][t] = Source::NeighbourFill;
+            }
+        });
     }
 
     ChannelSignals { psi, source }

@@ -243,34 +243,66 @@ pub fn preprocess_with(
     mut visit: impl FnMut(usize, ArrayView2<f64>),
 ) -> Result<Blurred, PreprocessError> {
     let (t, r, c) = tared.dim();
-    let op = BlurOperator::new(r, c, &Blur::new(cfg, sampling))?;
-    let (h, w) = op.out_dim();
+    let (h, w) = BlurOperator::new(r, c, &Blur::new(cfg, sampling))?.out_dim();
     let mut frames = Array3::<f64>::zeros((t, h, w));
-    let mut scratch = Vec::new();
-    // Per-frame statistics while the frame is still in cache, combined afterwards
-    // (Chan et al.): no extra passes over the whole movie. (Blurring frames in parallel
-    // was measured and does not pay: the stage is memory-bound, see `docs/trade.md`.)
-    let mut stats = Vec::with_capacity(t);
-    for (src, mut dst) in tared.axis_iter(Axis(0)).zip(frames.axis_iter_mut(Axis(0))) {
-        op.apply_into(src, dst.view_mut(), &mut scratch);
-        visit(stats.len(), dst.view());
-        stats.push(match dst.as_slice() {
-            Some(s) => mean_std(s),
-            None => mean_std(&dst.iter().copied().collect::<Vec<_>>()),
-        });
-    }
-    let (mean, std) = combine(&stats, h * w);
+    let stats = blur_stream(tared, cfg, sampling, |f, frame| {
+        frames.index_axis_mut(Axis(0), f).assign(&frame);
+        visit(f, frame);
+    })?;
     Ok(Blurred {
         frames,
-        mean,
-        std,
-        pitch_mm: sampling.pixel_mm(),
+        mean: stats.mean,
+        std: stats.std,
+        pitch_mm: stats.pitch_mm,
     })
 }
 
-/// Global mean and population std from per-chunk `(mean, std)` of `n` values each:
-/// `var = mean over chunks of (std_i^2 + (mean_i - mean)^2)`, exact algebra, computed
-/// after a power-of-two rescaling so that neither tiny nor huge psi values lose range.
+/// What the blurred movie's detection needs of it as a whole, from [`blur_stream`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlurStats {
+    /// Mean of every blurred pixel of every frame.
+    pub mean: f64,
+    /// Population standard deviation of the same.
+    pub std: f64,
+    /// Pixel pitch after upsampling, mm.
+    pub pitch_mm: f64,
+    /// Shape of one blurred frame, `(rows, cols)` in pixels.
+    pub frame_dim: (usize, usize),
+}
+
+/// Upsamples and blurs the tared frames one at a time, calls `visit(t, frame)` on each
+/// and keeps none: memory is one frame, whatever the recording's length. The mean and
+/// std are those [`preprocess`] gives, bit for bit (per-frame moments combined in the
+/// same order).
+pub fn blur_stream(
+    tared: ArrayView3<f64>,
+    cfg: &PreprocessConfig,
+    sampling: &Sampling,
+    mut visit: impl FnMut(usize, ArrayView2<f64>),
+) -> Result<BlurStats, PreprocessError> {
+    let (t, r, c) = tared.dim();
+    let op = BlurOperator::new(r, c, &Blur::new(cfg, sampling))?;
+    let (h, w) = op.out_dim();
+    let mut frame = Array2::<f64>::zeros((h, w));
+    let mut scratch = Vec::new();
+    let mut stats = Vec::with_capacity(t);
+    for (f, src) in tared.axis_iter(Axis(0)).enumerate() {
+        op.apply_into(src, frame.view_mut(), &mut scratch);
+        visit(f, frame.view());
+        stats.push(match frame.as_slice() {
+            Some(s) => mean_std(s),
+            None => mean_std(&frame.iter().copied().collect::<Vec<_>>()),
+        });
+    }
+    let (mean, std) = combine(&stats, h * w);
+    Ok(BlurStats {
+        mean,
+        std,
+        pitch_mm: sampling.pixel_mm(),
+        frame_dim: (h, w),
+    })
+}
+
 fn combine(stats: &[(f64, f64)], n: usize) -> (f64, f64) {
     if stats.is_empty() || n == 0 {
         return (0.0, 0.0);

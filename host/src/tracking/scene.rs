@@ -19,17 +19,16 @@
 
 use std::ops::Range;
 
-use ndarray::{ArrayView3, Axis, Slice};
+use ndarray::{Array2, Array3, ArrayView2, ArrayView3, Axis};
 use serde::Serialize;
 
 use crate::config::{Config, Sampling};
 use crate::placement::Placement;
-use crate::rendering::signals::{self, ChannelSignals, Source};
+use crate::rendering::signals::{self, ChannelSignals};
 use crate::stage::Stage;
-use crate::tracking::detect::{detect_with, detection_cost, Detections};
-use crate::tracking::preprocess::{preprocess, Blurred};
+use crate::tracking::detect::{detection_cost, frame_points, score};
+use crate::tracking::preprocess::{blur_stream, Blur, BlurOperator, Blurred};
 use crate::tracking::track::{link, TrackError, TrackOutput};
-use touch_protocol::CHANNELS;
 
 /// The part of a tared recording the heavy stages look at, in frames and sensor cells.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -88,39 +87,114 @@ pub fn active_crop(tared: ArrayView3<f64>, cfg: &Config, sampling: &Sampling) ->
     }
 }
 
-/// Stages 1-3 on the crop: blur everything (for the statistics), detect and track
-/// inside the crop. Trajectories come back in whole-recording frames and pixels;
-/// `blurred.frames` holds only the crop's frames (frame `crop.frames.start` first).
+/// The strongest blurred pixel of one frame, over the whole frame and outside a crop's
+/// pixel box: all [`exact_crop`] needs of the movie, so that the movie need not be kept.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameExtremes {
+    /// Strongest pixel of the frame.
+    pub all: f64,
+    /// Strongest pixel outside the box (`-inf` when the box covers the frame).
+    pub aside: f64,
+}
+
+impl FrameExtremes {
+    /// The extremes of `frame` for the pixel box `rows` x `cols`.
+    pub fn of(frame: ArrayView2<f64>, rows: &Range<usize>, cols: &Range<usize>) -> Self {
+        let max =
+            |it: &mut dyn Iterator<Item = &f64>| it.copied().fold(f64::NEG_INFINITY, f64::max);
+        let (mut all, mut aside) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for (r, row) in frame.outer_iter().enumerate() {
+            let strongest = max(&mut row.iter());
+            all = all.max(strongest);
+            if !rows.contains(&r) {
+                aside = aside.max(strongest);
+            } else {
+                let n = row.len();
+                let (c0, c1) = (cols.start.min(n), cols.end.min(n));
+                let left = max(&mut row.iter().take(c0));
+                let right = max(&mut row.iter().skip(c1.max(c0)));
+                aside = aside.max(left).max(right);
+            }
+        }
+        FrameExtremes { all, aside }
+    }
+}
+
+/// The crop's cells as upsampled pixel ranges `(rows, cols)`.
+fn pixel_box(crop: &Crop, k: usize) -> (Range<usize>, Range<usize>) {
+    (
+        crop.rows.start * k..crop.rows.end * k,
+        crop.cols.start * k..crop.cols.end * k,
+    )
+}
+
+/// Stages 1-3 on the crop, streaming: one pass blurs each frame, finds its detection
+/// candidates and its [`FrameExtremes`], and drops it. The statistics are those of the
+/// whole recording; the crop is then checked ([`exact_crop`]) and the detections of its
+/// frames and cells are scored and linked. Memory is one blurred frame plus the
+/// candidates, whatever the recording's length.
 ///
-/// The crop is first checked against the blurred movie and widened where it would drop
-/// a pixel that could score a negative detection cost (see [`exact_crop`]); the crop
-/// actually used is returned. `lap` is called after each stage with the stage.
+/// With `keep_movie` the blurred frames are also kept in `blurred.frames` (the whole
+/// recording; previews draw them); otherwise `blurred.frames` has no frames, and stage 5
+/// recomputes the few it reads ([`padded_actuator_signals`]). Trajectories are in
+/// whole-recording frames and pixels. The crop actually used is returned. `lap` is
+/// called with the stage whose work has just been done (per frame for the pass).
 pub fn track_cropped(
     tared: ArrayView3<f64>,
     crop: &Crop,
     cfg: &Config,
     sampling: &Sampling,
+    keep_movie: bool,
     lap: &mut dyn FnMut(Stage),
 ) -> Result<(TrackOutput, Crop), TrackError> {
-    let mut window = preprocess(tared, &cfg.preprocess, sampling)?;
-    let crop = exact_crop(crop, &window, cfg);
-    // Narrow the view to the window without copying the movie.
-    window
-        .frames
-        .slice_axis_inplace(Axis(0), Slice::from(crop.frames.clone()));
-    lap(Stage::Preprocess);
+    let (t, r, c) = tared.dim();
     let k = sampling.upsample;
-    let (rows, cols) = (
-        crop.rows.start * k..crop.rows.end * k,
-        crop.cols.start * k..crop.cols.end * k,
-    );
-    let found = detect_with(&window, &cfg.detect, k);
-    let detections = shift_and_clip(&found, crop.frames.start, tared.dim().0, &rows, &cols);
+    let (h, w) = BlurOperator::new(r, c, &Blur::new(&cfg.preprocess, sampling))?.out_dim();
+    let mut movie = Array3::<f64>::zeros(if keep_movie { (t, h, w) } else { (0, h, w) });
+    let (rows, cols) = pixel_box(crop, k);
+    let mut extremes = Vec::with_capacity(t);
+    let mut candidates = Vec::with_capacity(t);
+    let stats = blur_stream(tared, &cfg.preprocess, sampling, |f, frame| {
+        extremes.push(FrameExtremes::of(frame, &rows, &cols));
+        if keep_movie {
+            movie.index_axis_mut(Axis(0), f).assign(&frame);
+        }
+        lap(Stage::Preprocess);
+        candidates.push(frame_points(
+            frame,
+            &cfg.detect,
+            cfg.detect.split.as_ref(),
+            k,
+        ));
+        lap(Stage::Detect);
+    })?;
+    let crop = exact_crop(crop, &extremes, stats.mean, stats.std, (r, c), cfg);
+    let (rows, cols) = pixel_box(&crop, k);
+    let in_crop = candidates
+        .into_iter()
+        .enumerate()
+        .map(|(f, found)| {
+            if crop.frames.contains(&f) {
+                found
+                    .into_iter()
+                    .filter(|&(r, c, _)| rows.contains(&r) && cols.contains(&c))
+                    .collect()
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let detections = score(in_crop, stats.mean, stats.std, &cfg.detect);
     lap(Stage::Detect);
     let trajectories = link(&detections, &cfg.track, sampling)?;
     lap(Stage::Track);
     let tracked = TrackOutput {
-        blurred: window,
+        blurred: Blurred {
+            frames: movie,
+            mean: stats.mean,
+            std: stats.std,
+            pitch_mm: stats.pitch_mm,
+        },
         detections,
         trajectories,
     };
@@ -128,7 +202,9 @@ pub fn track_cropped(
 }
 
 /// The crop, widened to the whole recording in time and/or space wherever a blurred
-/// pixel it would drop is strong enough for a negative detection cost.
+/// pixel it would drop is strong enough for a negative detection cost. `extremes` has
+/// one entry per frame, for the crop's pixel box; `cells` is the sensor's `(rows,
+/// cols)`; `mean` and `std` are the movie's.
 ///
 /// Outside such pixels every detection costs at least 0, so the min-cost flow never
 /// starts or ends a trajectory on one (dropping it from a path's end lowers the cost)
@@ -136,129 +212,96 @@ pub fn track_cropped(
 /// forward, and the window holds every frame between the first and the last strong
 /// one). The cost only falls as the pressure rises, so the strongest dropped pixel
 /// decides.
-pub fn exact_crop(crop: &Crop, blurred: &Blurred, cfg: &Config) -> Crop {
-    let (t, h, w) = blurred.frames.dim();
-    let k = cfg.preprocess.upsample;
-    // The strongest pixel each part of the crop would drop; one cost evaluation each.
+pub fn exact_crop(
+    crop: &Crop,
+    extremes: &[FrameExtremes],
+    mean: f64,
+    std: f64,
+    cells: (usize, usize),
+    cfg: &Config,
+) -> Crop {
     let may_score = |v: f64| {
-        blurred.std > 0.0
-            && blurred.std.is_finite()
-            && detection_cost((v - blurred.mean) / blurred.std, &cfg.detect) < 0.0
+        std > 0.0 && std.is_finite() && detection_cost((v - mean) / std, &cfg.detect) < 0.0
     };
-    let strongest = |it: &mut dyn Iterator<Item = f64>| it.fold(f64::NEG_INFINITY, f64::max);
     let mut out = crop.clone();
-    let dropped_in_time = strongest(
-        &mut (0..t)
-            .filter(|f| !crop.frames.contains(f))
-            .flat_map(|f| blurred.frames.index_axis(Axis(0), f).into_iter().copied()),
-    );
+    let dropped_in_time = extremes
+        .iter()
+        .enumerate()
+        .filter(|(f, _)| !crop.frames.contains(f))
+        .fold(f64::NEG_INFINITY, |m, (_, e)| m.max(e.all));
     if may_score(dropped_in_time) {
-        out.frames = 0..t;
+        out.frames = 0..extremes.len();
     }
-    let (rows, cols) = (
-        crop.rows.start * k..crop.rows.end * k,
-        crop.cols.start * k..crop.cols.end * k,
-    );
-    let mut dropped_in_space = f64::NEG_INFINITY;
-    for f in out.frames.clone() {
-        for ((r, c), &v) in blurred.frames.index_axis(Axis(0), f).indexed_iter() {
-            if v > dropped_in_space && !(rows.contains(&r) && cols.contains(&c)) {
-                dropped_in_space = v;
-            }
-        }
-    }
+    let dropped_in_space = extremes
+        .get(out.frames.clone())
+        .unwrap_or_default()
+        .iter()
+        .fold(f64::NEG_INFINITY, |m, e| m.max(e.aside));
     if may_score(dropped_in_space) {
-        out.rows = 0..h / k.max(1);
-        out.cols = 0..w / k.max(1);
+        out.rows = 0..cells.0;
+        out.cols = 0..cells.1;
     }
     out
 }
 
-/// Detections of the window, moved to whole-recording frames and limited to the
-/// crop's pixels; frames outside the window are empty.
-fn shift_and_clip(
-    found: &Detections,
-    offset: usize,
-    frames: usize,
-    rows: &Range<usize>,
-    cols: &Range<usize>,
-) -> Detections {
-    let mut all = Vec::with_capacity(found.all.len());
-    let mut frame_start = vec![0; offset + 1];
-    for t in 0..found.frames() {
-        all.extend(
-            found
-                .in_frame(t)
-                .iter()
-                .filter(|d| rows.contains(&d.row) && cols.contains(&d.col))
-                .map(|d| {
-                    let mut d = *d;
-                    d.frame += offset;
-                    d
-                }),
-        );
-        frame_start.push(all.len());
-    }
-    frame_start.resize(frames + 1, all.len());
-    Detections { all, frame_start }
-}
-
-/// Stage 5 ([`signals::actuator_signals`]) on the crop's frames, padded with silence to
-/// `frames` frames: the signals of the whole recording.
+/// Stage 5 ([`signals::actuator_signals`]) for the whole recording: silent outside the
+/// trajectories' frames, which lie in the crop. The blurred frames the neighbour fill
+/// reads are recomputed from `tared`, those frames only (bit for bit the pass's: the
+/// same operator on the same frame).
 pub fn padded_actuator_signals(
     tracked: &TrackOutput,
     placement: &Placement,
-    crop: &Crop,
-    frames: usize,
-) -> ChannelSignals {
-    let offset = crop.frames.start;
-    let local: Vec<_> = tracked
-        .trajectories
-        .iter()
-        .map(|t| {
-            let mut t = t.clone();
-            t.frames.iter_mut().for_each(|f| *f -= offset);
-            t
-        })
-        .collect();
-    let inner = signals::actuator_signals(
-        &local,
+    tared: ArrayView3<f64>,
+    cfg: &Config,
+    sampling: &Sampling,
+) -> Result<ChannelSignals, TrackError> {
+    let (t, r, c) = tared.dim();
+    let op = BlurOperator::new(r, c, &Blur::new(&cfg.preprocess, sampling))?;
+    let (h, w) = op.out_dim();
+    let mut frame = Array2::<f64>::zeros((h, w));
+    let mut scratch = Vec::new();
+    Ok(signals::actuator_signals_with(
+        &tracked.trajectories,
         &placement.selected,
         &placement.circles,
-        tracked.blurred.frames.view(),
+        (t, h, w),
         tracked.pitch_mm(),
-    );
-    let pad = |v: &Vec<f64>| {
-        let mut out = vec![0.0; frames];
-        out[offset..offset + v.len()].copy_from_slice(v);
-        out
-    };
-    let pad_source = |v: &Vec<Source>| {
-        let mut out = vec![Source::Silent; frames];
-        out[offset..offset + v.len()].copy_from_slice(v);
-        out
-    };
-    ChannelSignals {
-        psi: std::array::from_fn::<_, CHANNELS, _>(|c| pad(&inner.psi[c])),
-        source: std::array::from_fn::<_, CHANNELS, _>(|c| pad_source(&inner.source[c])),
-    }
+        |f, read| {
+            op.apply_into(tared.index_axis(Axis(0), f), frame.view_mut(), &mut scratch);
+            read(frame.view());
+        },
+    ))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ndarray::Array3;
+    use ndarray::{Array2, Array3};
 
-    fn blurred(frames: Array3<f64>) -> Blurred {
+    /// [`exact_crop`] of `crop` on a whole blurred movie (7 pixels per cell).
+    fn crop_on(crop: &Crop, frames: &Array3<f64>, cfg: &Config) -> Crop {
         let n = frames.len() as f64;
         let mean = frames.sum() / n;
         let std = (frames.mapv(|v| (v - mean).powi(2)).sum() / n).sqrt();
-        Blurred {
-            frames,
-            mean,
-            std,
-            pitch_mm: 25.4 / 7.0,
-        }
+        let (rows, cols) = pixel_box(crop, 7);
+        let extremes: Vec<_> = frames
+            .outer_iter()
+            .map(|f| FrameExtremes::of(f, &rows, &cols))
+            .collect();
+        let (_, h, w) = frames.dim();
+        exact_crop(crop, &extremes, mean, std, (h / 7, w / 7), cfg)
+    }
+
+    #[test]
+    fn extremes_split_the_frame_at_the_box() {
+        let mut f = Array2::zeros((4, 5));
+        f[[1, 1]] = 3.0; // inside rows 1..3, cols 1..4
+        f[[2, 4]] = 2.0; // in a box row, right of the box
+        f[[0, 0]] = 1.0; // above the box
+        let e = FrameExtremes::of(f.view(), &(1..3), &(1..4));
+        assert_eq!((e.all, e.aside), (3.0, 2.0));
+        let whole = FrameExtremes::of(f.view(), &(0..4), &(0..5));
+        assert_eq!((whole.all, whole.aside), (3.0, f64::NEG_INFINITY));
     }
 
     #[test]
@@ -273,16 +316,16 @@ mod tests {
         };
         let mut frames = Array3::from_elem((10, 14, 21), 0.001);
         frames[[3, 3, 3]] = 1.0; // the contact, inside
-        let quiet = exact_crop(&crop, &blurred(frames.clone()), &cfg);
+        let quiet = crop_on(&crop, &frames, &cfg);
         assert_eq!(quiet, crop);
 
         let mut late = frames.clone();
         late[[8, 3, 3]] = 1.0; // a second contact after the window
-        assert_eq!(exact_crop(&crop, &blurred(late), &cfg).frames, 0..10);
+        assert_eq!(crop_on(&crop, &late, &cfg).frames, 0..10);
 
         let mut aside = frames.clone();
         aside[[4, 12, 18]] = 1.0; // in the window, outside the cells
-        let widened = exact_crop(&crop, &blurred(aside), &cfg);
+        let widened = crop_on(&crop, &aside, &cfg);
         assert_eq!(
             (widened.frames, widened.rows, widened.cols),
             (2..6, 0..2, 0..3)

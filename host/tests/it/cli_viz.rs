@@ -283,6 +283,7 @@ fn preview_animates_every_frame_with_the_trajectories() {
     let opts = CompileOptions {
         fit: true,
         crop: false,
+        keep_movie: true,
         ..CompileOptions::default()
     };
     let compiled = compile(&rec, &opts).unwrap();
@@ -385,6 +386,7 @@ fn preview_png_shows_one_frame_and_refuses_frames_past_the_end() {
     let opts = touchc::compile::CompileOptions {
         fit: true,
         crop: false,
+        keep_movie: true,
         ..Default::default()
     };
     let layout = preview::layout(&touchc::compile::compile(&rec, &opts).unwrap()).unwrap();
@@ -472,6 +474,7 @@ fn preview_gif_and_compile(
     let opts = touchc::compile::CompileOptions {
         fit: true,
         crop: false,
+        keep_movie: true,
         config: touchc::config::Config::preset(touchc::config::Preset::Paper),
         ..Default::default()
     };
