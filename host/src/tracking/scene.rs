@@ -100,20 +100,26 @@ pub struct FrameExtremes {
 impl FrameExtremes {
     /// The extremes of `frame` for the pixel box `rows` x `cols`.
     pub fn of(frame: ArrayView2<f64>, rows: &Range<usize>, cols: &Range<usize>) -> Self {
-        let max =
-            |it: &mut dyn Iterator<Item = &f64>| it.copied().fold(f64::NEG_INFINITY, f64::max);
+        fn max(values: &[f64]) -> f64 {
+            values.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        }
         let (mut all, mut aside) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for (r, row) in frame.outer_iter().enumerate() {
-            let strongest = max(&mut row.iter());
-            all = all.max(strongest);
-            if !rows.contains(&r) {
-                aside = aside.max(strongest);
+        let mut visit = |r: usize, row: &[f64]| {
+            let n = row.len();
+            let (c0, c1) = (cols.start.min(n), cols.end.min(n).max(cols.start.min(n)));
+            let (left, inside, right) = (max(&row[..c0]), max(&row[c0..c1]), max(&row[c1..]));
+            let outside = left.max(right);
+            all = all.max(inside).max(outside);
+            aside = aside.max(if rows.contains(&r) {
+                outside
             } else {
-                let n = row.len();
-                let (c0, c1) = (cols.start.min(n), cols.end.min(n));
-                let left = max(&mut row.iter().take(c0));
-                let right = max(&mut row.iter().skip(c1.max(c0)));
-                aside = aside.max(left).max(right);
+                inside.max(outside)
+            });
+        };
+        for (r, row) in frame.outer_iter().enumerate() {
+            match row.as_slice() {
+                Some(row) => visit(r, row),
+                None => visit(r, &row.to_vec()),
             }
         }
         FrameExtremes { all, aside }
