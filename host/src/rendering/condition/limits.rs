@@ -196,10 +196,12 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 /// Scales `signal` down, in place, by the largest factor in `[0, 1]` that makes it pass
 /// [`check_limits`], and returns the factor (1 and no change when it already passes).
 ///
-/// All three limits get monotonically easier as the scale shrinks (the thermal bucket
-/// too, by induction over samples), and scale 0 always passes, so a bisection on the
-/// factor finds the largest passing one to within 2^-60; the returned factor is one that
-/// was checked. Errors only for non-finite samples or invalid limits.
+/// Peak and slew scale linearly, so the largest factor they allow is a ratio, found in
+/// one pass. When the thermal bucket refuses that factor too, a bisection below it finds
+/// the largest passing one to within 2^-32 (the bucket gets monotonically easier as the
+/// scale shrinks, by induction over samples, and scale 0 always passes). The returned
+/// factor is always one that was checked. Errors only for non-finite samples or invalid
+/// limits.
 ///
 /// ```
 /// use touchc::rendering::condition::{check_limits, fit, Limits};
@@ -222,19 +224,47 @@ pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, Limit
         Err(e @ LimitViolation::NotFinite { .. }) => return Err(e),
         Err(_) => {}
     }
-    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if check_scaled(signal, mid, limits).is_ok() {
-            lo = mid;
-        } else {
-            hi = mid;
+    let linear = linear_limit(signal, limits);
+    let lo = if check_scaled(signal, linear, limits).is_ok() {
+        linear
+    } else {
+        let (mut lo, mut hi) = (0.0_f64, linear);
+        for _ in 0..FIT_BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            if check_scaled(signal, mid, limits).is_ok() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
         }
-    }
+        lo
+    };
     for frame in signal.iter_mut() {
         for v in frame.iter_mut() {
             *v *= lo;
         }
     }
     Ok(lo)
+}
+
+/// Bisection steps of [`fit`] on the thermal limit: the factor to within 2^-32.
+const FIT_BISECTIONS: u32 = 32;
+
+/// The largest factor in `[0, 1]` that peak and slew allow (both linear in the scale),
+/// the steps from and back to 0 A included; 1 for a silent signal.
+fn linear_limit(signal: &[[f64; CHANNELS]], limits: &Limits) -> f64 {
+    let mut peak = 0.0_f64;
+    let mut step = 0.0_f64;
+    let mut previous = [0.0_f64; CHANNELS];
+    for frame in signal.iter().chain(std::iter::once(&[0.0; CHANNELS])) {
+        for (p, &v) in previous.iter_mut().zip(frame) {
+            peak = peak.max(v.abs());
+            step = step.max((v - *p).abs());
+            *p = v;
+        }
+    }
+    let ratio = |limit: f64, value: f64| if value > 0.0 { limit / value } else { 1.0 };
+    ratio(limits.peak_a, peak)
+        .min(ratio(limits.slew_a_per_ms, step))
+        .min(1.0)
 }
