@@ -131,16 +131,23 @@ pub fn encode(
             continue;
         }
         // Coarsest passing resolution for this period. The error grows with the shift,
-        // so bisect: `lo` passes (-1: none known yet), `hi` fails.
+        // so walk from the shift the error budget predicts (see [`predicted_shift`]):
+        // up while candidates pass, down while they fail. Usually two plays.
+        let max_shift = opts.encoding.max_quant_shift.min(15);
+        let mut shift = predicted_shift(rms / fs_a, max / fs_a, &opts.encoding).min(max_shift);
         let mut passing: Option<Encoded> = None;
-        let (mut lo, mut hi) = (-1i16, i16::from(opts.encoding.max_quant_shift.min(15)) + 1);
-        while hi - lo > 1 {
-            let probe = lo + (hi - lo) / 2;
+        loop {
             tried += 1;
-            let shift = u8::try_from(probe).unwrap_or(0);
             let candidate = match try_encoding(signal, fields, opts, period, shift) {
                 Ok(c) => c,
-                // The finer encodings may stay within the limits: this one just fails.
+                // The coil's heat is the signal's energy: neither a finer resolution
+                // nor more keyframes change it beyond rounding, so stop at once (with
+                // `--fit` the compile scales the signal down and comes back).
+                Err(KeyframeError::LimitHit(kind @ "thermal")) => {
+                    return Err(KeyframeError::LimitHit(kind))
+                }
+                // A peak or slew hit can be rounding's overshoot, which finer
+                // encodings may not have: this one just fails.
                 Err(KeyframeError::LimitHit(kind)) => {
                     limit_hit = Some(kind);
                     Encoded::empty()
@@ -148,13 +155,18 @@ pub fn encode(
                 Err(e) => return Err(e),
             };
             closest = min_pair(closest, (candidate.rms_error_fs, candidate.max_error_fs));
-            if candidate.rms_error_fs <= opts.encoding.max_rms_error_fs
-                && candidate.max_error_fs <= opts.encoding.max_abs_error_fs
-            {
-                lo = probe;
+            let passes = candidate.rms_error_fs <= opts.encoding.max_rms_error_fs
+                && candidate.max_error_fs <= opts.encoding.max_abs_error_fs;
+            if passes {
                 passing = Some(candidate);
+                if shift == max_shift {
+                    break;
+                }
+                shift += 1;
+            } else if passing.is_some() || shift == 0 {
+                break;
             } else {
-                hi = probe;
+                shift -= 1;
             }
         }
         // The longest passing period wins: a shorter one only adds keyframes.
@@ -178,6 +190,23 @@ pub fn encode(
             }),
         },
     }
+}
+
+/// The coarsest quantisation shift whose error, added to the interpolation error
+/// (`rms`, `max`, fractions of full scale), stays within the bounds: rounding a Q15
+/// keyframe to a multiple of 2^shift errs by up to half a step (uniform, so its RMS is
+/// step / sqrt(12)), and the 12-bit output code by up to half a code. A starting point
+/// for the search only: the player decides.
+fn predicted_shift(rms: f64, max: f64, bounds: &KeyframeConfig) -> u8 {
+    let code = 2.0 / 4096.0;
+    (0..=15u8)
+        .rev()
+        .find(|&s| {
+            let step = f64::from(1u32 << s) / 32768.0;
+            let rms_q = (rms * rms + (step * step + code * code) / 12.0).sqrt();
+            rms_q <= bounds.max_rms_error_fs && max + 0.5 * (step + code) <= bounds.max_abs_error_fs
+        })
+        .unwrap_or(0)
 }
 
 fn min_pair(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
