@@ -221,7 +221,9 @@ fn validate(cfg: &Blur) -> Result<(), PreprocessError> {
     Ok(())
 }
 
-/// Upsamples and blurs every tared frame and computes the global mean and std.
+/// Upsamples and blurs every tared frame and computes the global mean and std: the
+/// whole blurred movie, for the stage benchmarks, the tests and the previews (the
+/// pipeline itself streams, see [`blur_stream`]).
 ///
 /// `tared` must be NaN-free (see [`crate::input::recording::Recording::tare`]); `sampling` gives
 /// the cell pitch and upsampling factor.
@@ -230,24 +232,11 @@ pub fn preprocess(
     cfg: &PreprocessConfig,
     sampling: &Sampling,
 ) -> Result<Blurred, PreprocessError> {
-    preprocess_with(tared, cfg, sampling, |_, _| {})
-}
-
-/// [`preprocess`], calling `visit(t, frame)` on each blurred frame as soon as it is
-/// computed. The movie is far larger than the caches, so work done here on a frame that
-/// is still in cache (the pipeline finds local maxima) saves a second pass from memory.
-pub fn preprocess_with(
-    tared: ArrayView3<f64>,
-    cfg: &PreprocessConfig,
-    sampling: &Sampling,
-    mut visit: impl FnMut(usize, ArrayView2<f64>),
-) -> Result<Blurred, PreprocessError> {
     let (t, r, c) = tared.dim();
     let (h, w) = BlurOperator::new(r, c, &Blur::new(cfg, sampling))?.out_dim();
     let mut frames = Array3::<f64>::zeros((t, h, w));
     let stats = blur_stream(tared, cfg, sampling, |f, frame| {
         frames.index_axis_mut(Axis(0), f).assign(&frame);
-        visit(f, frame);
     })?;
     Ok(Blurred {
         frames,

@@ -17,9 +17,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, Metadata, MetadataOverrides, Sampling, TrackConfig};
 use crate::input::recording::{Recording, RecordingError};
-use crate::tracking::detect::{frame_points, score, Detections};
+use crate::tracking::detect::Detections;
 use crate::tracking::flow::{min_cost_flow_by_parts, FlowError, FlowGraph};
-use crate::tracking::preprocess::{preprocess_with, Blurred, PreprocessError};
+use crate::tracking::preprocess::{Blurred, PreprocessError};
+use crate::tracking::scene::{track_cropped, Crop};
 use crate::tracking::trajectory::Trajectory;
 
 /// Any failure of stages 0 to 3.
@@ -91,24 +92,10 @@ pub fn track_with(
     let (_, rows, cols) = rec.dim();
     cfg.validate_for(&sampling, (rows, cols))?;
     let tared = rec.tare(&cfg.input, &sampling)?;
-    // Local maxima are found while each blurred frame is still in cache; scoring needs
-    // the global statistics, so it waits for the whole movie. Same as `detect::detect`.
-    let mut maxima = Vec::with_capacity(tared.dim().0);
-    let blurred = preprocess_with(tared.view(), &cfg.preprocess, &sampling, |_, f| {
-        maxima.push(frame_points(
-            f,
-            &cfg.detect,
-            cfg.detect.split.as_ref(),
-            sampling.upsample,
-        ))
-    })?;
-    let detections = score(maxima, blurred.mean, blurred.std, &cfg.detect);
-    let trajectories = link(&detections, &cfg.track, &sampling)?;
-    Ok(TrackOutput {
-        blurred,
-        detections,
-        trajectories,
-    })
+    // The compile's driver on the whole recording, keeping the blurred movie.
+    let whole = Crop::whole(tared.dim());
+    let (tracked, _) = track_cropped(tared.view(), &whole, cfg, &sampling, true, &mut |_| {})?;
+    Ok(tracked)
 }
 
 /// Links across missing frames: a contact that reads below detection for a frame or two
