@@ -64,7 +64,7 @@ fn bench(c: &mut Criterion) {
     let opts = CompileOptions {
         config: touchc::config::Config::preset(touchc::config::Preset::Paper),
         // The detect stage below runs on the blurred movie the compile otherwise drops.
-        keep_movie: true,
+        keep_scene: true,
         ..CompileOptions::default()
     };
     let cfg = &opts.config;

@@ -35,10 +35,11 @@ pub struct CompileOptions {
     pub fit: bool,
     /// Crop time and space to the active scene before the heavy stages.
     pub crop: bool,
-    /// Keep the blurred movie in [`Compiled::tracked`] (what a preview draws; with
-    /// `crop` off, the whole recording's). Off, the compile streams through the frames
-    /// and keeps none: memory follows the touch, not the recording's length.
-    pub keep_movie: bool,
+    /// Keep the blurred movie and the scored detections in [`Compiled::tracked`] (what
+    /// a preview draws; with `crop` off, the whole recording's). Off, the compile
+    /// streams through the frames and keeps neither: memory follows the touch, not the
+    /// recording's length.
+    pub keep_scene: bool,
     /// The recording's rate and pitch from the command line (over the file's, over the
     /// config's `input.rate_hz` / `input.pitch_mm`).
     pub metadata: MetadataOverrides,
@@ -54,7 +55,7 @@ impl Default for CompileOptions {
             limits: Limits::SLEEVE,
             fit: false,
             crop: true,
-            keep_movie: false,
+            keep_scene: false,
             metadata: MetadataOverrides::default(),
             name: String::from("touch"),
         }
@@ -259,7 +260,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
         &crop,
         cfg,
         &sampling,
-        opts.keep_movie,
+        opts.keep_scene,
         &mut |s| clock.stage(s),
     )?;
     let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
@@ -316,6 +317,8 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
         warnings.push("no trajectory passes through an actuator's workspace: silent".into());
     }
+    // The tared copy of the recording is not read after stage 5.
+    drop(tared);
     clock.stage(Stage::Signals);
 
     // Stage 6.

@@ -63,7 +63,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         layout,
         fit: true,
         crop: false,
-        keep_movie: true,
+        keep_scene: true,
         metadata: args.config.overrides(),
         ..CompileOptions::default()
     };

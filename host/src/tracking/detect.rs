@@ -40,6 +40,14 @@ pub struct Detections {
 }
 
 impl Detections {
+    /// No detection in any of `frames` frames.
+    pub fn empty(frames: usize) -> Self {
+        Detections {
+            all: Vec::new(),
+            frame_start: vec![0; frames + 1],
+        }
+    }
+
     /// Detections of frame `t` (empty when `t` is out of range).
     pub fn in_frame(&self, t: usize) -> &[Detection] {
         match (self.frame_start.get(t), self.frame_start.get(t + 1)) {

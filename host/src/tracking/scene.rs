@@ -26,7 +26,7 @@ use crate::config::{Config, Sampling};
 use crate::placement::Placement;
 use crate::rendering::signals::{self, ChannelSignals};
 use crate::stage::Stage;
-use crate::tracking::detect::{detection_cost, frame_points, score};
+use crate::tracking::detect::{detection_cost, frame_points, score, Detections};
 use crate::tracking::preprocess::{blur_stream, Blur, BlurOperator, Blurred};
 use crate::tracking::track::{link, TrackError, TrackOutput};
 
@@ -140,9 +140,10 @@ fn pixel_box(crop: &Crop, k: usize) -> (Range<usize>, Range<usize>) {
 /// frames and cells are scored and linked. Memory is one blurred frame plus the
 /// candidates, whatever the recording's length.
 ///
-/// With `keep_movie` the blurred frames are also kept in `blurred.frames` (the whole
-/// recording; previews draw them); otherwise `blurred.frames` has no frames, and stage 5
-/// recomputes the few it reads ([`padded_actuator_signals`]). Trajectories are in
+/// With `keep_scene` the blurred frames are also kept in `blurred.frames` (the whole
+/// recording; previews draw them) and the scored detections in `detections`; otherwise
+/// `blurred.frames` has no frames, stage 5 recomputes the few it reads
+/// ([`padded_actuator_signals`]), and `detections` is empty once linked. Trajectories are in
 /// whole-recording frames and pixels. The crop actually used is returned. `lap` is
 /// called with the stage whose work has just been done (per frame for the pass).
 pub fn track_cropped(
@@ -150,19 +151,19 @@ pub fn track_cropped(
     crop: &Crop,
     cfg: &Config,
     sampling: &Sampling,
-    keep_movie: bool,
+    keep_scene: bool,
     lap: &mut dyn FnMut(Stage),
 ) -> Result<(TrackOutput, Crop), TrackError> {
     let (t, r, c) = tared.dim();
     let k = sampling.upsample;
     let (h, w) = BlurOperator::new(r, c, &Blur::new(&cfg.preprocess, sampling))?.out_dim();
-    let mut movie = Array3::<f64>::zeros(if keep_movie { (t, h, w) } else { (0, h, w) });
+    let mut movie = Array3::<f64>::zeros(if keep_scene { (t, h, w) } else { (0, h, w) });
     let (rows, cols) = pixel_box(crop, k);
     let mut extremes = Vec::with_capacity(t);
     let mut candidates = Vec::with_capacity(t);
     let stats = blur_stream(tared, &cfg.preprocess, sampling, |f, frame| {
         extremes.push(FrameExtremes::of(frame, &rows, &cols));
-        if keep_movie {
+        if keep_scene {
             movie.index_axis_mut(Axis(0), f).assign(&frame);
         }
         lap(Stage::Preprocess);
@@ -194,6 +195,12 @@ pub fn track_cropped(
     lap(Stage::Detect);
     let trajectories = link(&detections, &cfg.track, sampling)?;
     lap(Stage::Track);
+    let detections = if keep_scene {
+        detections
+    } else {
+        // On an hour of touch the detections outweigh the recording.
+        Detections::empty(t)
+    };
     let tracked = TrackOutput {
         blurred: Blurred {
             frames: movie,

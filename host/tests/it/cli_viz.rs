@@ -283,7 +283,7 @@ fn preview_animates_every_frame_with_the_trajectories() {
     let opts = CompileOptions {
         fit: true,
         crop: false,
-        keep_movie: true,
+        keep_scene: true,
         ..CompileOptions::default()
     };
     let compiled = compile(&rec, &opts).unwrap();
@@ -386,7 +386,7 @@ fn preview_png_shows_one_frame_and_refuses_frames_past_the_end() {
     let opts = touchc::compile::CompileOptions {
         fit: true,
         crop: false,
-        keep_movie: true,
+        keep_scene: true,
         ..Default::default()
     };
     let layout = preview::layout(&touchc::compile::compile(&rec, &opts).unwrap()).unwrap();
@@ -474,7 +474,7 @@ fn preview_gif_and_compile(
     let opts = touchc::compile::CompileOptions {
         fit: true,
         crop: false,
-        keep_movie: true,
+        keep_scene: true,
         config: touchc::config::Config::preset(touchc::config::Preset::Paper),
         ..Default::default()
     };
