@@ -123,10 +123,13 @@ pub fn encode(
     for &period in &periods {
         // Interpolation error alone, in f64: a period that misses the bounds before
         // quantisation cannot meet them after it.
-        let (rms, max) = interpolation_error(signal, usize::from(period.max(1)));
-        if rms / fs_a > opts.encoding.max_rms_error_fs
-            || max / fs_a > opts.encoding.max_abs_error_fs
-        {
+        let max_a = opts.encoding.max_abs_error_fs * fs_a;
+        let Some((rms, max)) = interpolation_error(signal, usize::from(period.max(1)), max_a)
+        else {
+            // Over the max bound somewhere (the 1 ms period, exact, always reports).
+            continue;
+        };
+        if rms / fs_a > opts.encoding.max_rms_error_fs {
             closest = min_pair(closest, (rms / fs_a, max / fs_a));
             continue;
         }
@@ -217,8 +220,13 @@ fn min_pair(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
     }
 }
 
-/// RMS and max error of linear interpolation through every `period`-th sample.
-fn interpolation_error(signal: &[[f64; CHANNELS]], period: usize) -> (f64, f64) {
+/// RMS and max error of linear interpolation through every `period`-th sample; `None`
+/// as soon as an error exceeds `max_bound` (most long periods fail early on a fast edge).
+fn interpolation_error(
+    signal: &[[f64; CHANNELS]],
+    period: usize,
+    max_bound: f64,
+) -> Option<(f64, f64)> {
     let n = signal.len();
     let at = |i: usize| signal[i.min(n - 1)];
     let (mut sum2, mut max) = (0.0f64, 0.0f64);
@@ -231,8 +239,11 @@ fn interpolation_error(signal: &[[f64; CHANNELS]], period: usize) -> (f64, f64) 
             sum2 += e * e;
             max = max.max(e.abs());
         }
+        if max > max_bound {
+            return None;
+        }
     }
-    ((sum2 / (n * CHANNELS) as f64).sqrt(), max)
+    Some(((sum2 / (n * CHANNELS) as f64).sqrt(), max))
 }
 
 /// Q15 of the full scale, rounded to nearest and saturated.
