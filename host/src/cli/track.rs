@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use serde::Serialize;
 use touchc::input::recording::Recording;
 use touchc::tracking::track::{track_with, TrackOutput};
+use touchc::tracking::trajectory::Columns;
 
 /// Arguments of `touchc track`.
 #[derive(Debug, clap::Args)]
@@ -25,18 +26,19 @@ pub struct TrackArgs {
 
 /// The JSON document: global statistics and trajectories in report order.
 #[derive(Debug, Serialize)]
-struct Report<'a> {
+struct Report {
     mean: f64,
     std: f64,
-    trajectories: Vec<TrajectoryReport<'a>>,
+    trajectories: Vec<TrajectoryReport>,
 }
 
+/// A trajectory in the published code's JSON: parallel arrays and the total cost.
 #[derive(Debug, Serialize)]
-struct TrajectoryReport<'a> {
-    frames: &'a [usize],
-    rows: &'a [usize],
-    cols: &'a [usize],
-    costs: &'a [f64],
+struct TrajectoryReport {
+    frames: Vec<usize>,
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    costs: Vec<f64>,
     total_cost: f64,
 }
 
@@ -56,19 +58,22 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn report(out: &TrackOutput) -> Report<'_> {
+fn report(out: &TrackOutput) -> Report {
     Report {
         mean: out.mean(),
         std: out.std(),
         trajectories: out
             .trajectories
             .iter()
-            .map(|t| TrajectoryReport {
-                frames: &t.frames,
-                rows: &t.rows,
-                cols: &t.cols,
-                costs: &t.costs,
-                total_cost: t.total_cost(),
+            .map(|t| {
+                let c = Columns::from(t);
+                TrajectoryReport {
+                    frames: c.frames,
+                    rows: c.rows,
+                    cols: c.cols,
+                    costs: c.costs,
+                    total_cost: t.total_cost(),
+                }
             })
             .collect(),
     }
@@ -95,21 +100,12 @@ fn write_table(w: &mut impl Write, rec: &Recording, out: &TrackOutput) -> std::i
         "#", "frames", "len", "start r,c", "end r,c", "cost"
     )?;
     for (i, tr) in out.trajectories.iter().enumerate() {
-        let last = tr.len().saturating_sub(1);
-        let (f0, f1) = (
-            tr.frames.first().copied().unwrap_or(0),
-            tr.frames.get(last).copied().unwrap_or(0),
-        );
-        let start = format!(
-            "{},{}",
-            tr.rows.first().copied().unwrap_or(0),
-            tr.cols.first().copied().unwrap_or(0)
-        );
-        let end = format!(
-            "{},{}",
-            tr.rows.get(last).copied().unwrap_or(0),
-            tr.cols.get(last).copied().unwrap_or(0)
-        );
+        let (Some(first), Some(last)) = (tr.points.first(), tr.points.last()) else {
+            continue;
+        };
+        let (f0, f1) = (first.frame, last.frame);
+        let start = format!("{},{}", first.row, first.col);
+        let end = format!("{},{}", last.row, last.col);
         writeln!(
             w,
             "{i:>3}  {:>11}  {:>4}  {start:>10}  {end:>10}  {:>10.4}",

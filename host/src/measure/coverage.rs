@@ -41,15 +41,11 @@ pub fn contact_points(trajectories: &[Trajectory], upsample: usize) -> Vec<Conta
     trajectories
         .iter()
         .flat_map(|t| {
-            t.frames
-                .iter()
-                .zip(&t.rows)
-                .zip(&t.cols)
-                .map(move |((&frame, &r), &c)| ContactPoint {
-                    frame,
-                    row: to_cell(r),
-                    col: to_cell(c),
-                })
+            t.points.iter().map(move |p| ContactPoint {
+                frame: p.frame,
+                row: to_cell(p.row),
+                col: to_cell(p.col),
+            })
         })
         .collect()
 }
@@ -355,16 +351,18 @@ pub fn explain(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tracking::trajectory::Columns;
     use ndarray::Array3;
 
     fn traj(frames: &[usize], rows: &[usize], cols: &[usize]) -> Trajectory {
-        Trajectory {
+        Trajectory::try_from(Columns {
             frames: frames.to_vec(),
             rows: rows.to_vec(),
             cols: cols.to_vec(),
             costs: vec![-1.0; frames.len()],
             values: vec![1.0; frames.len()],
-        }
+        })
+        .unwrap()
     }
 
     #[test]

@@ -239,6 +239,7 @@ pub fn evaluate(
 mod tests {
     use super::*;
     use crate::input::synth::{Gesture, Sensor, TruthContact};
+    use crate::tracking::trajectory::Columns;
     use ndarray::Array3;
 
     fn point(frame: usize, row: f64, col: f64, pressure_psi: f64) -> TruthPoint {
@@ -297,13 +298,14 @@ mod tests {
 
     /// A trajectory through cells `(frame, row, col)`, at upsampling 1.
     fn traj(points: &[(usize, usize, usize)]) -> Trajectory {
-        Trajectory {
+        Trajectory::try_from(Columns {
             frames: points.iter().map(|p| p.0).collect(),
             rows: points.iter().map(|p| p.1).collect(),
             cols: points.iter().map(|p| p.2).collect(),
             costs: vec![-1.0; points.len()],
             values: vec![1.0; points.len()],
-        }
+        })
+        .unwrap()
     }
 
     #[test]

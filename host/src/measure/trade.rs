@@ -163,12 +163,10 @@ pub fn track_agreement(a: Option<&TrackOutput>, b: Option<&TrackOutput>) -> f64 
         let mut m: BTreeMap<usize, Vec<(f64, f64)>> = BTreeMap::new();
         if let Some(t) = t {
             for tr in &t.trajectories {
-                for d in 0..tr.len() {
-                    m.entry(tr.frames[d]).or_default().push(pixel_centre_mm(
-                        tr.rows[d],
-                        tr.cols[d],
-                        t.pitch_mm(),
-                    ));
+                for d in &tr.points {
+                    m.entry(d.frame)
+                        .or_default()
+                        .push(pixel_centre_mm(d.row, d.col, t.pitch_mm()));
                 }
             }
         }

@@ -134,22 +134,6 @@ pub enum PlacementError {
     /// The pixel pitch is not a positive finite length.
     #[error("pixel pitch must be positive and finite, got {0} mm")]
     BadPitch(f64),
-    /// A trajectory's per-detection vectors disagree in length.
-    #[error(
-        "trajectory {trajectory}: {frames} frames but {rows} rows, {cols} cols, {costs} costs"
-    )]
-    LengthMismatch {
-        /// Trajectory index.
-        trajectory: usize,
-        /// Length of `frames`.
-        frames: usize,
-        /// Length of `rows`.
-        rows: usize,
-        /// Length of `cols`.
-        cols: usize,
-        /// Length of `costs`.
-        costs: usize,
-    },
     /// A detection cost is NaN or infinite: scores would be meaningless.
     #[error("trajectory {trajectory}, detection {detection}: cost {cost} is not finite")]
     NonFiniteCost {
@@ -202,16 +186,12 @@ pub enum PlacementError {
 /// ```
 /// use touchc::config::PlacementConfig;
 /// use touchc::placement::{layout::Layout, place};
-/// use touchc::tracking::trajectory::Trajectory;
+/// use touchc::tracking::trajectory::{Point, Trajectory};
 ///
 /// // One strong contact held still for three frames on a 56 x 147 px (8 x 21 cell) frame.
-/// let touch = Trajectory {
-///     frames: vec![0, 1, 2],
-///     rows: vec![28; 3],
-///     cols: vec![70; 3],
-///     costs: vec![-3.9; 3],
-///     values: vec![1.0; 3],
-/// };
+/// let touch: Trajectory = (0..3)
+///     .map(|frame| Point { frame, row: 28, col: 70, cost: -3.9, value: 1.0 })
+///     .collect();
 /// let cfg = PlacementConfig::default();
 /// let p = place(&[touch], 56, 147, 25.4 / 7.0, &Layout::paper(), &cfg)?;
 /// assert_eq!(p.scores.len(), 4200);
@@ -286,6 +266,7 @@ pub fn place(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tracking::trajectory::Columns;
 
     #[test]
     fn linspace_matches_numpy() {
@@ -335,13 +316,14 @@ mod tests {
     }
 
     fn traj(frames: &[usize], rows: &[usize], cols: &[usize], costs: &[f64]) -> Trajectory {
-        Trajectory {
+        Trajectory::try_from(Columns {
             frames: frames.to_vec(),
             rows: rows.to_vec(),
             cols: cols.to_vec(),
             costs: costs.to_vec(),
             values: vec![1.0; frames.len()],
-        }
+        })
+        .unwrap()
     }
 
     #[test]
@@ -393,11 +375,15 @@ mod tests {
         let layout = Layout::paper();
         let cfg = PlacementConfig::default();
         let pitch = 25.4 / 7.0;
-        let bad_len = traj(&[0, 1], &[1], &[1, 1], &[-1.0, -1.0]);
-        assert!(matches!(
-            place(&[bad_len], 56, 147, pitch, &layout, &cfg),
-            Err(PlacementError::LengthMismatch { trajectory: 0, .. })
-        ));
+        // Ragged arrays never become a trajectory (a point holds all five fields).
+        let ragged = Columns {
+            frames: vec![0, 1],
+            rows: vec![1],
+            cols: vec![1, 1],
+            costs: vec![-1.0, -1.0],
+            values: vec![1.0, 1.0],
+        };
+        assert!(Trajectory::try_from(ragged).is_err());
         let nan = traj(&[0], &[1], &[1], &[f64::NAN]);
         assert!(matches!(
             place(&[nan], 56, 147, pitch, &layout, &cfg),

@@ -50,14 +50,14 @@ impl Scene {
     pub(super) fn new(trajs: &[Trajectory], pitch_mm: f64) -> Scene {
         let mut points = Vec::new();
         for (t, traj) in trajs.iter().enumerate() {
-            for d in 0..traj.len() {
-                let (x, y) = pixel_centre_mm(traj.rows[d], traj.cols[d], pitch_mm);
+            for d in &traj.points {
+                let (x, y) = pixel_centre_mm(d.row, d.col, pitch_mm);
                 points.push(Point {
                     x,
                     y,
                     traj: t,
-                    frame: traj.frames[d],
-                    cost: traj.costs[d],
+                    frame: d.frame,
+                    cost: d.cost,
                 });
             }
         }

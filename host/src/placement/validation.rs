@@ -49,18 +49,8 @@ pub(super) fn check_inputs(
         return Err(PlacementError::BadPitch(pitch_mm));
     }
     for (t, traj) in trajs.iter().enumerate() {
-        let n = traj.frames.len();
-        if traj.rows.len() != n || traj.cols.len() != n || traj.costs.len() != n {
-            return Err(PlacementError::LengthMismatch {
-                trajectory: t,
-                frames: n,
-                rows: traj.rows.len(),
-                cols: traj.cols.len(),
-                costs: traj.costs.len(),
-            });
-        }
-        for d in 0..n {
-            let (row, col, cost) = (traj.rows[d], traj.cols[d], traj.costs[d]);
+        for (d, p) in traj.points.iter().enumerate() {
+            let (row, col, cost) = (p.row, p.col, p.cost);
             if !cost.is_finite() {
                 return Err(PlacementError::NonFiniteCost {
                     trajectory: t,
@@ -68,13 +58,15 @@ pub(super) fn check_inputs(
                     cost,
                 });
             }
-            if d > 0 && traj.frames[d] <= traj.frames[d - 1] {
-                return Err(PlacementError::FramesNotIncreasing {
-                    trajectory: t,
-                    detection: d,
-                    frame: traj.frames[d],
-                    previous: traj.frames[d - 1],
-                });
+            if let Some(before) = d.checked_sub(1).map(|b| traj.points[b].frame) {
+                if p.frame <= before {
+                    return Err(PlacementError::FramesNotIncreasing {
+                        trajectory: t,
+                        detection: d,
+                        frame: p.frame,
+                        previous: before,
+                    });
+                }
             }
             if row >= rows || col >= cols {
                 return Err(PlacementError::OutsideFrame {

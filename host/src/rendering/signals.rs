@@ -153,13 +153,8 @@ pub fn actuator_signals_with(
     // replacing only on a strictly stronger value makes the first-listed win ties.
     for &ti in selected {
         let Some(traj) = trajs.get(ti) else { continue };
-        let points = traj
-            .frames
-            .iter()
-            .zip(&traj.rows)
-            .zip(&traj.cols)
-            .zip(&traj.values);
-        for (((&t, &r), &c), &v) in points {
+        for p in &traj.points {
+            let (t, r, c, v) = (p.frame, p.row, p.col, p.value);
             if t >= frames {
                 continue;
             }
@@ -220,6 +215,7 @@ pub fn actuator_signals_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tracking::trajectory::Point;
     use ndarray::Array3;
 
     const PITCH: f64 = 25.4 / 7.0;
@@ -244,22 +240,19 @@ mod tests {
     }
 
     fn traj(points: &[(usize, f64, f64, f64)]) -> Trajectory {
-        let mut t = Trajectory {
-            frames: vec![],
-            rows: vec![],
-            cols: vec![],
-            costs: vec![],
-            values: vec![],
-        };
-        for &(f, x, y, v) in points {
-            let (r, c) = px(x, y);
-            t.frames.push(f);
-            t.rows.push(r);
-            t.cols.push(c);
-            t.costs.push(-3.0);
-            t.values.push(v);
-        }
-        t
+        points
+            .iter()
+            .map(|&(frame, x, y, value)| {
+                let (row, col) = px(x, y);
+                Point {
+                    frame,
+                    row,
+                    col,
+                    cost: -3.0,
+                    value,
+                }
+            })
+            .collect()
     }
 
     #[test]

@@ -21,7 +21,7 @@ use crate::tracking::detect::Detections;
 use crate::tracking::flow::{min_cost_flow_by_parts, FlowError, FlowGraph};
 use crate::tracking::preprocess::{Blurred, PreprocessError};
 use crate::tracking::scene::{track_cropped, Crop};
-use crate::tracking::trajectory::Trajectory;
+use crate::tracking::trajectory::{Point, Trajectory};
 
 /// Any failure of stages 0 to 3.
 #[derive(Debug, thiserror::Error)]
@@ -223,22 +223,19 @@ pub fn link(
         .paths
         .iter()
         .map(|path| {
-            let mut tr = Trajectory {
-                frames: Vec::new(),
-                rows: Vec::new(),
-                cols: Vec::new(),
-                costs: Vec::new(),
-                values: Vec::new(),
-            };
-            for k in path.iter().filter_map(|&e| edge_detection[e]) {
-                let d = &detections.all[k];
-                tr.frames.push(d.frame);
-                tr.rows.push(d.row);
-                tr.cols.push(d.col);
-                tr.costs.push(d.cost);
-                tr.values.push(d.value);
-            }
-            tr
+            path.iter()
+                .filter_map(|&e| edge_detection[e])
+                .map(|k| {
+                    let d = &detections.all[k];
+                    Point {
+                        frame: d.frame,
+                        row: d.row,
+                        col: d.col,
+                        cost: d.cost,
+                        value: d.value,
+                    }
+                })
+                .collect::<Trajectory>()
         })
         .collect();
     Ok(trajectories)

@@ -698,17 +698,16 @@ fn overlay<'b>(scene: &Scene<'_>, t: usize, rate_hz: f64, root: &Area<'b>) -> Dr
                 None => OTHER,
             };
             let trail: Vec<(i32, i32)> = traj
-                .frames
+                .points
                 .iter()
-                .zip(traj.rows.iter().zip(&traj.cols))
-                .filter(|(&f, _)| f <= t && f + TRAIL_FRAMES > t)
-                .map(|(_, (&r, &c))| l.pixel_centre(r, c))
+                .filter(|p| p.frame <= t && p.frame + TRAIL_FRAMES > t)
+                .map(|p| l.pixel_centre(p.row, p.col))
                 .collect();
             if trail.len() > 1 {
                 root.draw(&PathElement::new(trail.clone(), colour.stroke_width(2)))?;
             }
-            if let Some(pos) = traj.frames.iter().position(|&f| f == t) {
-                let at = l.pixel_centre(traj.rows[pos], traj.cols[pos]);
+            if let Some(p) = traj.at_frame(t) {
+                let at = l.pixel_centre(p.row, p.col);
                 root.draw(&plotters::element::Circle::new(at, 5, colour.filled()))?;
             }
         }

@@ -68,7 +68,7 @@ pub fn reference_dir() -> std::path::PathBuf {
 }
 
 use serde::Deserialize;
-use touchc::tracking::trajectory::Trajectory;
+use touchc::tracking::trajectory::{Columns, Trajectory};
 
 /// One trajectory as the reference stores it.
 #[derive(Deserialize)]
@@ -110,12 +110,15 @@ impl Reference {
     pub fn trajectories(&self) -> Vec<Trajectory> {
         self.trajectories
             .iter()
-            .map(|t| Trajectory {
-                frames: t.times.clone(),
-                rows: t.rows.clone(),
-                cols: t.cols.clone(),
-                costs: t.costs.clone(),
-                values: vec![0.0; t.times.len()],
+            .map(|t| {
+                Trajectory::try_from(Columns {
+                    frames: t.times.clone(),
+                    rows: t.rows.clone(),
+                    cols: t.cols.clone(),
+                    costs: t.costs.clone(),
+                    values: vec![0.0; t.times.len()],
+                })
+                .expect("a reference trajectory's arrays have one length")
             })
             .collect()
     }

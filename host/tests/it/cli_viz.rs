@@ -4,6 +4,7 @@ use crate::bin;
 
 use bin::{ok, touchc};
 use std::path::{Path, PathBuf};
+use touchc::tracking::trajectory::Columns;
 
 use touch_protocol::bank;
 
@@ -313,6 +314,7 @@ fn preview_animates_every_frame_with_the_trajectories() {
         }
         px
     };
+    let traj = Columns::from(traj);
     let (first, last) = (0, traj.len() - 1);
     for k in [first, traj.len() / 2, last] {
         let at = layout.pixel_centre(traj.rows[k], traj.cols[k]);

@@ -6,6 +6,7 @@ use ndarray::{s, Array3};
 use touchc::config::Config;
 use touchc::input::recording::{Recording, RecordingError};
 use touchc::tracking::track::{track, TrackError, TrackOutput};
+use touchc::tracking::trajectory::Columns;
 
 fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
     track(&Recording::from_array("synthetic", a.view()).unwrap(), cfg).unwrap()
@@ -52,9 +53,9 @@ fn a_million_psi_spike_keeps_costs_finite() {
     let t = out
         .trajectories
         .iter()
-        .find(|t| t.frames.contains(&30))
+        .find(|t| t.at_frame(30).is_some())
         .unwrap();
-    assert_eq!(t.frames, (30..36).collect::<Vec<_>>());
+    assert_eq!(Columns::from(t).frames, (30..36).collect::<Vec<_>>());
 }
 
 #[test]
@@ -73,6 +74,7 @@ fn scaling_by_1e30_and_1e_minus_30() {
     let big_same = run_cfg(&a.mapv(|v| v * 1e30), &cfg);
     assert_eq!(big_same.trajectories.len(), base.trajectories.len());
     for (x, y) in big_same.trajectories.iter().zip(&base.trajectories) {
+        let (x, y) = (Columns::from(x), Columns::from(y));
         assert_eq!((&x.frames, &x.rows, &x.cols), (&y.frames, &y.rows, &y.cols));
         for (p, q) in x.costs.iter().zip(&y.costs) {
             assert!((p - q).abs() <= 1e-9 * q.abs());
@@ -113,7 +115,7 @@ fn nan_cells_and_a_whole_nan_frame() {
     // File frame 60 is frame 40 after the trim: all zero, so no detection there.
     assert!(out.frames().slice(s![40, .., ..]).iter().all(|&v| v == 0.0));
     assert!(out.detections.in_frame(40).is_empty());
-    assert!(out.trajectories.iter().all(|t| !t.frames.contains(&40)));
+    assert!(out.trajectories.iter().all(|t| t.at_frame(40).is_none()));
     assert!(!out.trajectories.is_empty());
 }
 
@@ -161,6 +163,6 @@ fn seven_thousand_frames() {
         out.trajectories.len()
     );
     for t in &out.trajectories {
-        assert!(t.frames.windows(2).all(|w| w[1] == w[0] + 1));
+        assert!(t.points.windows(2).all(|w| w[1].frame == w[0].frame + 1));
     }
 }

@@ -10,7 +10,7 @@ use touchc::geometry::pixel_centre_mm;
 use touchc::placement::bnb::SubsetProblem;
 use touchc::placement::layout::Layout;
 use touchc::placement::{place, transform_grid};
-use touchc::tracking::trajectory::Trajectory;
+use touchc::tracking::trajectory::{Columns, Trajectory};
 
 const ROWS: usize = 56;
 const COLS: usize = 147;
@@ -22,7 +22,7 @@ fn naive(trajs: &[Trajectory], layout: &Layout, cfg: &PlacementConfig) -> Vec<(f
     let gains: Vec<f64> = trajs.iter().map(|t| -t.total_cost()).collect();
     let last_frame = trajs
         .iter()
-        .flat_map(|t| t.frames.iter().copied())
+        .flat_map(|t| t.points.iter().map(|p| p.frame))
         .max()
         .unwrap_or(0);
     transform_grid(ROWS, COLS, PITCH, layout, cfg)
@@ -35,7 +35,8 @@ fn naive(trajs: &[Trajectory], layout: &Layout, cfg: &PlacementConfig) -> Vec<(f
             for traj in trajs {
                 let (mut m, mut w) = (vec![0u32; traj.len()], vec![0.0; traj.len()]);
                 for d in 0..traj.len() {
-                    let (x, y) = pixel_centre_mm(traj.rows[d], traj.cols[d], PITCH);
+                    let p = &traj.points[d];
+                    let (x, y) = pixel_centre_mm(p.row, p.col, PITCH);
                     for (a, c) in circles.iter().enumerate() {
                         if c.contains(x, y) {
                             m[d] |= 1 << a;
@@ -53,7 +54,7 @@ fn naive(trajs: &[Trajectory], layout: &Layout, cfg: &PlacementConfig) -> Vec<(f
                     .iter()
                     .enumerate()
                     .filter_map(|(i, tr)| {
-                        let d = tr.frames.iter().position(|&f| f == frame)?;
+                        let d = tr.points.iter().position(|p| p.frame == frame)?;
                         (masks[i][d] != 0).then_some((i, masks[i][d]))
                     })
                     .collect();
@@ -66,7 +67,7 @@ fn naive(trajs: &[Trajectory], layout: &Layout, cfg: &PlacementConfig) -> Vec<(f
                 if masks[i].iter().any(|&m| m != 0) {
                     let sum = (0..trajs[i].len())
                         .filter(|&d| masks[i][d] != 0)
-                        .fold(0.0, |s, d| s + trajs[i].costs[d] * weights[i][d]);
+                        .fold(0.0, |s, d| s + trajs[i].points[d].cost * weights[i][d]);
                     score += sum;
                     selected.push(i);
                 }
@@ -90,13 +91,14 @@ fn trajectory() -> impl Strategy<Value = Trajectory> {
                 rows.push(r as usize);
                 cols.push(c as usize);
             }
-            Trajectory {
+            Trajectory::try_from(Columns {
                 frames: (start..start + len).collect(),
                 rows,
                 cols,
                 costs,
                 values: vec![0.0; len],
-            }
+            })
+            .expect("equal lengths")
         })
     })
 }

@@ -1,6 +1,7 @@
 //! The published Python reference's outputs on its two synthetic recordings.
 
 use crate::common;
+use touchc::tracking::trajectory::Columns;
 
 use touchc::input::recording::Recording;
 use touchc::tracking::detect::detect;
@@ -41,7 +42,8 @@ fn check(name: &str) {
     let expected = reference["trajectories"].as_array().unwrap();
     assert_eq!(out.trajectories.len(), expected.len(), "trajectory count");
     // Same order as the reference (the solver's augmentation order), not just same set.
-    for (i, (got, want)) in out.trajectories.iter().zip(expected).enumerate() {
+    for (i, (trajectory, want)) in out.trajectories.iter().zip(expected).enumerate() {
+        let got = Columns::from(trajectory);
         let ints = |k: &str| -> Vec<usize> {
             want[k]
                 .as_array()
@@ -67,9 +69,9 @@ fn check(name: &str) {
         }
         let total = want["total_cost"].as_f64().unwrap();
         assert!(
-            rel(got.total_cost(), total) < 1e-9,
+            rel(trajectory.total_cost(), total) < 1e-9,
             "trajectory {i} total {} vs {total}",
-            got.total_cost()
+            trajectory.total_cost()
         );
         // The rendered pressure is the blurred frame at the detection.
         for (j, &f) in got.frames.iter().enumerate() {

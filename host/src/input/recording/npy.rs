@@ -525,7 +525,7 @@ mod tests {
             parse("{'descr':'|u1','fortran_order':False,'shape':()}")
                 .unwrap()
                 .shape,
-            []
+            Vec::<usize>::new()
         );
         assert_eq!(
             parse("{'descr':'<f4','fortran_order':False,'shape':(2L, 3L)}")
