@@ -10,7 +10,6 @@ use std::path::{Path, PathBuf};
 use crate::cli::output::write_atomic;
 use anyhow::{bail, Context};
 use touch_protocol::{bank, container, layout_id, Error, Stimulus, CHANNELS};
-use touchc::placement::layout::Layout;
 
 /// Arguments of `touchc bank`.
 #[derive(Debug, clap::Args)]
@@ -28,10 +27,7 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let layout = match &args.layout {
-        Some(path) => Layout::load(path)?,
-        None => Layout::paper(),
-    };
+    let layout = super::layout(args.layout.as_deref())?;
     let target = layout_id(layout.id());
     if args.stimuli.len() > usize::from(bank::MAX_SLOTS) {
         bail!(

@@ -15,7 +15,6 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use touchc::compile::{compile, CompileOptions, Report};
 use touchc::input::recording::Recording;
-use touchc::placement::layout::Layout;
 
 /// Arguments of `touchc compile`.
 #[derive(Debug, clap::Args)]
@@ -55,10 +54,7 @@ pub struct Args {
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let config = args.config.resolve()?;
-    let layout = match &args.layout {
-        Some(path) => Layout::load(path)?,
-        None => Layout::paper(),
-    };
+    let layout = super::layout(args.layout.as_deref())?;
     let opts = CompileOptions {
         config,
         layout,

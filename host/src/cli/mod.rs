@@ -98,6 +98,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 pub(crate) struct Usage(pub String);
 
 /// Returns a usage error (exit status 2).
+/// The actuator layout of a `--layout FILE` option, or the paper's sleeve without one.
+pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc::placement::layout::Layout> {
+    Ok(match path {
+        Some(path) => touchc::placement::layout::Layout::load(path)?,
+        None => touchc::placement::layout::Layout::paper(),
+    })
+}
+
 pub(crate) fn usage(message: impl Into<String>) -> anyhow::Error {
     Usage(message.into()).into()
 }

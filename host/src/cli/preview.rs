@@ -7,7 +7,6 @@ use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::compile::{compile, CompileOptions};
 use touchc::input::recording::Recording;
-use touchc::placement::layout::Layout;
 use touchc::viz::preview;
 
 /// Arguments of `touchc preview`.
@@ -52,10 +51,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(super::usage("--every must be at least 1"));
     }
     let config = args.config.resolve()?;
-    let layout = match &args.layout {
-        Some(path) => Layout::load(path)?,
-        None => Layout::paper(),
-    };
+    let layout = super::layout(args.layout.as_deref())?;
     // Whole frames (no crop) so every frame has its blurred map; scaled to the limits
     // rather than refused, since a preview shows the scene, not the stimulus.
     let opts = CompileOptions {

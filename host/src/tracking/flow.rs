@@ -188,6 +188,17 @@ enum Step {
     Backward(usize),
 }
 
+/// `source` and `sink` must be nodes of `g`.
+fn check_nodes(g: &FlowGraph, source: usize, sink: usize) -> Result<(), FlowError> {
+    match [source, sink].into_iter().find(|&node| node >= g.n_nodes) {
+        Some(node) => Err(FlowError::NodeOutOfRange {
+            node,
+            n_nodes: g.n_nodes,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Solves min-cost flow from `source` to `sink`, at most `max_units` units.
 pub fn min_cost_flow(
     g: &FlowGraph,
@@ -195,14 +206,7 @@ pub fn min_cost_flow(
     sink: usize,
     max_units: usize,
 ) -> Result<FlowSolution, FlowError> {
-    for node in [source, sink] {
-        if node >= g.n_nodes {
-            return Err(FlowError::NodeOutOfRange {
-                node,
-                n_nodes: g.n_nodes,
-            });
-        }
-    }
+    check_nodes(g, source, sink)?;
     let n = g.n_nodes;
     let out_edges = Adjacency::new(n, &g.edges, |e| e.from);
     let in_edges = Adjacency::new(n, &g.edges, |e| e.to);
@@ -431,14 +435,7 @@ pub fn min_cost_flow_by_parts(
     sink: usize,
     max_units: usize,
 ) -> Result<FlowSolution, FlowError> {
-    for node in [source, sink] {
-        if node >= g.n_nodes {
-            return Err(FlowError::NodeOutOfRange {
-                node,
-                n_nodes: g.n_nodes,
-            });
-        }
-    }
+    check_nodes(g, source, sink)?;
     let parts = Parts::of(g, source, sink);
     let mut solved = parts
         .graphs

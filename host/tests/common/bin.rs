@@ -23,6 +23,13 @@ pub fn ok(out: &Output) {
     assert!(out.status.success(), "{}", stderr(out));
 }
 
+/// Fails the test unless the run failed, and returns its standard error (which names
+/// the problem) for the caller's assertions.
+pub fn refused(out: &Output) -> String {
+    assert!(!out.status.success(), "expected a refusal: {}", stderr(out));
+    stderr(out)
+}
+
 /// A path as a command-line argument (the tests' temporary paths are UTF-8).
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()

@@ -2,7 +2,7 @@
 
 use crate::bin;
 
-use bin::{ok, touchc};
+use bin::{ok, refused, touchc};
 use std::path::Path;
 
 use touch_protocol::Bank;
@@ -45,8 +45,7 @@ fn inspect_refuses_a_corrupted_file_by_name() {
     bytes[20] ^= 0x40;
     std::fs::write(&file, bytes).unwrap();
     let out = touchc(&["inspect", file.to_str().unwrap()]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&out);
     assert!(
         err.contains("calming.touch") && err.contains("CRC"),
         "{err}"
@@ -124,8 +123,7 @@ fn bank_packs_slots_in_order_and_refuses_bad_input() {
         "-o",
         out_path.to_str().unwrap(),
     ]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("junk.touch"));
+    assert!(refused(&out).contains("junk.touch"));
     assert!(!out_path.exists());
 }
 
@@ -156,8 +154,7 @@ fn bank_refuses_a_stimulus_for_another_layout_or_channel_count() {
         "-o",
         out_path.to_str().unwrap(),
     ]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&out);
     let target = touch_protocol::SLEEVE_LAYOUT_ID;
     assert!(
         err.contains("other.touch")
@@ -181,8 +178,7 @@ fn bank_refuses_a_stimulus_for_another_layout_or_channel_count() {
         "-o",
         out_path.to_str().unwrap(),
     ]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&out);
     assert!(
         err.contains("narrow.touch: has 4 channels, but the bank's sleeve has 8"),
         "{err}"
@@ -200,8 +196,7 @@ fn bank_refuses_too_many_slots_and_too_many_bytes_with_the_limits() {
     args.extend(std::iter::repeat_n(a, 33));
     args.extend(["-o", out_path.to_str().unwrap()]);
     let out = touchc(&args);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&out);
     assert!(
         err.contains("33 stimuli, but a bank holds at most 32 slots"),
         "{err}"
@@ -228,8 +223,7 @@ fn bank_refuses_too_many_slots_and_too_many_bytes_with_the_limits() {
     std::fs::write(&big_path, &big).unwrap();
     let big_path = big_path.to_str().unwrap();
     let out = touchc(&["bank", big_path, big_path, "-o", out_path.to_str().unwrap()]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&out);
     let total = 10 + 2 + 16 + 2 * big.len() + 4;
     assert!(
         err.contains(&format!(

@@ -2,7 +2,7 @@
 
 use crate::bin;
 
-use bin::{ok, touchc};
+use bin::{ok, refused, touchc};
 use std::path::{Path, PathBuf};
 use touchc::tracking::trajectory::Columns;
 
@@ -133,11 +133,9 @@ fn plot_reads_a_bank_slot_and_writes_svg() {
 
     // A missing slot and an unknown extension are errors naming the file.
     let out = touchc(&["plot", file.to_str().unwrap(), "--slot", "5", "-o", "x.svg"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("sleeve.bank"));
+    assert!(refused(&out).contains("sleeve.bank"));
     let out = touchc(&["plot", file.to_str().unwrap(), "-o", "x.jpg"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("x.jpg"));
+    assert!(refused(&out).contains("x.jpg"));
     // Too small to lay out eight panels: refused, and nothing written.
     let tiny = dir.path().join("tiny.png");
     let out = touchc(&[
@@ -148,8 +146,7 @@ fn plot_reads_a_bank_slot_and_writes_svg() {
         "--width",
         "10",
     ]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("10 x 800 px"));
+    assert!(refused(&out).contains("10 x 800 px"));
     assert!(!tiny.exists());
 }
 
@@ -211,8 +208,7 @@ fn render_wav_is_the_players_output_at_the_chosen_rate() {
         "--rate",
         "500",
     ]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("a.wav"));
+    assert!(refused(&out).contains("a.wav"));
 }
 
 /// Decodes a GIF into the full RGBA pictures a viewer shows: each frame's rectangle laid
@@ -424,8 +420,7 @@ fn preview_png_shows_one_frame_and_refuses_frames_past_the_end() {
         assert!(white > 40, "legend entry {k}: {white} light px");
     }
     let out = args("100000");
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&out);
     assert!(err.contains("tap.npy") && err.contains("100000"), "{err}");
 }
 
@@ -442,8 +437,7 @@ fn preview_of_a_recording_without_touch_says_so() {
         "-o",
         gif_path.to_str().unwrap(),
     ]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&out);
     assert!(
         err.contains("still.npy") && err.contains("no touch"),
         "{err}"

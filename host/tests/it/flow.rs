@@ -1,7 +1,7 @@
 //! The successive-shortest-path solver against brute force on small random DAGs.
 
 use proptest::prelude::*;
-use touchc::tracking::flow::{min_cost_flow, min_cost_flow_by_parts, FlowGraph};
+use touchc::tracking::flow::{min_cost_flow, min_cost_flow_by_parts, FlowGraph, FlowSolution};
 
 /// Cheapest feasible unit-capacity flow of value <= max_units, by trying every edge set.
 fn brute_force(n: usize, edges: &[(usize, usize, f64)], max_units: usize) -> f64 {
@@ -23,6 +23,37 @@ fn brute_force(n: usize, edges: &[(usize, usize, f64)], max_units: usize) -> f64
         }
     }
     best
+}
+
+/// The reported flow is feasible, costs what it says, and decomposes into source-to-sink
+/// paths that use each used edge exactly once.
+fn consistent(
+    edges: &[(usize, usize, f64)],
+    sol: &FlowSolution,
+    n: usize,
+) -> Result<(), TestCaseError> {
+    let used_cost: f64 = edges
+        .iter()
+        .zip(&sol.used)
+        .filter(|(_, &u)| u)
+        .map(|(e, _)| e.2)
+        .sum();
+    prop_assert!((used_cost - sol.total_cost).abs() < 1e-9);
+    prop_assert_eq!(sol.paths.len(), sol.units);
+    let mut covered = vec![false; edges.len()];
+    for path in &sol.paths {
+        prop_assert_eq!(edges[path[0]].0, 0);
+        prop_assert_eq!(edges[path[path.len() - 1]].1, n - 1);
+        for w in path.windows(2) {
+            prop_assert_eq!(edges[w[0]].1, edges[w[1]].0);
+        }
+        for &e in path {
+            prop_assert!(sol.used[e] && !covered[e]);
+            covered[e] = true;
+        }
+    }
+    prop_assert_eq!(covered, sol.used.clone());
+    Ok(())
 }
 
 fn graph_strategy() -> impl Strategy<Value = (usize, Vec<(usize, usize, f64)>, usize)> {
@@ -50,23 +81,7 @@ proptest! {
         prop_assert!((sol.total_cost - best).abs() < 1e-9, "solver {} vs brute {}", sol.total_cost, best);
         prop_assert!(sol.units <= max_units);
 
-        // The reported flow is feasible, costs what it says, and decomposes into paths.
-        let used_cost: f64 = edges.iter().zip(&sol.used).filter(|(_, &u)| u).map(|(e, _)| e.2).sum();
-        prop_assert!((used_cost - sol.total_cost).abs() < 1e-9);
-        prop_assert_eq!(sol.paths.len(), sol.units);
-        let mut covered = vec![false; edges.len()];
-        for path in &sol.paths {
-            prop_assert_eq!(edges[path[0]].0, 0);
-            prop_assert_eq!(edges[*path.last().unwrap()].1, n - 1);
-            for w in path.windows(2) {
-                prop_assert_eq!(edges[w[0]].1, edges[w[1]].0);
-            }
-            for &e in path {
-                prop_assert!(sol.used[e] && !covered[e]);
-                covered[e] = true;
-            }
-        }
-        prop_assert_eq!(covered, sol.used.clone());
+        consistent(&edges, &sol, n)?;
     }
 }
 
@@ -125,24 +140,9 @@ proptest! {
         prop_assert!((whole.total_cost - parts.total_cost).abs() < 1e-9,
             "whole {} vs parts {}", whole.total_cost, parts.total_cost);
         prop_assert_eq!(whole.units, parts.units);
-        let used_cost: f64 = edges.iter().zip(&parts.used).filter(|(_, &u)| u).map(|(e, _)| e.2).sum();
-        prop_assert!((used_cost - parts.total_cost).abs() < 1e-9);
-        prop_assert_eq!(parts.paths.len(), parts.units);
+        consistent(&edges, &parts, n)?;
         // Paths come in the order one solver finds them: by the cost of their augmentation.
         prop_assert!(parts.found_at.iter().map(|&a| parts.marginals[a]).collect::<Vec<_>>()
             .windows(2).all(|w| w[0] <= w[1]));
-        let mut covered = vec![false; edges.len()];
-        for path in &parts.paths {
-            prop_assert_eq!(edges[path[0]].0, 0);
-            prop_assert_eq!(edges[*path.last().unwrap()].1, n - 1);
-            for w in path.windows(2) {
-                prop_assert_eq!(edges[w[0]].1, edges[w[1]].0);
-            }
-            for &e in path {
-                prop_assert!(parts.used[e] && !covered[e]);
-                covered[e] = true;
-            }
-        }
-        prop_assert_eq!(covered, parts.used.clone());
     }
 }
