@@ -27,7 +27,7 @@ fn stages(c: &mut Criterion) {
     let tared = rec.tare(&cfg.input, &paper).expect("tare");
     let blurred = preprocess(tared.view(), &cfg.preprocess, &paper).expect("blur");
     let dets = detect(&blurred, &cfg.detect);
-    let trajs = link(&dets, &cfg.track, &paper).expect("link");
+    let trajs = link(&dets, &cfg.track, &paper).expect("link").trajectories;
     eprintln!(
         "bench recording: {} detections, {} trajectories",
         dets.all.len(),

@@ -65,7 +65,7 @@ fn main() -> anyhow::Result<()> {
         let t3 = Instant::now();
         let dets = detect(&blurred, &cfg.detect);
         let t4 = Instant::now();
-        let trajs = link(&dets, &cfg.track, &paper)?;
+        let trajs = link(&dets, &cfg.track, &paper)?.trajectories;
         let t5 = Instant::now();
         let t6 = Instant::now();
         let rec2 = Recording::load(&path)?;

@@ -112,6 +112,10 @@ pub struct Report {
     pub transforms_inexact: usize,
     /// True when the flow used every unit of `track.max_trajectories` (a warning says so).
     pub trajectory_limit_reached: bool,
+    /// Edges the min-cost flow scanned (its work; 0 without touch).
+    pub flow_work: u64,
+    /// True when the min-cost flow stopped at its work budget (a warning says so).
+    pub flow_budget_reached: bool,
     /// Wall seconds per stage, keyed by [`Stage::name`], and `total`.
     pub seconds: BTreeMap<&'static str, f64>,
     /// Size of the stimulus file.
@@ -279,6 +283,18 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
              (coverage {:.2} says how much touch is explained)",
             tracked.trajectories.len(),
             cfg.track.max_trajectories,
+            covered.0.ratio(),
+        ));
+    }
+    if tracked.flow_budget_reached {
+        warnings.push(format!(
+            "tracking stopped at its work budget ({} edges scanned by the min-cost flow, \
+             {} per edge of its graph) after {} trajectories: weaker contacts may be \
+             untracked (coverage {:.2}); a scene this dense is usually noise: check the \
+             tare, or narrow the link gate with --max-speed-mm-s",
+            tracked.flow_work,
+            crate::tracking::track::FLOW_WORK_PER_EDGE,
+            tracked.trajectories.len(),
             covered.0.ratio(),
         ));
     }
@@ -496,6 +512,8 @@ fn finish(
         trajectory_limit_reached: tracked
             .as_ref()
             .is_some_and(|t| t.trajectories.len() >= opts.config.track.max_trajectories),
+        flow_work: tracked.as_ref().map_or(0, |t| t.flow_work),
+        flow_budget_reached: tracked.as_ref().is_some_and(|t| t.flow_budget_reached),
         seconds: clock.finish(),
         bytes,
         duration_s,

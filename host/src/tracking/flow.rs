@@ -16,6 +16,11 @@
 //! - reduced costs that rounding pushes below zero are clamped to zero;
 //! - each Dijkstra stops when the sink is settled (unsettled nodes' potentials grow by
 //!   the sink distance, which keeps reduced costs non-negative).
+//!
+//! Work is counted in edges scanned, and a solve may be given a budget of them
+//! ([`min_cost_flow_by_parts`]): when it runs out the flow found so far is returned (the
+//! min-cost flow of that many units) and [`FlowSolution::budget_reached`] says so. A
+//! scene of dense noise on a small sensor under a wide gate is otherwise units x edges.
 
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
@@ -128,6 +133,12 @@ pub struct FlowSolution {
     /// The true cost of each augmentation, in order (non-decreasing: the total cost is
     /// convex in the amount of flow).
     pub marginals: Vec<f64>,
+    /// Edges scanned: two passes over the graph, then the Dijkstra searches.
+    pub work: u64,
+    /// The work budget ran out before the flow was optimal: more negative paths may
+    /// remain (for one graph, the flow is the min-cost flow of `units` units; by parts,
+    /// each part's is of its own units).
+    pub budget_reached: bool,
 }
 
 /// Nodes whose best path through them costs at least this are pruned; slightly above 0
@@ -206,6 +217,19 @@ pub fn min_cost_flow(
     sink: usize,
     max_units: usize,
 ) -> Result<FlowSolution, FlowError> {
+    min_cost_flow_within(g, source, sink, max_units, u64::MAX)
+}
+
+/// [`min_cost_flow`] that stops once `budget` edges have been scanned (the two first
+/// passes always run): the solution is then the min-cost flow of the units found, with
+/// `budget_reached` set.
+pub fn min_cost_flow_within(
+    g: &FlowGraph,
+    source: usize,
+    sink: usize,
+    max_units: usize,
+    budget: u64,
+) -> Result<FlowSolution, FlowError> {
     check_nodes(g, source, sink)?;
     let n = g.n_nodes;
     let out_edges = Adjacency::new(n, &g.edges, |e| e.from);
@@ -223,8 +247,13 @@ pub fn min_cost_flow(
             paths: Vec::new(),
             found_at: Vec::new(),
             marginals,
+            work: 0,
+            budget_reached: false,
         });
     }
+    // The DP and the pruning pass each scan every edge once.
+    let mut work = 2 * g.edges.len() as u64;
+    let mut budget_reached = false;
 
     // First path: DP in index order (edges only go forward).
     let mut pot = vec![f64::INFINITY; n];
@@ -320,6 +349,11 @@ pub fn min_cost_flow(
             if d > dist[u] {
                 continue;
             }
+            work += (out_edges.of(u).len() + in_edges.of(u).len()) as u64;
+            if work > budget {
+                budget_reached = true;
+                break;
+            }
             if u == sink {
                 // The sink's path is final; nothing popped later can change it.
                 reached_sink = d;
@@ -352,6 +386,10 @@ pub fn min_cost_flow(
                 }
             }
         }
+        if budget_reached {
+            // This search did not finish: the flow so far is the answer.
+            break;
+        }
         // Early exit: nodes not settled before the sink get the sink's distance, which
         // keeps every reduced cost non-negative (for a settled u and unsettled v,
         // dist(sink) <= dist(v) <= dist(u) + c'). Unreachable stays unreachable: pruned
@@ -369,6 +407,8 @@ pub fn min_cost_flow(
         paths,
         found_at,
         marginals,
+        work,
+        budget_reached,
     })
 }
 
@@ -429,29 +469,36 @@ fn decompose(
 /// augmentation break exact ties), which orders the paths as [`min_cost_flow`] does and
 /// decides which units fall within `max_units`. A part that loses units to the cap is
 /// solved again with its share, so the flow is a min-cost flow of at most `max_units`.
+///
+/// The parts share a budget of `budget` edges scanned (in node order; each part's two
+/// first passes always run, so the work is at most the budget plus two passes over the
+/// graph). Once it is spent the remaining parts send only their first path, and
+/// `budget_reached` is set: each part's flow is then a min-cost flow of its units.
 pub fn min_cost_flow_by_parts(
     g: &FlowGraph,
     source: usize,
     sink: usize,
     max_units: usize,
+    budget: u64,
 ) -> Result<FlowSolution, FlowError> {
     check_nodes(g, source, sink)?;
     let parts = Parts::of(g, source, sink);
-    let mut solved = parts
-        .graphs
-        .iter()
-        .map(|(sub, _)| {
-            // A part where no path can be negative sends nothing: most parts of a
-            // tracking graph are one noise detection with a positive cost.
-            let last = sub.n_nodes - 1;
-            let units = if lowest_path_bound(sub, 0, last) < 0.0 {
-                max_units
-            } else {
-                0
-            };
-            min_cost_flow(sub, 0, last, units)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut work = 0u64;
+    let mut solved = Vec::with_capacity(parts.graphs.len());
+    for (sub, _) in &parts.graphs {
+        // A part where no path can be negative sends nothing: most parts of a
+        // tracking graph are one noise detection with a positive cost.
+        let last = sub.n_nodes - 1;
+        let units = if lowest_path_bound(sub, 0, last) < 0.0 {
+            max_units
+        } else {
+            0
+        };
+        let s = min_cost_flow_within(sub, 0, last, units, budget.saturating_sub(work))?;
+        work = work.saturating_add(s.work);
+        solved.push(s);
+    }
+    let budget_reached = solved.iter().any(|s| s.budget_reached);
     // Every augmentation of every part, in the order one solver would make them.
     let mut order: Vec<(f64, usize, usize)> = solved
         .iter()
@@ -465,6 +512,8 @@ pub fn min_cost_flow_by_parts(
     }
     for (p, s) in solved.iter_mut().enumerate() {
         if share[p] < s.units {
+            // The same first `share[p]` augmentations again: no more work than they
+            // took within the budget.
             let sub = &parts.graphs[p].0;
             *s = min_cost_flow(sub, 0, sub.n_nodes - 1, share[p])?;
         }
@@ -495,6 +544,8 @@ pub fn min_cost_flow_by_parts(
         found_at: (0..keyed.len()).collect(),
         paths: keyed.into_iter().map(|(_, edges)| edges).collect(),
         marginals,
+        work,
+        budget_reached,
     })
 }
 

@@ -193,7 +193,7 @@ pub fn track_cropped(
         .collect();
     let detections = score(in_crop, stats.mean, stats.std, &cfg.detect);
     lap(Stage::Detect);
-    let trajectories = link(&detections, &cfg.track, sampling)?;
+    let linked = link(&detections, &cfg.track, sampling)?;
     lap(Stage::Track);
     let detections = if keep_scene {
         detections
@@ -209,7 +209,9 @@ pub fn track_cropped(
             pitch_mm: stats.pitch_mm,
         },
         detections,
-        trajectories,
+        trajectories: linked.trajectories,
+        flow_work: linked.work,
+        flow_budget_reached: linked.budget_reached,
     };
     Ok((tracked, crop))
 }

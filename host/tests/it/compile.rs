@@ -363,3 +363,30 @@ fn a_fitted_long_touch_still_encodes() {
         r.warnings
     );
 }
+
+/// Dense noise on a 6 x 6 sensor under the default preset's wide gate (a compile fuzz
+/// seed that once took seconds): the flow stops at its work budget and says so. The
+/// shipped examples, real touch, stay far below it.
+#[test]
+fn dense_noise_stops_the_flow_at_its_work_budget_with_a_warning() {
+    let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let bytes = std::fs::read(manifest.join("fuzz/seeds/compile/placement-timeout")).unwrap();
+    let noise = crate::fuzz_input::recording(&bytes).unwrap();
+    let rec = Recording::from_array("noise", noise.view()).unwrap();
+    let c = compile(&rec, &CompileOptions::default()).unwrap();
+    assert!(c.report.flow_budget_reached);
+    assert!(
+        c.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("work budget") && w.contains("trajectories")),
+        "{:?}",
+        c.report.warnings
+    );
+    for name in ["combination.npy", "squeeze.npy", "tap_pat.npy"] {
+        let rec = Recording::load(manifest.join("../examples").join(name)).unwrap();
+        let c = compile(&rec, &CompileOptions::default()).unwrap();
+        assert!(!c.report.flow_budget_reached, "{name}");
+        assert!(c.report.flow_work > 0, "{name}");
+    }
+}

@@ -1,7 +1,9 @@
 //! The successive-shortest-path solver against brute force on small random DAGs.
 
 use proptest::prelude::*;
-use touchc::tracking::flow::{min_cost_flow, min_cost_flow_by_parts, FlowGraph, FlowSolution};
+use touchc::tracking::flow::{
+    min_cost_flow, min_cost_flow_by_parts, min_cost_flow_within, FlowGraph, FlowSolution,
+};
 
 /// Cheapest feasible unit-capacity flow of value <= max_units, by trying every edge set.
 fn brute_force(n: usize, edges: &[(usize, usize, f64)], max_units: usize) -> f64 {
@@ -136,7 +138,7 @@ proptest! {
             g.add_edge(a, b, c).unwrap();
         }
         let whole = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
-        let parts = min_cost_flow_by_parts(&g, 0, n - 1, max_units).unwrap();
+        let parts = min_cost_flow_by_parts(&g, 0, n - 1, max_units, u64::MAX).unwrap();
         prop_assert!((whole.total_cost - parts.total_cost).abs() < 1e-9,
             "whole {} vs parts {}", whole.total_cost, parts.total_cost);
         prop_assert_eq!(whole.units, parts.units);
@@ -144,5 +146,52 @@ proptest! {
         // Paths come in the order one solver finds them: by the cost of their augmentation.
         prop_assert!(parts.found_at.iter().map(|&a| parts.marginals[a]).collect::<Vec<_>>()
             .windows(2).all(|w| w[0] <= w[1]));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+    /// Out of budget, one graph's flow is still the min-cost flow of the units it found;
+    /// within budget it is the optimum.
+    #[test]
+    fn a_budget_stops_at_a_min_cost_flow_of_fewer_units(
+        (n, edges, max_units) in graph_strategy(),
+        budget in 0u64..120,
+    ) {
+        let mut g = FlowGraph::new(n);
+        for &(a, b, c) in &edges {
+            g.add_edge(a, b, c).unwrap();
+        }
+        let whole = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
+        let bounded = min_cost_flow_within(&g, 0, n - 1, max_units, budget).unwrap();
+        consistent(&edges, &bounded, n)?;
+        prop_assert!(bounded.units <= whole.units);
+        let same_units = min_cost_flow(&g, 0, n - 1, bounded.units).unwrap();
+        prop_assert!((bounded.total_cost - same_units.total_cost).abs() < 1e-9);
+        if !bounded.budget_reached {
+            prop_assert_eq!(bounded.units, whole.units);
+            prop_assert!((bounded.total_cost - whole.total_cost).abs() < 1e-9);
+        } else {
+            prop_assert!(bounded.work > budget);
+        }
+    }
+
+    /// By parts with a budget: a valid flow, never more units than the optimum, and the
+    /// optimum itself when the budget was not reached.
+    #[test]
+    fn parts_share_one_budget((n, edges, max_units) in parts_strategy(), budget in 0u64..200) {
+        let mut g = FlowGraph::new(n);
+        for &(a, b, c) in &edges {
+            g.add_edge(a, b, c).unwrap();
+        }
+        let whole = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
+        let bounded = min_cost_flow_by_parts(&g, 0, n - 1, max_units, budget).unwrap();
+        consistent(&edges, &bounded, n)?;
+        prop_assert!(bounded.units <= whole.units);
+        prop_assert!(bounded.total_cost >= whole.total_cost - 1e-9);
+        if !bounded.budget_reached {
+            prop_assert_eq!(bounded.units, whole.units);
+            prop_assert!((bounded.total_cost - whole.total_cost).abs() < 1e-9);
+        }
     }
 }

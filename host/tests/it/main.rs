@@ -8,6 +8,8 @@
 mod bin;
 #[path = "../common/mod.rs"]
 mod common;
+#[path = "../common/fuzz_input.rs"]
+mod fuzz_input;
 #[path = "../common/poison.rs"]
 mod poison;
 #[path = "../common/stimuli.rs"]
