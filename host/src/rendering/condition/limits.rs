@@ -129,37 +129,53 @@ fn check_scaled(
     scale: f64,
     limits: &Limits,
 ) -> Result<(), LimitViolation> {
+    match scan(signal, scale, limits).0 {
+        Some(v) => Err(v),
+        None => Ok(()),
+    }
+}
+
+/// Scans `scale * signal`: the first violation in time order (sample by sample, channel
+/// by channel), if any, and the highest thermal bucket level reached. A peak, slew or
+/// non-finite violation stops the scan; a thermal one does not, so that the level says
+/// how far over the budget the whole signal goes ([`fit`] steers by it).
+fn scan(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> (Option<LimitViolation>, f64) {
     let dt_s = 1.0 / OUTPUT_RATE_HZ;
     let leak = limits.continuous_a * limits.continuous_a;
     let mut previous = [0.0_f64; CHANNELS];
     let mut bucket = [0.0_f64; CHANNELS];
+    let mut hottest = 0.0_f64;
+    let mut thermal = None;
     for (sample, frame) in signal.iter().enumerate() {
         for channel in 0..CHANNELS {
             let current = scale * frame[channel];
-            if !current.is_finite() {
-                return Err(LimitViolation::NotFinite { channel, sample });
-            }
-            if current.abs() > limits.peak_a {
-                return Err(LimitViolation::Peak {
+            let stop = if !current.is_finite() {
+                Some(LimitViolation::NotFinite { channel, sample })
+            } else if current.abs() > limits.peak_a {
+                Some(LimitViolation::Peak {
                     channel,
                     sample,
                     current_a: current,
                     limit_a: limits.peak_a,
-                });
-            }
-            let step = (current - previous[channel]).abs();
-            if step > limits.slew_a_per_ms {
-                return Err(LimitViolation::Slew {
+                })
+            } else if (current - previous[channel]).abs() > limits.slew_a_per_ms {
+                Some(LimitViolation::Slew {
                     channel,
                     sample,
-                    step_a: step,
+                    step_a: (current - previous[channel]).abs(),
                     limit_a_per_ms: limits.slew_a_per_ms,
-                });
+                })
+            } else {
+                None
+            };
+            if let Some(v) = stop {
+                return (Some(thermal.unwrap_or(v)), hottest);
             }
             previous[channel] = current;
             bucket[channel] = (bucket[channel] + (current * current - leak) * dt_s).max(0.0);
-            if bucket[channel] > limits.thermal_budget_a2s {
-                return Err(LimitViolation::Thermal {
+            hottest = hottest.max(bucket[channel]);
+            if thermal.is_none() && bucket[channel] > limits.thermal_budget_a2s {
+                thermal = Some(LimitViolation::Thermal {
                     channel,
                     sample,
                     bucket_a2s: bucket[channel],
@@ -171,15 +187,16 @@ fn check_scaled(
     // The device rests at 0 A after playback: the last step is to 0 A.
     for (channel, &current) in previous.iter().enumerate() {
         if current.abs() > limits.slew_a_per_ms {
-            return Err(LimitViolation::Slew {
+            let v = LimitViolation::Slew {
                 channel,
                 sample: signal.len(),
                 step_a: current.abs(),
                 limit_a_per_ms: limits.slew_a_per_ms,
-            });
+            };
+            return (Some(thermal.unwrap_or(v)), hottest);
         }
     }
-    Ok(())
+    (thermal, hottest)
 }
 
 /// Checks a 1 kHz current signal (amperes, one `[f64; 8]` per ms) against `limits`.
@@ -197,11 +214,12 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 /// [`check_limits`], and returns the factor (1 and no change when it already passes).
 ///
 /// Peak and slew scale linearly, so the largest factor they allow is a ratio, found in
-/// one pass. When the thermal bucket refuses that factor too, a bisection below it finds
-/// the largest passing one to within 2^-32 (the bucket gets monotonically easier as the
-/// scale shrinks, by induction over samples, and scale 0 always passes). The returned
-/// factor is always one that was checked. Errors only for non-finite samples or invalid
-/// limits.
+/// one pass. When the thermal bucket refuses that factor too, a root search below it
+/// ([`fit_thermal`]: regula falsi on the hottest bucket level, about ten passes) finds
+/// the largest passing factor to within 2^-32 (the bucket gets monotonically easier as
+/// the scale shrinks, by induction over samples, and scale 0 always passes). The
+/// returned factor is always one that was checked. Errors only for non-finite samples
+/// or invalid limits.
 ///
 /// ```
 /// use touchc::rendering::condition::{check_limits, fit, Limits};
@@ -225,19 +243,13 @@ pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, Limit
         Err(_) => {}
     }
     let linear = linear_limit(signal, limits);
-    let lo = if check_scaled(signal, linear, limits).is_ok() {
-        linear
-    } else {
-        let (mut lo, mut hi) = (0.0_f64, linear);
-        for _ in 0..FIT_BISECTIONS {
-            let mid = 0.5 * (lo + hi);
-            if check_scaled(signal, mid, limits).is_ok() {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
+    let lo = match scan(signal, linear, limits) {
+        (None, _) => linear,
+        (Some(LimitViolation::Thermal { .. }), hottest) => {
+            fit_thermal(signal, limits, linear, hottest - limits.thermal_budget_a2s)
         }
-        lo
+        // Peak or slew refused by rounding at their own exact factor: bisect below it.
+        (Some(_), _) => bisect(|s| check_scaled(signal, s, limits).is_ok(), 0.0, linear),
     };
     for frame in signal.iter_mut() {
         for v in frame.iter_mut() {
@@ -247,8 +259,73 @@ pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, Limit
     Ok(lo)
 }
 
-/// Bisection steps of [`fit`] on the thermal limit: the factor to within 2^-32.
-const FIT_BISECTIONS: u32 = 32;
+/// How close [`fit`] gets to the largest passing factor: within 2^-32 of it.
+const FIT_TOLERANCE: f64 = 1.0 / 4_294_967_296.0;
+
+/// The largest factor in `[lo, hi]` at which `passes`, for a `passes` true at `lo`, false
+/// at `hi` and monotone in between, to within [`FIT_TOLERANCE`]: one that passed.
+fn bisect(passes: impl Fn(f64) -> bool, mut lo: f64, mut hi: f64) -> f64 {
+    while hi - lo > FIT_TOLERANCE {
+        let mid = 0.5 * (lo + hi);
+        if passes(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// The largest factor below `hi` (which peak and slew allow and whose hottest bucket is
+/// `excess_hi` over the budget) that keeps the bucket within the budget, to within
+/// [`FIT_TOLERANCE`], and one that [`scan`] passed.
+///
+/// The hottest bucket level grows with the factor, so its excess over the budget is a
+/// monotone function with one root: regula falsi with the Illinois step (the end that
+/// stays put has its value halved) finds it in about ten scans where bisection takes
+/// 32; a step that does not halve the bracket is followed by a bisection step, so it is
+/// never slower than bisection by more than a factor of two.
+fn fit_thermal(signal: &[[f64; CHANNELS]], limits: &Limits, hi: f64, excess_hi: f64) -> f64 {
+    // At scale 0 the bucket stays empty: the excess is minus the budget.
+    let (mut lo, mut f_lo) = (0.0_f64, -limits.thermal_budget_a2s);
+    let (mut hi, mut f_hi) = (hi, excess_hi);
+    let mut kept = 0i8; // -1: `lo` moved last, 1: `hi` moved last
+    let mut bisect_next = false;
+    while hi - lo > FIT_TOLERANCE {
+        let width = hi - lo;
+        let secant = hi - f_hi * (hi - lo) / (f_hi - f_lo);
+        let s = if bisect_next || !(secant > lo && secant < hi) {
+            0.5 * (lo + hi)
+        } else {
+            secant
+        };
+        match scan(signal, s, limits) {
+            (None, hottest) => {
+                lo = s;
+                f_lo = hottest - limits.thermal_budget_a2s;
+                if kept == -1 {
+                    f_hi *= 0.5;
+                }
+                kept = -1;
+            }
+            (Some(LimitViolation::Thermal { .. }), hottest) => {
+                hi = s;
+                f_hi = hottest - limits.thermal_budget_a2s;
+                if kept == 1 {
+                    f_lo *= 0.5;
+                }
+                kept = 1;
+            }
+            // Peak or slew by rounding below their factor: a failure without a level.
+            (Some(_), _) => {
+                hi = s;
+                kept = 1;
+            }
+        }
+        bisect_next = hi - lo > 0.5 * width;
+    }
+    lo
+}
 
 /// The largest factor in `[0, 1]` that peak and slew allow (both linear in the scale),
 /// the steps from and back to 0 A included; 1 for a silent signal.

@@ -623,6 +623,41 @@ fn thermal_bucket_leaks_and_saturates_at_zero() {
     ));
 }
 
+/// The thermal root search against plain bisection on [`check_limits`] (the oracle
+/// shares only the limit check with it): the same factor to within 2^-31, on signals
+/// whose bucket fills at different times on different channels, some over the peak
+/// too.
+#[test]
+fn fit_agrees_with_bisection_on_thermal_signals() {
+    let limits = Limits::default();
+    for (k, (seconds, level, second)) in [(40, 1.0, 0.8), (75, 0.9, 0.95), (50, 1.6, 0.7)]
+        .into_iter()
+        .enumerate()
+    {
+        let ms = seconds * 1000;
+        let mut signal = constant(ms, level);
+        for (t, f) in signal.iter_mut().enumerate() {
+            // A second channel, hot in the second half only.
+            let w = raised_cosine(t.saturating_sub(ms / 2).min(ms - 1 - t).min(100), 100);
+            f[2] = second * w;
+        }
+        let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+        while hi - lo > 1e-12 {
+            let mid = 0.5 * (lo + hi);
+            let scaled: Vec<_> = signal.iter().map(|f| f.map(|v| v * mid)).collect();
+            if check_limits(&scaled, &limits).is_ok() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut fitted = signal.clone();
+        let s = fit(&mut fitted, &limits).unwrap();
+        assert!((s - lo).abs() < 1.0 / 2_147_483_648.0, "case {k}: {s} vs {lo}");
+        assert_eq!(check_limits(&fitted, &limits), Ok(()), "case {k}");
+    }
+}
+
 #[test]
 fn fit_finds_the_largest_passing_scale() {
     let limits = Limits::default();
