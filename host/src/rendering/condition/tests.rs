@@ -653,7 +653,10 @@ fn fit_agrees_with_bisection_on_thermal_signals() {
         }
         let mut fitted = signal.clone();
         let s = fit(&mut fitted, &limits).unwrap();
-        assert!((s - lo).abs() < 1.0 / 2_147_483_648.0, "case {k}: {s} vs {lo}");
+        assert!(
+            (s - lo).abs() < 1.0 / 2_147_483_648.0,
+            "case {k}: {s} vs {lo}"
+        );
         assert_eq!(check_limits(&fitted, &limits), Ok(()), "case {k}");
     }
 }
