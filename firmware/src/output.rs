@@ -19,22 +19,17 @@ pub const FULL_SCALE_MA: u16 = 1000;
 /// The actuator layout this firmware drives: a slot compiled for another is refused.
 pub const LAYOUT_ID: u16 = touch_protocol::SLEEVE_LAYOUT_ID;
 
-/// Limits compiled into the firmware. The stimulus carries its own; the player
-/// enforces the stricter of the two on every tick, so a bank compiled for a bolder
-/// device cannot exceed these.
-pub const HARD_LIMITS: Limits = Limits {
-    peak_ma: 1000,
-    slew_ma_per_ms: 50,
-    continuous_ma: 600,
-    i2t_budget_ma2s: 30_000_000,
-};
+/// Limits compiled into the firmware: the sleeve's, as the protocol crate defines them
+/// (one source for the host's checks and the device's). The stimulus carries its own;
+/// the player enforces the stricter of the two on every tick, so a bank compiled for a
+/// bolder device cannot exceed these.
+pub const HARD_LIMITS: Limits = Limits::SLEEVE;
 
-/// The device as the player sees it: full scale and the hard limits (never looser
-/// than the sleeve's published ones).
+/// The device as the player sees it: full scale and the hard limits.
 pub const fn device_config() -> DeviceConfig {
     DeviceConfig {
         full_scale_ma: FULL_SCALE_MA,
-        limits: HARD_LIMITS.min(Limits::SLEEVE),
+        limits: HARD_LIMITS,
     }
 }
 
