@@ -4,7 +4,7 @@
 #
 #   bash firmware/ci.sh            # from anywhere
 #
-# 1. tools: the thumbv7em target, llvm-tools, qemu-system-arm (bookworm-backports
+# 1. tools: the thumbv7em target, flip-link, llvm-tools, qemu-system-arm (bookworm-backports
 #    when available: QEMU 10; else the distribution's)
 # 2. host: fmt check, clippy -D warnings, tests of the firmware logic
 # 3. target: clippy -D warnings (all feature sets), release build, flash/RAM use
@@ -24,6 +24,10 @@ step() { printf '\n== %s\n' "$*"; }
 install_tools() {
     if ! rustup target list --installed | grep -qx "$target"; then
         rustup target add "$target"
+    fi
+    # The firmware links through flip-link (stack overflow protection, .cargo/config.toml).
+    if ! command -v flip-link >/dev/null; then
+        cargo install flip-link --locked
     fi
     if ! rustup component list --installed | grep -q '^llvm-tools'; then
         rustup component add llvm-tools || echo "llvm-tools unavailable: sizes from readelf"
@@ -115,6 +119,17 @@ echo "sleeve-firmware ($profile profile): flash $flash B ($((flash / 1024)) KB, 
 if [ "$flash" -gt "$flash_budget" ] || [ "$ram" -gt "$ram_budget" ]; then
     echo "firmware over its flash or RAM budget" >&2
     exit 1
+fi
+# flip-link: the stack must sit below the statics (it grows down into the RAM boundary).
+nm="$(find "$(rustc --print sysroot)/lib/rustlib" -name llvm-nm -type f -print -quit 2>/dev/null)"
+if [ -n "$nm" ]; then
+    stack_start="$("$nm" "$elf" | awk '$3 == "_stack_start" { print $1 }')"
+    sdata="$("$nm" "$elf" | awk '$3 == "__sdata" { print $1 }')"
+    echo "stack from 0x$stack_start down, statics from 0x$sdata up"
+    if [ -z "$stack_start" ] || [ -z "$sdata" ] || [ $((16#$stack_start)) -gt $((16#$sdata)) ]; then
+        echo "the stack is not below the statics: is the firmware linked with flip-link?" >&2
+        exit 1
+    fi
 fi
 
 step "QEMU: player on the STM32F405 vs the host"
