@@ -5,7 +5,7 @@
 //! | stage | module | hands on |
 //! |---|---|---|
 //! | 0 load, tare | [`input`] ([`input::recording`]) | tared frames |
-//! | 1 crop, upsample, blur | [`tracking`] ([`tracking::scene`], [`tracking::preprocess`]) | blurred frames, mean, std |
+//! | 1 crop, upsample, blur (streamed) | [`tracking`] ([`tracking::scene`], the driver of 1-3; [`tracking::preprocess`]) | each blurred frame in turn, mean, std |
 //! | 2 detections | [`tracking::detect`] | detections with costs |
 //! | 3 trajectories | [`tracking::track`] (on [`tracking::flow`]) | [`tracking::trajectory::Trajectory`] |
 //! | 4 placement | [`placement`] (on [`placement::layout`], [`placement::bnb`]) | circles, chosen trajectories |

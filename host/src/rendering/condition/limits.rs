@@ -215,7 +215,7 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 ///
 /// Peak and slew scale linearly, so the largest factor they allow is a ratio, found in
 /// one pass. When the thermal bucket refuses that factor too, a root search below it
-/// ([`fit_thermal`]: regula falsi on the hottest bucket level, about ten passes) finds
+/// (regula falsi on the hottest bucket level, about ten passes) finds
 /// the largest passing factor to within 2^-32 (the bucket gets monotonically easier as
 /// the scale shrinks, by induction over samples, and scale 0 always passes). The
 /// returned factor is always one that was checked. Errors only for non-finite samples
