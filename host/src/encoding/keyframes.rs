@@ -120,13 +120,12 @@ pub fn encode(
     let mut limit_hit = None;
     let mut periods = opts.encoding.periods_ms.clone();
     periods.sort_unstable_by(|a, b| b.cmp(a));
+    let max_a = opts.encoding.max_abs_error_fs * fs_a;
     for &period in &periods {
         // Interpolation error alone, in f64: a period that misses the bounds before
         // quantisation cannot meet them after it.
-        let max_a = opts.encoding.max_abs_error_fs * fs_a;
         let Some((rms, max)) = interpolation_error(signal, usize::from(period.max(1)), max_a)
         else {
-            // Over the max bound somewhere (the 1 ms period, exact, always reports).
             continue;
         };
         if rms / fs_a > opts.encoding.max_rms_error_fs {
@@ -187,10 +186,20 @@ pub fn encode(
         // the obstacle a smaller signal (`--fit`) removes, where finer keyframes do not.
         None => match limit_hit {
             Some(kind) => Err(KeyframeError::LimitHit(kind)),
-            None => Err(KeyframeError::Unfaithful {
-                rms: closest.0,
-                max: closest.1,
-            }),
+            None => {
+                if !closest.0.is_finite() {
+                    // Every period broke the max bound in interpolation alone, so no
+                    // figure was taken: the finest period's, in full, for the message.
+                    let finest = periods.last().map_or(1, |&p| usize::from(p.max(1)));
+                    if let Some(e) = interpolation_error(signal, finest, f64::INFINITY) {
+                        closest = (e.0 / fs_a, e.1 / fs_a);
+                    }
+                }
+                Err(KeyframeError::Unfaithful {
+                    rms: closest.0,
+                    max: closest.1,
+                })
+            }
         },
     }
 }
@@ -446,6 +455,22 @@ mod tests {
             encode(&signal, fields(), &opts),
             Err(KeyframeError::Unfaithful { .. })
         ));
+        // Without the exact 1 ms period every period fails in interpolation alone; the
+        // error still gives the finest period's figures, not infinities.
+        let coarse = KeyframeOptions::new(&KeyframeConfig {
+            periods_ms: vec![250, 100],
+            max_abs_error_fs: 1e-9,
+            ..Default::default()
+        });
+        match encode(&signal, fields(), &coarse) {
+            Err(KeyframeError::Unfaithful { rms, max }) => {
+                assert!(
+                    rms.is_finite() && max.is_finite() && max > 1e-9,
+                    "{rms} {max}"
+                )
+            }
+            other => panic!("{other:?}"),
+        }
         assert_eq!(encode(&[], fields(), &opts), Err(KeyframeError::BadSignal));
         let nan = vec![[f64::NAN; CHANNELS]; 3];
         assert_eq!(encode(&nan, fields(), &opts), Err(KeyframeError::BadSignal));
