@@ -43,7 +43,7 @@ impl<'a> Scanner<'a> {
         }
     }
 
-    fn expect(&mut self, c: u8) -> Result<(), String> {
+    fn require(&mut self, c: u8) -> Result<(), String> {
         self.skip_ws();
         if self.peek() == Some(c) {
             self.pos += 1;
@@ -106,7 +106,7 @@ impl<'a> Scanner<'a> {
 
     /// `(a, b, c)`, `(a,)` or `()`.
     fn shape(&mut self) -> Result<Vec<usize>, String> {
-        self.expect(b'(')?;
+        self.require(b'(')?;
         let mut shape = Vec::new();
         let mut comma = false;
         loop {
@@ -137,7 +137,7 @@ impl<'a> Scanner<'a> {
     /// `{'descr': ..., 'fortran_order': ..., 'shape': ...}` in any key order, each key
     /// exactly once, a trailing comma allowed, nothing after it but whitespace.
     pub(super) fn dict(mut self) -> Result<Dict, String> {
-        self.expect(b'{')?;
+        self.require(b'{')?;
         let (mut descr, mut fortran, mut shape) = (None, None, None);
         loop {
             self.skip_ws();
@@ -146,7 +146,7 @@ impl<'a> Scanner<'a> {
                 break;
             }
             let key = self.string()?;
-            self.expect(b':')?;
+            self.require(b':')?;
             let dup = match key {
                 "descr" => descr.replace(self.string()?.to_owned()).is_some(),
                 "fortran_order" => fortran.replace(self.boolean()?).is_some(),
