@@ -58,6 +58,15 @@ fn consistent(
     Ok(())
 }
 
+/// The graph of `n` nodes with `edges` as `(from, to, cost)`.
+fn graph(n: usize, edges: &[(usize, usize, f64)]) -> FlowGraph {
+    let mut g = FlowGraph::new(n);
+    for &(a, b, c) in edges {
+        g.add_edge(a, b, c).unwrap();
+    }
+    g
+}
+
 fn graph_strategy() -> impl Strategy<Value = (usize, Vec<(usize, usize, f64)>, usize)> {
     (4usize..8).prop_flat_map(|n| {
         let edge = (0..n - 1).prop_flat_map(move |a| {
@@ -74,10 +83,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(600))]
     #[test]
     fn optimal_and_consistent((n, edges, max_units) in graph_strategy()) {
-        let mut g = FlowGraph::new(n);
-        for &(a, b, c) in &edges {
-            g.add_edge(a, b, c).unwrap();
-        }
+        let g = graph(n, &edges);
         let sol = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
         let best = brute_force(n, &edges, max_units);
         prop_assert!((sol.total_cost - best).abs() < 1e-9, "solver {} vs brute {}", sol.total_cost, best);
@@ -133,10 +139,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(600))]
     #[test]
     fn solving_by_parts_is_solving_the_whole((n, edges, max_units) in parts_strategy()) {
-        let mut g = FlowGraph::new(n);
-        for &(a, b, c) in &edges {
-            g.add_edge(a, b, c).unwrap();
-        }
+        let g = graph(n, &edges);
         let whole = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
         let parts = min_cost_flow_by_parts(&g, 0, n - 1, max_units, u64::MAX).unwrap();
         prop_assert!((whole.total_cost - parts.total_cost).abs() < 1e-9,
@@ -158,10 +161,7 @@ proptest! {
         (n, edges, max_units) in graph_strategy(),
         budget in 0u64..120,
     ) {
-        let mut g = FlowGraph::new(n);
-        for &(a, b, c) in &edges {
-            g.add_edge(a, b, c).unwrap();
-        }
+        let g = graph(n, &edges);
         let whole = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
         let bounded = min_cost_flow_within(&g, 0, n - 1, max_units, budget).unwrap();
         consistent(&edges, &bounded, n)?;
@@ -180,10 +180,7 @@ proptest! {
     /// optimum itself when the budget was not reached.
     #[test]
     fn parts_share_one_budget((n, edges, max_units) in parts_strategy(), budget in 0u64..200) {
-        let mut g = FlowGraph::new(n);
-        for &(a, b, c) in &edges {
-            g.add_edge(a, b, c).unwrap();
-        }
+        let g = graph(n, &edges);
         let whole = min_cost_flow(&g, 0, n - 1, max_units).unwrap();
         let bounded = min_cost_flow_by_parts(&g, 0, n - 1, max_units, budget).unwrap();
         consistent(&edges, &bounded, n)?;
