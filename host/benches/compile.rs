@@ -129,8 +129,14 @@ fn bench(c: &mut Criterion) {
     }
     c.bench_function("stage/signals", |b| {
         b.iter(|| {
-            scene::padded_actuator_signals(black_box(tracked), placement, tared.view(), cfg, &paper)
-                .expect("signals")
+            scene::recomputed_actuator_signals(
+                black_box(tracked),
+                placement,
+                tared.view(),
+                cfg,
+                &paper,
+            )
+            .expect("signals")
         })
     });
     c.bench_function("stage/condition", |b| {

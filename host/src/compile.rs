@@ -316,7 +316,7 @@ pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, Compi
     // Stage 5.
     let frames = tared.dim().0;
     let signals = match &placement {
-        Some(p) => scene::padded_actuator_signals(&tracked, p, tared.view(), cfg, &sampling)?,
+        Some(p) => scene::recomputed_actuator_signals(&tracked, p, tared.view(), cfg, &sampling)?,
         None => ChannelSignals::silent(frames),
     };
     if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {

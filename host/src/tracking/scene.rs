@@ -143,7 +143,7 @@ fn pixel_box(crop: &Crop, k: usize) -> (Range<usize>, Range<usize>) {
 /// With `keep_scene` the blurred frames are also kept in `blurred.frames` (the whole
 /// recording; previews draw them) and the scored detections in `detections`; otherwise
 /// `blurred.frames` has no frames, stage 5 recomputes the few it reads
-/// ([`padded_actuator_signals`]), and `detections` is empty once linked. Trajectories are in
+/// ([`recomputed_actuator_signals`]), and `detections` is empty once linked. Trajectories are in
 /// whole-recording frames and pixels. The crop actually used is returned. `lap` is
 /// called with the stage whose work has just been done (per frame for the pass).
 pub fn track_cropped(
@@ -263,7 +263,7 @@ pub fn exact_crop(
 /// trajectories' frames, which lie in the crop. The blurred frames the neighbour fill
 /// reads are recomputed from `tared`, those frames only (bit for bit the pass's: the
 /// same operator on the same frame).
-pub fn padded_actuator_signals(
+pub fn recomputed_actuator_signals(
     tracked: &TrackOutput,
     placement: &Placement,
     tared: ArrayView3<f64>,
