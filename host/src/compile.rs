@@ -133,6 +133,9 @@ pub struct Report {
     pub keyframe_period_ms: u16,
     /// Quantisation shift chosen.
     pub quant_shift: u8,
+    /// How far the keyframes' lines may stray from the signal, fraction of full scale
+    /// (0 when every keyframe is the signal's value, rounded; see `encoding::keyframes`).
+    pub line_tolerance_fs: f64,
     /// Scale applied to pass the limits (1 = unchanged).
     pub fit_scale: f64,
     /// True when the recording holds no touch (a silent stimulus).
@@ -526,6 +529,7 @@ fn finish(
         max_error_fs: encoded.max_error_fs,
         keyframe_period_ms: encoded.period_ms,
         quant_shift: encoded.quant_shift,
+        line_tolerance_fs: encoded.tolerance_fs,
         fit_scale,
         no_touch,
         crop,
