@@ -308,7 +308,11 @@ class LimitTrip(unittest.TestCase):
         self.assertIn("F", status, "the crafted stimulus trips its peak limit")
         fault = status.index("F")
         self.assertNotEqual(want[fault - 1], IDLE, "it was playing when it tripped")
-        assert_ramps_to_rest(self, codes(b)[o + fault - 1:o + len(want)])
+        # The tick that trips is still a signal tick (every channel's next value, the
+        # tripping one clamped; SPEC.md, Player): from its outputs on, every channel
+        # only moves toward 0 A. (A channel may step away from rest on that tick itself
+        # when its signal does.)
+        assert_ramps_to_rest(self, codes(b)[o + fault:o + len(want)])
         self.assertTrue(all(f == IDLE for f in codes(b)[o + len(want):]))
         self.assertFalse(b.led[-1][1], "LED off once at rest")
 
