@@ -13,7 +13,7 @@ use crate::cli::output::write_atomic;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use touchc::compile::{compile, CompileOptions, Report};
+use touchc::compile::{compile_owned, CompileOptions, Report};
 use touchc::input::recording::Recording;
 
 /// Arguments of `touchc compile`.
@@ -97,7 +97,7 @@ fn compile_one(
         ..opts.clone()
     };
     let recording = Recording::load(input)?;
-    let compiled = compile(&recording, &opts)
+    let compiled = compile_owned(recording, &opts)
         .with_context(|| format!("{}: cannot compile", input.display()))?;
     // The report first: if it cannot be written, no stimulus appears either.
     if let Some(path) = report {

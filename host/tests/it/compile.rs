@@ -390,3 +390,23 @@ fn dense_noise_stops_the_flow_at_its_work_budget_with_a_warning() {
         assert!(c.report.flow_work > 0, "{name}");
     }
 }
+
+#[test]
+fn compiling_an_owned_recording_gives_the_same_stimulus() {
+    // `compile_owned` (what the CLI runs) frees the raw frames once tared; nothing
+    // after the tare may read them, so the result is `compile`'s, byte for byte.
+    let rec = synth_recording(&[Gesture::Stroke, Gesture::Pat, Gesture::Squeeze], 9);
+    for preset in [touchc::config::Preset::Touch, touchc::config::Preset::Paper] {
+        let opts = CompileOptions {
+            config: touchc::config::Config::preset(preset),
+            fit: true,
+            ..CompileOptions::default()
+        };
+        let borrowed = compile(&rec, &opts).unwrap();
+        let owned = touchc::compile::compile_owned(rec.clone(), &opts).unwrap();
+        assert_eq!(borrowed.stimulus, owned.stimulus, "{preset:?}");
+        assert_eq!(borrowed.signal, owned.signal);
+        assert_eq!(borrowed.report.input, owned.report.input);
+        assert!(!owned.stimulus.is_empty() && owned.report.trajectories > 0);
+    }
+}
