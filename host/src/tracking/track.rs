@@ -214,17 +214,13 @@ pub fn link(
     let n = kept.len();
     let (source, sink) = (0, 2 * n + 1);
     let mut g = FlowGraph::new(2 * n + 2);
-    // Which detection an edge is the detection edge of (None for other edges).
-    let mut edge_detection = Vec::new();
     for &k in &kept {
         let d = &detections.all[k];
         let t = d.frame;
         let (entry, exit) = (2 * node_of[k] + 1, 2 * node_of[k] + 2);
         g.add_edge(entry, exit, d.cost)?;
-        edge_detection.push(Some(k));
         g.add_edge(source, entry, cfg.entry_cost)?;
         g.add_edge(exit, sink, cfg.exit_cost)?;
-        edge_detection.extend([None, None]);
         // Links from `gap` frames back: the previous frame (the paper's only link),
         // then across missing frames when bridging.
         for gap in 1..=(missing + 1).min(t) {
@@ -253,19 +249,26 @@ pub fn link(
                         cost += cost_per_missing * (gap - 1) as f64;
                     }
                     g.add_edge(2 * from + 2, entry, cost)?;
-                    edge_detection.push(None);
                 }
             }
         }
     }
+    drop(node_of);
     let budget = flow_work_budget(g.edges().len());
     let solution = min_cost_flow_by_parts(&g, source, sink, cfg.max_trajectories, budget)?;
+    // The detection edges are the only ones leaving an odd node (an entry node,
+    // `2 i + 1` for the `i`-th kept detection): source edges leave node 0, exit and
+    // link edges leave exit nodes, which are even. No per-edge table is kept.
+    let detection_of = |e: usize| {
+        let from = g.edges()[e].from;
+        (from % 2 == 1).then(|| kept[(from - 1) / 2])
+    };
     let trajectories = solution
         .paths
         .iter()
         .map(|path| {
             path.iter()
-                .filter_map(|&e| edge_detection[e])
+                .filter_map(|&e| detection_of(e))
                 .map(|k| {
                     let d = &detections.all[k];
                     Point {

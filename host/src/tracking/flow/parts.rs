@@ -32,17 +32,19 @@ pub fn min_cost_flow_by_parts(
     check_nodes(g, source, sink)?;
     let parts = Parts::of(g, source, sink);
     let mut work = 0u64;
-    let mut solved = Vec::with_capacity(parts.graphs.len());
-    for (sub, _) in &parts.graphs {
+    let mut solved = Vec::with_capacity(parts.len());
+    for p in 0..parts.len() {
+        // One part's graph at a time: the parts' copies of the edges never all exist.
+        let sub = parts.graph(g, p);
         // A part where no path can be negative sends nothing: most parts of a
         // tracking graph are one noise detection with a positive cost.
         let last = sub.n_nodes - 1;
-        let units = if lowest_path_bound(sub, 0, last) < 0.0 {
+        let units = if lowest_path_bound(&sub, 0, last) < 0.0 {
             max_units
         } else {
             0
         };
-        let s = min_cost_flow_within(sub, 0, last, units, budget.saturating_sub(work))?;
+        let s = min_cost_flow_within(&sub, 0, last, units, budget.saturating_sub(work))?;
         work = work.saturating_add(s.work);
         solved.push(s);
     }
@@ -62,8 +64,8 @@ pub fn min_cost_flow_by_parts(
         if share[p] < s.units {
             // The same first `share[p]` augmentations again: no more work than they
             // took within the budget.
-            let sub = &parts.graphs[p].0;
-            *s = min_cost_flow(sub, 0, sub.n_nodes - 1, share[p])?;
+            let sub = parts.graph(g, p);
+            *s = min_cost_flow(&sub, 0, sub.n_nodes - 1, share[p])?;
         }
     }
 
@@ -72,7 +74,7 @@ pub fn min_cost_flow_by_parts(
     let mut total_cost = 0.0;
     let mut units = 0;
     for (p, s) in solved.iter().enumerate() {
-        let global = &parts.graphs[p].1;
+        let global = parts.edges(p);
         for (e, &u) in s.used.iter().enumerate() {
             used[global[e]] |= u;
         }
@@ -116,11 +118,22 @@ fn lowest_path_bound(g: &FlowGraph, source: usize, sink: usize) -> f64 {
     (first + last + between).min(direct)
 }
 
-/// The parts of a graph for [`min_cost_flow_by_parts`]: each part's own graph (node 0
-/// its source, its last node its sink, the other nodes and the edges in their original
-/// order, which keeps every tie-break) and the original index of each of its edges.
+/// The parts of a graph for [`min_cost_flow_by_parts`]: which original edges each
+/// part holds, from which [`Parts::graph`] builds the part's own graph on demand (node
+/// 0 its source, its last node its sink, the other nodes and the edges in their
+/// original order, which keeps every tie-break). Kept as edge indices (8 bytes an edge),
+/// not as graphs (32): at an hour of touch the graph has millions of edges.
 struct Parts {
-    graphs: Vec<(FlowGraph, Vec<usize>)>,
+    source: usize,
+    sink: usize,
+    /// Local index of each inner node in its part (1-based; 0 is the part's source).
+    local: Vec<usize>,
+    /// Each part's node count, source and sink included.
+    nodes: Vec<usize>,
+    /// The original edge indices, part after part, each part's in original order.
+    edges: Vec<usize>,
+    /// `starts[p]..starts[p + 1]` indexes part `p`'s in `edges`.
+    starts: Vec<usize>,
 }
 
 impl Parts {
@@ -142,7 +155,8 @@ impl Parts {
                 parent[a.max(b)] = a.min(b);
             }
         }
-        // Part of each inner node, numbered by each part's first node.
+        // Part of each inner node, numbered by each part's first node; the root's
+        // entry of `parent` is reused for its part number once read.
         let mut part_of = vec![usize::MAX; n];
         let mut local = vec![0usize; n];
         let mut sizes: Vec<usize> = Vec::new();
@@ -158,43 +172,87 @@ impl Parts {
             sizes[p] += 1;
             local[v] = sizes[p];
         }
-        // Inner nodes keep their relative order; source first, sink last. An edge
-        // from the source straight to the sink gets a part of its own.
-        let mut graphs: Vec<(FlowGraph, Vec<usize>)> = sizes
-            .iter()
-            .map(|&size| (FlowGraph::new(size + 2), Vec::new()))
-            .collect();
-        let mut direct: Option<(FlowGraph, Vec<usize>)> = None;
-        for (idx, e) in g.edges.iter().enumerate() {
+        drop((parent, part_of_root));
+        // An edge from the source straight to the sink gets a part of its own, last.
+        let direct = sizes.len();
+        // Edges into the source or out of the sink can carry no source-to-sink flow;
+        // they keep their place in the original edge list only. (Every other edge
+        // keeps `from < to` in its part: local numbers keep the node order.)
+        let carries = |e: &FlowEdge| e.from != sink && e.to != source;
+        let part_of_edge = |e: &FlowEdge| {
             let owner = if inner(e.from) { e.from } else { e.to };
-            let (graph, map) = if inner(owner) {
-                &mut graphs[part_of[owner]]
+            if inner(owner) {
+                part_of[owner]
             } else {
-                direct.get_or_insert_with(|| (FlowGraph::new(2), Vec::new()))
-            };
-            let last = graph.n_nodes - 1;
-            let end = |v: usize| {
-                if v == source {
-                    0
-                } else if v == sink {
-                    last
-                } else {
-                    local[v]
-                }
-            };
-            // Edges into the source or out of the sink can carry no source-to-sink
-            // flow; they keep their place in the original edge list only.
-            let (from, to) = (end(e.from), end(e.to));
-            if from < to && e.from != sink && e.to != source {
-                graph.edges.push(FlowEdge {
-                    from,
-                    to,
-                    cost: e.cost,
-                });
-                map.push(idx);
+                direct
             }
+        };
+        // Counting sort of the edges by part, stable (original order within a part).
+        let mut starts = vec![0usize; direct + 2];
+        for e in g.edges.iter().filter(|e| carries(e)) {
+            starts[part_of_edge(e) + 1] += 1;
         }
-        graphs.extend(direct);
-        Parts { graphs }
+        for p in 0..=direct {
+            starts[p + 1] += starts[p];
+        }
+        let mut next = starts.clone();
+        let mut edges = vec![0usize; starts[direct + 1]];
+        for (idx, e) in g.edges.iter().enumerate().filter(|(_, e)| carries(e)) {
+            let p = part_of_edge(e);
+            edges[next[p]] = idx;
+            next[p] += 1;
+        }
+        let mut nodes: Vec<usize> = sizes.iter().map(|&size| size + 2).collect();
+        if starts[direct + 1] > starts[direct] {
+            nodes.push(2);
+        } else {
+            starts.pop();
+        }
+        Parts {
+            source,
+            sink,
+            local,
+            nodes,
+            edges,
+            starts,
+        }
+    }
+
+    /// Number of parts.
+    fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The original indices of part `p`'s edges, in its graph's edge order.
+    fn edges(&self, p: usize) -> &[usize] {
+        &self.edges[self.starts[p]..self.starts[p + 1]]
+    }
+
+    /// Part `p`'s own graph.
+    fn graph(&self, g: &FlowGraph, p: usize) -> FlowGraph {
+        let last = self.nodes[p] - 1;
+        let end = |v: usize| {
+            if v == self.source {
+                0
+            } else if v == self.sink {
+                last
+            } else {
+                self.local[v]
+            }
+        };
+        let mut graph = FlowGraph::new(self.nodes[p]);
+        graph.edges = self
+            .edges(p)
+            .iter()
+            .map(|&idx| {
+                let e = &g.edges[idx];
+                FlowEdge {
+                    from: end(e.from),
+                    to: end(e.to),
+                    cost: e.cost,
+                }
+            })
+            .collect();
+        graph
     }
 }
