@@ -342,13 +342,86 @@ pub fn score(
     std: f64,
     cfg: &DetectConfig,
 ) -> Detections {
+    let mut candidates = Candidates::with_frames(maxima.len());
+    for found in maxima {
+        candidates.push_frame(found);
+    }
+    score_candidates(&candidates, mean, std, cfg)
+}
+
+/// Candidate points (row, column, blurred value) of every frame, frame after frame in
+/// one buffer: an hour of frames is one allocation, not one per frame (which the
+/// allocator keeps, fragmented, long after they are freed).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Candidates {
+    points: Vec<(usize, usize, f64)>,
+    /// `starts[t]..starts[t + 1]` indexes frame `t`'s points.
+    starts: Vec<usize>,
+}
+
+impl Candidates {
+    /// No frame yet, room for `frames` frames' offsets.
+    pub fn with_frames(frames: usize) -> Self {
+        let mut starts = Vec::with_capacity(frames + 1);
+        starts.push(0);
+        Candidates {
+            points: Vec::new(),
+            starts,
+        }
+    }
+
+    /// Appends the next frame's points.
+    pub fn push_frame(&mut self, found: impl IntoIterator<Item = (usize, usize, f64)>) {
+        self.points.extend(found);
+        self.starts.push(self.points.len());
+    }
+
+    /// Frames pushed.
+    pub fn frames(&self) -> usize {
+        self.starts.len() - 1
+    }
+
+    /// Frame `t`'s points (empty when out of range).
+    pub fn frame(&self, t: usize) -> &[(usize, usize, f64)] {
+        match (self.starts.get(t), self.starts.get(t + 1)) {
+            (Some(&a), Some(&b)) => &self.points[a..b],
+            _ => &[],
+        }
+    }
+
+    /// Keeps the points of frame `t` for which `keep(t, point)` holds, in order.
+    pub fn retain(&mut self, mut keep: impl FnMut(usize, &(usize, usize, f64)) -> bool) {
+        let mut kept = 0;
+        for t in 0..self.frames() {
+            let (a, b) = (self.starts[t], self.starts[t + 1]);
+            self.starts[t] = kept;
+            for i in a..b {
+                if keep(t, &self.points[i]) {
+                    self.points[kept] = self.points[i];
+                    kept += 1;
+                }
+            }
+        }
+        let last = self.starts.len() - 1;
+        self.starts[last] = kept;
+        self.points.truncate(kept);
+    }
+}
+
+/// [`score`] on candidates gathered frame by frame.
+pub fn score_candidates(
+    candidates: &Candidates,
+    mean: f64,
+    std: f64,
+    cfg: &DetectConfig,
+) -> Detections {
     let usable = std > 0.0 && std.is_finite() && mean.is_finite();
     let mut all = Vec::new();
-    let mut frame_start = Vec::with_capacity(maxima.len() + 1);
+    let mut frame_start = Vec::with_capacity(candidates.frames() + 1);
     frame_start.push(0);
-    for (frame, found) in maxima.into_iter().enumerate() {
+    for frame in 0..candidates.frames() {
         if usable {
-            all.extend(found.into_iter().map(|(row, col, value)| {
+            all.extend(candidates.frame(frame).iter().map(|&(row, col, value)| {
                 let cost = detection_cost((value - mean) / std, cfg);
                 Detection {
                     frame,
@@ -368,6 +441,36 @@ pub fn score(
 mod tests {
     use super::*;
     use ndarray::array;
+
+    #[test]
+    fn candidates_keep_frames_apart_and_order_within_them() {
+        let frames = vec![
+            vec![(1, 1, 0.5), (2, 7, 0.9), (3, 3, 0.1)],
+            vec![],
+            vec![(4, 4, 0.7), (5, 9, 0.2)],
+        ];
+        let mut c = Candidates::with_frames(3);
+        for f in &frames {
+            c.push_frame(f.iter().copied());
+        }
+        assert_eq!(c.frames(), 3);
+        for (t, f) in frames.iter().enumerate() {
+            assert_eq!(c.frame(t), &f[..]);
+        }
+        assert!(c.frame(3).is_empty());
+        // Drop frame 0's middle point and all of frame 2 but its last.
+        c.retain(|t, &(r, _, _)| (t == 0 && r != 2) || (t == 2 && r == 5));
+        assert_eq!(c.frame(0), &[(1, 1, 0.5), (3, 3, 0.1)]);
+        assert!(c.frame(1).is_empty());
+        assert_eq!(c.frame(2), &[(5, 9, 0.2)]);
+        // Scoring the flat buffer is scoring the frames.
+        let cfg = DetectConfig::default();
+        let kept = vec![vec![(1, 1, 0.5), (3, 3, 0.1)], vec![], vec![(5, 9, 0.2)]];
+        assert_eq!(
+            score_candidates(&c, 0.2, 0.1, &cfg),
+            score(kept, 0.2, 0.1, &cfg)
+        );
+    }
 
     #[test]
     fn log_ndtr_matches_known_values() {

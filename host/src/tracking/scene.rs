@@ -26,7 +26,9 @@ use crate::config::{Config, Sampling};
 use crate::placement::Placement;
 use crate::rendering::signals::{self, ChannelSignals};
 use crate::stage::Stage;
-use crate::tracking::detect::{detection_cost, frame_points, score, Detections};
+use crate::tracking::detect::{
+    detection_cost, frame_points, score_candidates, Candidates, Detections,
+};
 use crate::tracking::preprocess::{blur_stream, Blur, BlurOperator, Blurred};
 use crate::tracking::track::{link, TrackError, TrackOutput};
 
@@ -160,14 +162,14 @@ pub fn track_cropped(
     let mut movie = Array3::<f64>::zeros(if keep_scene { (t, h, w) } else { (0, h, w) });
     let (rows, cols) = pixel_box(crop, k);
     let mut extremes = Vec::with_capacity(t);
-    let mut candidates = Vec::with_capacity(t);
+    let mut candidates = Candidates::with_frames(t);
     let stats = blur_stream(tared, &cfg.preprocess, sampling, |f, frame| {
         extremes.push(FrameExtremes::of(frame, &rows, &cols));
         if keep_scene {
             movie.index_axis_mut(Axis(0), f).assign(&frame);
         }
         lap(Stage::Preprocess);
-        candidates.push(frame_points(
+        candidates.push_frame(frame_points(
             frame,
             &cfg.detect,
             cfg.detect.split.as_ref(),
@@ -177,21 +179,10 @@ pub fn track_cropped(
     })?;
     let crop = exact_crop(crop, &extremes, stats.mean, stats.std, (r, c), cfg);
     let (rows, cols) = pixel_box(&crop, k);
-    let in_crop = candidates
-        .into_iter()
-        .enumerate()
-        .map(|(f, found)| {
-            if crop.frames.contains(&f) {
-                found
-                    .into_iter()
-                    .filter(|&(r, c, _)| rows.contains(&r) && cols.contains(&c))
-                    .collect()
-            } else {
-                Vec::new()
-            }
-        })
-        .collect();
-    let detections = score(in_crop, stats.mean, stats.std, &cfg.detect);
+    candidates
+        .retain(|f, &(r, c, _)| crop.frames.contains(&f) && rows.contains(&r) && cols.contains(&c));
+    let detections = score_candidates(&candidates, stats.mean, stats.std, &cfg.detect);
+    drop(candidates);
     lap(Stage::Detect);
     let linked = link(&detections, &cfg.track, sampling)?;
     lap(Stage::Track);
