@@ -154,8 +154,8 @@ const LINE_SHIFTS: [u8; 2] = [6, 5];
 
 /// At most this many tolerances are tried for the first shift, and for the second
 /// (which starts from the first's answer).
-const TOLERANCE_STEPS: usize = 4;
-const TOLERANCE_STEPS_AFTER: usize = 2;
+const TOLERANCE_STEPS: usize = 3;
+const TOLERANCE_STEPS_AFTER: usize = 1;
 
 /// The tolerance search stops when the largest passing tolerance is within this
 /// factor of the smallest failing one.
@@ -193,7 +193,7 @@ fn encode_lines(
         // grows about in proportion to the tolerance, so each guess interpolates the RMS
         // between the passing and failing tolerances tried (regula falsi, aiming just
         // under the bound); the second shift starts from the first's answer. Usually
-        // three or four tube passes for the first shift, two for the second.
+        // three tube passes for the first shift, one for the second.
         let mut start = max_model;
         for shift in LINE_SHIFTS.map(|s| s.min(bounds.max_quant_shift.min(15))) {
             if best.as_ref().is_some_and(|b| b.2 == shift) {
@@ -520,10 +520,9 @@ struct Line {
     lo: f64,
     hi: f64,
     whole: (i64, i64),
-    /// Sums over the ticks so far of `m v` and `m^2`, `m` the ticks since `start` and
-    /// `v` the signal less `base`: the least-squares slope is `period * mv / mm`.
+    /// Sum over the ticks so far of `m v`, `m` the ticks since `start` and `v` the
+    /// signal less `base`: the least-squares slope is `period * mv / sum(m^2)`.
     mv: f64,
-    mm: f64,
 }
 
 impl Line {
@@ -546,7 +545,6 @@ impl Line {
         self.lo = larger(self.lo, (v - tol) * per_tick);
         self.hi = smaller(self.hi, (v + tol) * per_tick);
         self.mv += m * v;
-        self.mm += m * m;
     }
 
     /// Whether some whole slope is left after the ticks up to keyframe `end` that also
@@ -573,7 +571,10 @@ impl Line {
     /// Writes the line's keyframes after its start up to `end` into channel `c` of
     /// `stored`: the least-squares slope among the whole slopes that fit.
     fn commit(&self, stored: &mut [[i64; CHANNELS]], end: usize, c: usize, pf: f64) {
-        let slope = ((pf * self.mv / self.mm).round() as i64).clamp(self.whole.0, self.whole.1);
+        // Sum of m^2 for m = 1..=ticks.
+        let ticks = ((end - self.start) as f64) * pf;
+        let mm = ticks * (ticks + 1.0) * (2.0 * ticks + 1.0) / 6.0;
+        let slope = ((pf * self.mv / mm).round() as i64).clamp(self.whole.0, self.whole.1);
         for (k, s) in stored
             .iter_mut()
             .enumerate()
@@ -592,7 +593,6 @@ impl Line {
             hi: f64::INFINITY,
             whole: (0, 0),
             mv: 0.0,
-            mm: 0.0,
         }
     }
 }
@@ -645,7 +645,7 @@ fn tube_keyframes(
         let from = lines.map(|l| (l.start * period) as f64);
         let base = lines.map(|l| l.base as f64);
         let (mut lo, mut hi) = (lines.map(|l| l.lo), lines.map(|l| l.hi));
-        let (mut mv, mut mm) = (lines.map(|l| l.mv), lines.map(|l| l.mm));
+        let mut mv = lines.map(|l| l.mv);
         for t in (j - 1) * period + 1..=j * period {
             let x = row(t);
             for c in 0..CHANNELS {
@@ -655,11 +655,10 @@ fn tube_keyframes(
                 lo[c] = larger(lo[c], (v - tol) * per_tick);
                 hi[c] = smaller(hi[c], (v + tol) * per_tick);
                 mv[c] += m * v;
-                mm[c] += m * m;
             }
         }
         for (c, e) in extended.iter_mut().enumerate() {
-            (e.lo, e.hi, e.mv, e.mm) = (lo[c], hi[c], mv[c], mm[c]);
+            (e.lo, e.hi, e.mv) = (lo[c], hi[c], mv[c]);
         }
         let fits: [bool; CHANNELS] = std::array::from_fn(|c| extended[c].fits(j, min_s, max_s));
         let bends = (0..CHANNELS).any(|c| !fits[c] && lines[c].start + 1 < j);
