@@ -284,7 +284,9 @@ fn bisect(passes: impl Fn(f64) -> bool, mut lo: f64, mut hi: f64) -> f64 {
 /// monotone function with one root: regula falsi with the Illinois step (the end that
 /// stays put has its value halved) finds it in about ten scans where bisection takes
 /// 32; a step that does not halve the bracket is followed by a bisection step, so it is
-/// never slower than bisection by more than a factor of two.
+/// never slower than bisection by more than a factor of two. The secant is taken in the
+/// square of the factor, in which the excess is nearly linear (the heat is the current
+/// squared): at an hour of touch 11 scans instead of 17.
 fn fit_thermal(signal: &[[f64; CHANNELS]], limits: &Limits, hi: f64, excess_hi: f64) -> f64 {
     // At scale 0 the bucket stays empty: the excess is minus the budget.
     let (mut lo, mut f_lo) = (0.0_f64, -limits.thermal_budget_a2s);
@@ -293,7 +295,13 @@ fn fit_thermal(signal: &[[f64; CHANNELS]], limits: &Limits, hi: f64, excess_hi: 
     let mut bisect_next = false;
     while hi - lo > FIT_TOLERANCE {
         let width = hi - lo;
-        let secant = hi - f_hi * (hi - lo) / (f_hi - f_lo);
+        // The secant in the square of the factor: the heat is the current squared, so
+        // the excess is nearly linear in it (in the factor itself, the first secant of
+        // a recording far over its budget lands near 0).
+        let (u_lo, u_hi) = (lo * lo, hi * hi);
+        let secant = (u_hi - f_hi * (u_hi - u_lo) / (f_hi - f_lo))
+            .max(0.0)
+            .sqrt();
         let s = if bisect_next || !(secant > lo && secant < hi) {
             0.5 * (lo + hi)
         } else {
