@@ -97,15 +97,19 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
             let last = w - 1;
             cand[last] =
                 ((row[last] >= row[last - 1]) & (row[last] >= 0.0) & (row[last] > min_value)) as u8;
-            // Three shifted slices rather than `windows(3)`: the compiler vectorises it.
+            // Each pixel against its left and right neighbours, as three shifted slices.
             let (left, mid, right) = (&row[..last - 1], &row[1..last], &row[2..]);
             for (((cd, &v), &l), &r) in cand[1..last].iter_mut().zip(mid).zip(left).zip(right) {
                 *cd = ((v >= l) & (v >= r) & (v > min_value)) as u8;
             }
         }
-        // Candidates are rare: skip eight flags at a time.
+        // Candidates are rare: skip eight flags at a time (one 64-bit word).
         for (k, chunk) in cand.chunks(8).enumerate() {
-            if chunk.iter().fold(0u8, |a, &b| a | b) == 0 {
+            let none = match <[u8; 8]>::try_from(chunk) {
+                Ok(word) => u64::from_ne_bytes(word) == 0,
+                Err(_) => chunk.iter().all(|&f| f == 0),
+            };
+            if none {
                 continue;
             }
             for c in (k * 8..k * 8 + chunk.len()).filter(|&c| cand[c] != 0) {
