@@ -1092,6 +1092,49 @@ mod tests {
     }
 
     #[test]
+    fn tiny_and_abrupt_signals_encode_or_say_why() {
+        // One tick, two ticks, a full-scale step and a 1 ms spike: the line search
+        // either finds an encoding the player confirms or hands over to rounding,
+        // which meets the bounds or reports what it got; nothing panics.
+        let step: Vec<[f64; CHANNELS]> = (0..500)
+            .map(|t| std::array::from_fn(|c| if t >= 250 && c == 2 { 0.04 } else { 0.0 }))
+            .collect();
+        let mut spike = vec![[0.0; CHANNELS]; 400];
+        spike[200][5] = 0.03;
+        let cases: [(&str, Vec<[f64; CHANNELS]>); 4] = [
+            ("one tick", vec![[0.0; CHANNELS]]),
+            ("two ticks", vec![[0.0; CHANNELS], [0.01; CHANNELS]]),
+            ("step", step),
+            ("spike", spike),
+        ];
+        for (what, signal) in cases {
+            match encode(&signal, fields(), &KeyframeOptions::default()) {
+                Ok(e) => {
+                    let (rms, max) =
+                        playback_error(&e.bytes, &signal, 1000, Limits::SLEEVE).unwrap();
+                    assert!(rms <= 0.005 && max <= 0.02, "{what}: {rms} {max}");
+                }
+                Err(KeyframeError::Unfaithful { rms, max }) => {
+                    assert!(rms.is_finite() && max.is_finite(), "{what}")
+                }
+                Err(e) => panic!("{what}: {e}"),
+            }
+            for shift in [0, 6, 15] {
+                let (keyframes, rms, max) = tube_keyframes(&signal, 1.0, 10, shift, 100.0);
+                assert_eq!(
+                    keyframes.len(),
+                    (signal.len() - 1).div_ceil(10) + 1,
+                    "{what}"
+                );
+                assert!(
+                    rms.is_finite() && max.is_finite() && rms <= max + 1e-9,
+                    "{what}"
+                );
+            }
+        }
+    }
+
+    #[test]
     fn tighter_bounds_cost_more_bytes() {
         let signal = stroke(3.0);
         let loose = encode(&signal, fields(), &KeyframeOptions::default()).unwrap();
