@@ -113,8 +113,9 @@ pub struct HeaderFields<'a> {
     pub limits: Limits,
 }
 
-/// Encodes `signal` (1 kHz, amperes) as the smallest stimulus that plays back within
-/// the bounds of `opts`.
+/// Encodes `signal` (1 kHz, amperes) as a stimulus that plays back within the bounds
+/// of `opts`: keyframes on lines ([`tube_keyframes`]) when the player confirms them,
+/// else the smallest encoding with keyframes rounded one by one.
 pub fn encode(
     signal: &[[f64; CHANNELS]],
     fields: HeaderFields<'_>,
@@ -148,8 +149,8 @@ fn faithful_periods(signal: &[[f64; CHANNELS]], opts: &KeyframeOptions) -> Vec<u
 /// (0.1% and 0.2% of full scale). Finer costs residual bits; coarser leaves too few
 /// slopes for a line to follow a slow signal for long (a slope is a whole number of
 /// steps per keyframe). Measured on the shipped, reference and synthetic recordings
-/// under `touch` and `paper` (40 stimuli), {5, 6} gives 9% fewer bytes in all than
-/// {4, 6} and 6% fewer than {5, 7}.
+/// under `touch` and `paper` (40 stimuli), {5, 6} gives 4-9% fewer bytes in all than
+/// {4, 6} or {5, 7}, and 3.5% fewer than 6 or 5 alone (for one tube pass more).
 const LINE_SHIFTS: [u8; 2] = [6, 5];
 
 /// At most this many tolerances are tried for the first shift, and for the second
@@ -163,8 +164,8 @@ const TOLERANCE_RESOLUTION: f64 = 1.1;
 
 /// Keyframes on lines through a tolerance tube (see [`tube_keyframes`]), the largest
 /// tolerance whose modelled error meets the bounds, played once to confirm. `None`
-/// when no such encoding exists or the player does not confirm it (or the rounded
-/// encoding is smaller): the caller then rounds every keyframe.
+/// when no such encoding exists or the player does not confirm it: the caller then
+/// rounds every keyframe.
 fn encode_lines(
     signal: &[[f64; CHANNELS]],
     fields: HeaderFields<'_>,
