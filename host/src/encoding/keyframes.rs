@@ -6,7 +6,7 @@
 //! predicts each keyframe on the line through the two before it and stores only the
 //! residual, with a run of keyframes that all keep their lines in two bytes; so the
 //! keyframes are laid on straight lines that stay within a tolerance of the signal
-//! ([`tube_keyframes`]) rather than rounded one by one (which puts rounding noise in
+//! (`tube_keyframes`) rather than rounded one by one (which puts rounding noise in
 //! every residual). The tolerance is the largest whose error meets the bounds.
 //!
 //! The choice is measured, not guessed: the winner is encoded, decoded and played by
@@ -114,8 +114,8 @@ pub struct HeaderFields<'a> {
 }
 
 /// Encodes `signal` (1 kHz, amperes) as a stimulus that plays back within the bounds
-/// of `opts`: keyframes on lines ([`tube_keyframes`]) when the player confirms them,
-/// else the smallest encoding with keyframes rounded one by one.
+/// of `opts`: keyframes on lines (see the module documentation) when the player
+/// confirms them, else the smallest encoding with keyframes rounded one by one.
 pub fn encode(
     signal: &[[f64; CHANNELS]],
     fields: HeaderFields<'_>,
