@@ -66,11 +66,12 @@ impl Detections {
 /// the frame counts as 0, plateaus count), strictly above the frame minimum and above
 /// `min_value`, in row-major order.
 ///
-/// Two-step, for speed: a branch-free pass marks the pixels that are maxima of their row
-/// triple and above `min_value` (rare in a blurred frame), and only those are compared
-/// with the rows above and below. The frame minimum is needed only for a candidate
-/// whose in-frame neighbours all equal it (a plateau), so it is computed lazily.
-/// NaN-free input is assumed (the tare turned NaN into 0).
+/// Separable, and branch-free where the work is: each row's maxima of three neighbours
+/// (0 outside), then per pixel the larger of those of the rows above, at and below, so
+/// a pixel is a maximum of its 3 x 3 neighbourhood when it is at least that. Only the
+/// few pixels that pass are looked at one by one, for the plateau rule: the frame
+/// minimum matters only for a maximum whose in-frame neighbours all equal it, so it is
+/// computed lazily. NaN-free input is assumed (the tare turned NaN into 0).
 pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
     let (h, w) = frame.dim();
     if h == 0 || w == 0 {
@@ -84,56 +85,50 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
             &buf
         }
     };
+    let row = |r: usize| &f[r * w..(r + 1) * w];
+    // Row maxima of three for the rows above, at and below the current one (a row
+    // outside the frame is 0), rolled down the frame.
+    let zeros = vec![0.0; w];
+    let (mut above, mut at, mut below) = (zeros.clone(), vec![0.0; w], vec![0.0; w]);
+    max_of_three(row(0), &mut at);
+    if h > 1 {
+        max_of_three(row(1), &mut below);
+    }
+    let mut is_max = vec![0u8; w];
     let mut fmin: Option<f64> = None;
-    let mut cand = vec![0u8; w];
     let mut out = Vec::new();
     for r in 0..h {
-        let row = &f[r * w..(r + 1) * w];
-        // Row triples, 0 outside; `&` on bools keeps the loop free of branches.
-        if w == 1 {
-            cand[0] = ((row[0] >= 0.0) & (row[0] > min_value)) as u8;
-        } else {
-            cand[0] = ((row[0] >= 0.0) & (row[0] >= row[1]) & (row[0] > min_value)) as u8;
-            let last = w - 1;
-            cand[last] =
-                ((row[last] >= row[last - 1]) & (row[last] >= 0.0) & (row[last] > min_value)) as u8;
-            // Each pixel against its left and right neighbours, as three shifted slices.
-            let (left, mid, right) = (&row[..last - 1], &row[1..last], &row[2..]);
-            for (((cd, &v), &l), &r) in cand[1..last].iter_mut().zip(mid).zip(left).zip(right) {
-                *cd = ((v >= l) & (v >= r) & (v > min_value)) as u8;
-            }
+        if r + 1 >= h {
+            below.copy_from_slice(&zeros);
         }
-        // Candidates are rare: skip eight flags at a time (one 64-bit word).
-        for (k, chunk) in cand.chunks(8).enumerate() {
+        for ((((m, &v), &a), &t), &b) in is_max
+            .iter_mut()
+            .zip(row(r))
+            .zip(&above)
+            .zip(&at)
+            .zip(&below)
+        {
+            *m = ((v >= larger(larger(a, t), b)) & (v > min_value)) as u8;
+        }
+        // Maxima are rare: skip eight flags at a time (one 64-bit word).
+        for (k, chunk) in is_max.chunks(8).enumerate() {
             let none = match <[u8; 8]>::try_from(chunk) {
                 Ok(word) => u64::from_ne_bytes(word) == 0,
-                Err(_) => chunk.iter().all(|&f| f == 0),
+                Err(_) => chunk.iter().all(|&m| m == 0),
             };
             if none {
                 continue;
             }
-            for c in (k * 8..k * 8 + chunk.len()).filter(|&c| cand[c] != 0) {
-                let v = row[c];
-                let mut all_equal = true;
-                let mut is_max = true;
-                for rr in [r.checked_sub(1), Some(r), Some(r + 1).filter(|&x| x < h)] {
-                    let Some(rr) = rr else {
-                        // A missing row is 0 outside the frame.
-                        is_max &= v >= 0.0;
-                        continue;
-                    };
-                    let nrow = &f[rr * w..(rr + 1) * w];
-                    for &n in &nrow[c.saturating_sub(1)..(c + 2).min(w)] {
-                        is_max &= v >= n;
-                        all_equal &= n == v;
-                    }
-                }
-                if !is_max {
-                    continue;
-                }
-                // Some in-frame neighbour is lower, so v is above the frame minimum;
-                // only a flat neighbourhood needs the (lazily computed) minimum.
-                if all_equal {
+            for c in (k * 8..k * 8 + chunk.len()).filter(|&c| is_max[c] != 0) {
+                let v = row(r)[c];
+                // A plateau (every in-frame neighbour equal) counts only above the
+                // frame minimum; any lower neighbour already puts it above.
+                let rows = r.saturating_sub(1)..(r + 2).min(h);
+                let cols = c.saturating_sub(1)..(c + 2).min(w);
+                let flat = rows
+                    .into_iter()
+                    .all(|rr| row(rr)[cols.clone()].iter().all(|&n| n == v));
+                if flat {
                     let m = *fmin.get_or_insert_with(|| frame_min(f));
                     if v <= m {
                         continue;
@@ -142,8 +137,40 @@ pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize
                 out.push((r, c, v));
             }
         }
+        // Roll the row maxima down by one row.
+        std::mem::swap(&mut above, &mut at);
+        std::mem::swap(&mut at, &mut below);
+        if r + 2 < h {
+            max_of_three(row(r + 2), &mut below);
+        }
     }
     out
+}
+
+/// `out[c]` = the largest of `row[c - 1]`, `row[c]` and `row[c + 1]`, 0 outside the row.
+fn max_of_three(row: &[f64], out: &mut [f64]) {
+    let w = row.len();
+    if w == 1 {
+        out[0] = larger(row[0], 0.0);
+        return;
+    }
+    out[0] = larger(larger(row[0], row[1]), 0.0);
+    out[w - 1] = larger(larger(row[w - 2], row[w - 1]), 0.0);
+    let (left, mid, right) = (&row[..w - 2], &row[1..w - 1], &row[2..]);
+    for (((o, &l), &m), &r) in out[1..w - 1].iter_mut().zip(left).zip(mid).zip(right) {
+        *o = larger(larger(l, m), r);
+    }
+}
+
+/// The larger of two numbers that are not NaN, by comparison (vectorises; `f64::max`
+/// must special-case NaN).
+#[inline(always)]
+fn larger(a: f64, b: f64) -> f64 {
+    if b > a {
+        b
+    } else {
+        a
+    }
 }
 
 /// Minimum of a NaN-free slice, in eight independent lanes (vectorises; `f64::min`
