@@ -17,7 +17,7 @@ use crate::placement::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
 use crate::rendering::condition::{self, ConditionError, LimitViolation};
 use crate::rendering::signals::ChannelSignals;
-use crate::stage::Stage;
+use crate::stage::{Shares, Stage};
 use crate::tracking::scene::{self, Crop};
 use crate::tracking::track::{TrackError, TrackOutput};
 use touch_protocol::{Limits, CHANNELS};
@@ -213,8 +213,16 @@ impl Clock {
     }
 
     fn stage(&mut self, stage: Stage) {
+        self.split(&[(stage, 1.0)]);
+    }
+
+    /// The time since the last lap, shared out among `shares` (stage, share).
+    fn split(&mut self, shares: &Shares) {
         let now = Instant::now();
-        *self.seconds.entry(stage.name()).or_insert(0.0) += (now - self.lap).as_secs_f64();
+        let elapsed = (now - self.lap).as_secs_f64();
+        for &(stage, share) in shares {
+            *self.seconds.entry(stage.name()).or_insert(0.0) += share * elapsed;
+        }
         self.lap = now;
     }
 
@@ -308,7 +316,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         cfg,
         &sampling,
         opts.keep_scene,
-        &mut |s| clock.stage(s),
+        &mut |shares| clock.split(shares),
     )?;
     let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
     clock.stage(Stage::Coverage);

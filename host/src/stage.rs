@@ -2,6 +2,10 @@
 //! reports the wall seconds under [`Stage::name`], so a step renamed here is renamed in
 //! every report and in every reader of one that looks it up by [`Stage`].
 
+/// How a stretch of time since the last lap is shared out: each stage with its share
+/// (the shares add up to 1).
+pub type Shares = [(Stage, f64)];
+
 /// One timed step of a compile, in pipeline order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Stage {

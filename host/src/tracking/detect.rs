@@ -409,6 +409,14 @@ impl Candidates {
         self.starts.push(self.points.len());
     }
 
+    /// Appends every frame of `other`, after this one's.
+    pub fn append(&mut self, other: &Candidates) {
+        let base = self.points.len();
+        self.points.extend_from_slice(&other.points);
+        self.starts
+            .extend(other.starts.iter().skip(1).map(|&s| base + s));
+    }
+
     /// Frames pushed.
     pub fn frames(&self) -> usize {
         self.starts.len() - 1

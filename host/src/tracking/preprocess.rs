@@ -10,6 +10,9 @@
 //! Everything is computed and kept in f64: the reference matches to 1e-9 relative, and
 //! local maxima compare neighbouring values that often differ only in the last digits.
 
+use std::ops::Range;
+use std::time::{Duration, Instant};
+
 use ndarray::{Array2, Array3, ArrayView1, ArrayView2, ArrayView3, ArrayViewMut2, Axis};
 
 use crate::config::{PreprocessConfig, Sampling};
@@ -337,26 +340,107 @@ pub fn blur_stream(
     mut visit: impl FnMut(usize, ArrayView2<f64>),
 ) -> Result<BlurStats, PreprocessError> {
     let (t, r, c) = tared.dim();
-    let op = BlurOperator::new(r, c, &Blur::new(cfg, sampling))?;
-    let (h, w) = op.out_dim();
-    let mut frame = Array2::<f64>::zeros((h, w));
-    let mut scratch = Vec::new();
-    let mut stats = Vec::with_capacity(t);
+    let mut blur = FrameBlur::new(BlurOperator::new(r, c, &Blur::new(cfg, sampling))?);
+    let mut moments = Vec::with_capacity(t);
     for (f, src) in tared.axis_iter(Axis(0)).enumerate() {
-        op.apply_into(src, frame.view_mut(), &mut scratch);
-        visit(f, frame.view());
-        stats.push(match frame.as_slice() {
-            Some(s) => mean_std(s),
-            None => mean_std(&frame.iter().copied().collect::<Vec<_>>()),
-        });
+        moments.push(blur.next(src));
+        visit(f, blur.frame.view());
     }
-    let (mean, std) = combine(&stats, h * w);
-    Ok(BlurStats {
-        mean,
-        std,
-        pitch_mm: sampling.pixel_mm(),
-        frame_dim: (h, w),
-    })
+    Ok(BlurStats::of(&moments, blur.frame.dim(), sampling))
+}
+
+/// Frames per run of [`blur_chunks`]: enough that a run's set-up (a frame buffer) is
+/// nothing beside its frames, few enough that a short recording still splits.
+const CHUNK_FRAMES: usize = 64;
+
+/// [`blur_stream`] on the current rayon pool: the frames are blurred in runs of
+/// 64 frames, each run on one thread, visited in frame order within the run
+/// (`visit(&mut state, t, frame)`, with `state = start(run)`), and the runs' states
+/// handed to `merge` in frame order with the run's wall time. A few runs per thread
+/// are in flight at a time, so memory is what `merge` keeps plus those runs' states.
+/// The statistics are [`blur_stream`]'s, bit for bit: each frame's moments do not
+/// depend on the run it is in, and they are combined in frame order.
+pub fn blur_chunks<S: Send>(
+    tared: ArrayView3<f64>,
+    cfg: &PreprocessConfig,
+    sampling: &Sampling,
+    start: impl Fn(Range<usize>) -> S + Sync,
+    visit: impl Fn(&mut S, usize, ArrayView2<f64>) + Sync,
+    mut merge: impl FnMut(S, Duration),
+) -> Result<BlurStats, PreprocessError> {
+    use rayon::prelude::*;
+    let (t, r, c) = tared.dim();
+    let op = BlurOperator::new(r, c, &Blur::new(cfg, sampling))?;
+    let dim = op.out_dim();
+    let wave = CHUNK_FRAMES * 2 * rayon::current_num_threads().max(1);
+    let mut moments = Vec::with_capacity(t);
+    for first in (0..t).step_by(wave) {
+        let end = (first + wave).min(t);
+        let runs: Vec<Range<usize>> = (first..end)
+            .step_by(CHUNK_FRAMES)
+            .map(|a| a..(a + CHUNK_FRAMES).min(end))
+            .collect();
+        let done: Vec<_> = runs
+            .into_par_iter()
+            .map(|run| {
+                let clock = Instant::now();
+                let mut blur = FrameBlur::new(op.clone());
+                let mut state = start(run.clone());
+                let mut run_moments = Vec::with_capacity(run.len());
+                for f in run {
+                    run_moments.push(blur.next(tared.index_axis(Axis(0), f)));
+                    visit(&mut state, f, blur.frame.view());
+                }
+                (state, run_moments, clock.elapsed())
+            })
+            .collect();
+        for (state, run_moments, took) in done {
+            moments.extend(run_moments);
+            merge(state, took);
+        }
+    }
+    Ok(BlurStats::of(&moments, dim, sampling))
+}
+
+/// One blurred frame at a time: the operator, the frame and the scratch it reuses.
+struct FrameBlur {
+    op: BlurOperator,
+    frame: Array2<f64>,
+    scratch: Vec<f64>,
+}
+
+impl FrameBlur {
+    fn new(op: BlurOperator) -> Self {
+        let frame = Array2::zeros(op.out_dim());
+        FrameBlur {
+            op,
+            frame,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// Blurs `src` into `self.frame` and returns the frame's mean and std.
+    fn next(&mut self, src: ArrayView2<f64>) -> (f64, f64) {
+        self.op
+            .apply_into(src, self.frame.view_mut(), &mut self.scratch);
+        match self.frame.as_slice() {
+            Some(s) => mean_std(s),
+            None => mean_std(&self.frame.iter().copied().collect::<Vec<_>>()),
+        }
+    }
+}
+
+impl BlurStats {
+    /// The statistics of frames of shape `dim` with per-frame `moments` (mean, std).
+    fn of(moments: &[(f64, f64)], dim: (usize, usize), sampling: &Sampling) -> Self {
+        let (mean, std) = combine(moments, dim.0 * dim.1);
+        BlurStats {
+            mean,
+            std,
+            pitch_mm: sampling.pixel_mm(),
+            frame_dim: dim,
+        }
+    }
 }
 
 fn combine(stats: &[(f64, f64)], n: usize) -> (f64, f64) {
@@ -468,6 +552,45 @@ mod tests {
     fn reflect_is_half_sample_symmetric() {
         let idx: Vec<usize> = (-4..7).map(|i| reflect_index(i, 3)).collect();
         assert_eq!(idx, vec![2, 2, 1, 0, 0, 1, 2, 2, 1, 0, 0]);
+    }
+
+    /// A recording of `t` frames of 3 x 5 cells, a ramp with a bump that moves.
+    fn moving(t: usize) -> Array3<f64> {
+        Array3::from_shape_fn((t, 3, 5), |(f, r, c)| {
+            0.001 * (f + r + c) as f64 + if (f / 7) % 5 == c { 0.8 } else { 0.0 }
+        })
+    }
+
+    #[test]
+    fn runs_on_any_number_of_threads_give_the_stream_bit_for_bit() {
+        let tared = moving(300); // five runs of 64 frames, the last short
+        let (cfg, sampling) = (PreprocessConfig::default(), Sampling::PAPER);
+        let mut whole = Vec::new();
+        let stream = blur_stream(tared.view(), &cfg, &sampling, |f, frame| {
+            whole.push((f, frame.sum()));
+        })
+        .unwrap();
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut merged = Vec::new();
+            let chunks = pool
+                .install(|| {
+                    blur_chunks(
+                        tared.view(),
+                        &cfg,
+                        &sampling,
+                        |_| Vec::new(),
+                        |seen: &mut Vec<(usize, f64)>, f, frame| seen.push((f, frame.sum())),
+                        |seen, _| merged.extend(seen),
+                    )
+                })
+                .unwrap();
+            assert_eq!(chunks, stream, "{threads} threads");
+            assert_eq!(merged, whole, "{threads} threads");
+        }
     }
 
     #[test]

@@ -18,18 +18,19 @@
 //! stimulus byte-identical with and without the crop.
 
 use std::ops::Range;
+use std::time::{Duration, Instant};
 
-use ndarray::{Array2, Array3, ArrayView2, ArrayView3, Axis};
+use ndarray::{s, Array2, Array3, ArrayView2, ArrayView3, Axis};
 use serde::Serialize;
 
 use crate::config::{Config, Sampling};
 use crate::placement::Placement;
 use crate::rendering::signals::{self, ChannelSignals};
-use crate::stage::Stage;
+use crate::stage::{Shares, Stage};
 use crate::tracking::detect::{
     detection_cost, frame_points, score_candidates, Candidates, Detections,
 };
-use crate::tracking::preprocess::{blur_stream, Blur, BlurOperator, Blurred};
+use crate::tracking::preprocess::{blur_chunks, Blur, BlurOperator, Blurred};
 use crate::tracking::track::{link, TrackError, TrackOutput};
 
 /// The part of a tared recording the heavy stages look at, in frames and sensor cells.
@@ -154,22 +155,26 @@ fn pixel_box(crop: &Crop, k: usize) -> (Range<usize>, Range<usize>) {
 /// Stages 1-3 on the crop, streaming: one pass blurs each frame, finds its detection
 /// candidates and its [`FrameExtremes`], and drops it. The statistics are those of the
 /// whole recording; the crop is then checked ([`exact_crop`]) and the detections of its
-/// frames and cells are scored and linked. Memory is one blurred frame plus the
-/// candidates, whatever the recording's length.
+/// frames and cells are scored and linked. Memory is a few runs of blurred frames plus
+/// the candidates, whatever the recording's length. The pass runs on the current rayon
+/// pool, in runs of frames ([`blur_chunks`]); the result does not depend on the number
+/// of threads.
 ///
 /// With `keep_scene` the blurred frames are also kept in `blurred.frames` (the whole
 /// recording; previews draw them) and the scored detections in `detections`; otherwise
 /// `blurred.frames` has no frames, stage 5 recomputes the few it reads
 /// ([`recomputed_actuator_signals`]), and `detections` is empty once linked. Trajectories are in
 /// whole-recording frames and pixels. The crop actually used is returned. `lap` is
-/// called with the stage whose work has just been done (per frame for the pass).
+/// called with the stages whose work has just been done and the share of the time since
+/// its previous call that each took (the pass's time is split between blurring and
+/// detection by the time its threads spent on each).
 pub fn track_cropped(
     tared: ArrayView3<f64>,
     crop: &Crop,
     cfg: &Config,
     sampling: &Sampling,
     keep_scene: bool,
-    lap: &mut dyn FnMut(Stage),
+    lap: &mut dyn FnMut(&Shares),
 ) -> Result<(TrackOutput, Crop), TrackError> {
     let (t, r, c) = tared.dim();
     let k = sampling.upsample;
@@ -178,29 +183,61 @@ pub fn track_cropped(
     let (rows, cols) = pixel_box(crop, k);
     let mut extremes = Vec::with_capacity(t);
     let mut candidates = Candidates::with_frames(t);
-    let stats = blur_stream(tared, &cfg.preprocess, sampling, |f, frame| {
-        extremes.push(FrameExtremes::of(frame, &rows, &cols));
-        if keep_scene {
-            movie.index_axis_mut(Axis(0), f).assign(&frame);
-        }
-        lap(Stage::Preprocess);
-        candidates.push_frame(frame_points(
-            frame,
-            &cfg.detect,
-            cfg.detect.split.as_ref(),
-            k,
-        ));
-        lap(Stage::Detect);
-    })?;
+    let (mut busy, mut detecting) = (Duration::ZERO, Duration::ZERO);
+    let stats = blur_chunks(
+        tared,
+        &cfg.preprocess,
+        sampling,
+        |run| Run {
+            first: run.start,
+            extremes: Vec::with_capacity(run.len()),
+            candidates: Candidates::with_frames(run.len()),
+            movie: keep_scene.then(|| Array3::zeros((run.len(), h, w))),
+            detecting: Duration::ZERO,
+        },
+        |run, f, frame| {
+            run.extremes.push(FrameExtremes::of(frame, &rows, &cols));
+            if let Some(movie) = &mut run.movie {
+                movie.index_axis_mut(Axis(0), f - run.first).assign(&frame);
+            }
+            let clock = Instant::now();
+            run.candidates.push_frame(frame_points(
+                frame,
+                &cfg.detect,
+                cfg.detect.split.as_ref(),
+                k,
+            ));
+            run.detecting += clock.elapsed();
+        },
+        |run, took| {
+            extremes.extend(run.extremes);
+            candidates.append(&run.candidates);
+            if let Some(frames) = run.movie {
+                let end = run.first + frames.dim().0;
+                movie.slice_mut(s![run.first..end, .., ..]).assign(&frames);
+            }
+            busy += took;
+            detecting += run.detecting;
+        },
+    )?;
+    let detect_share = if busy > Duration::ZERO {
+        (detecting.as_secs_f64() / busy.as_secs_f64()).min(1.0)
+    } else {
+        0.0
+    };
+    lap(&[
+        (Stage::Preprocess, 1.0 - detect_share),
+        (Stage::Detect, detect_share),
+    ]);
     let crop = exact_crop(crop, &extremes, stats.mean, stats.std, (r, c), cfg);
     let (rows, cols) = pixel_box(&crop, k);
     candidates
         .retain(|f, &(r, c, _)| crop.frames.contains(&f) && rows.contains(&r) && cols.contains(&c));
     let detections = score_candidates(&candidates, stats.mean, stats.std, &cfg.detect);
     drop(candidates);
-    lap(Stage::Detect);
+    lap(&[(Stage::Detect, 1.0)]);
     let linked = link(&detections, &cfg.track, sampling)?;
-    lap(Stage::Track);
+    lap(&[(Stage::Track, 1.0)]);
     let detections = if keep_scene {
         detections
     } else {
@@ -220,6 +257,17 @@ pub fn track_cropped(
         flow_budget_reached: linked.budget_reached,
     };
     Ok((tracked, crop))
+}
+
+/// What the pass of [`track_cropped`] finds in one run of frames, from its first.
+struct Run {
+    first: usize,
+    extremes: Vec<FrameExtremes>,
+    candidates: Candidates,
+    /// The run's blurred frames, with `keep_scene`.
+    movie: Option<Array3<f64>>,
+    /// Time spent finding candidates.
+    detecting: Duration,
 }
 
 /// The crop, widened to the whole recording in time and/or space wherever a blurred
