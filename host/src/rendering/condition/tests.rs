@@ -793,3 +793,29 @@ mod properties {
         }
     }
 }
+
+/// The settle time the early stop finds is the one the whole horizon gives, for the
+/// filters the config allows: every order, cutoffs from far below to near Nyquist.
+#[test]
+fn settle_frames_stops_early_at_the_whole_horizons_answer() {
+    let whole = |sos: &[Sos<f64>]| {
+        let mut impulse = vec![0.0; 1 << 16];
+        impulse[0] = 1.0;
+        let h = lowpass(&impulse, sos, false);
+        let peak = h.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        h.iter()
+            .rposition(|v| v.abs() > SETTLE_TOLERANCE * peak)
+            .unwrap_or(0)
+            + 1
+    };
+    for order in [1, 2, 3, 5, 8, 12, 16] {
+        for (cutoff_hz, rate_hz) in [(4.0, 20.0), (4.0, 54.0), (0.5, 200.0), (9.0, 20.0)] {
+            let sos = design_lowpass(order, cutoff_hz, rate_hz).unwrap();
+            assert_eq!(
+                settle_frames(&sos),
+                whole(&sos),
+                "order {order}, {cutoff_hz} Hz at {rate_hz} Hz"
+            );
+        }
+    }
+}
