@@ -11,7 +11,7 @@
 use ndarray::{ArrayView3, Axis};
 
 use crate::config::{Baseline, Config, Sampling};
-use crate::input::recording::Recording;
+use crate::input::recording::{for_each_cell_series, Recording};
 
 /// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
 /// and looks like raw ADC counts.
@@ -63,9 +63,26 @@ fn median(values: &mut [f64]) -> Option<f64> {
 }
 
 /// Values in the hundreds or more: raw ADC counts rather than psi.
+///
+/// Whether the median is that far out is decided by counting, without a copy of the
+/// recording (97 MB for an hour of the paper's sleeve); only a recording that is
+/// warned about is copied, to name its median.
 pub fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
-    let mut finite: Vec<f64> = raw.iter().copied().filter(|v| v.is_finite()).collect();
-    let m = median(&mut finite)?;
+    let (mut finite, mut high, mut low) = (0usize, 0usize, 0usize);
+    for &v in raw.iter().filter(|v| v.is_finite()) {
+        finite += 1;
+        high += usize::from(v >= RAW_COUNTS_MEDIAN);
+        low += usize::from(v <= -RAW_COUNTS_MEDIAN);
+    }
+    // The median is the reading at sorted position `finite / 2` ([`median`]): at or
+    // above the bound when the readings from there on all are, at or below minus the
+    // bound when those up to there all are.
+    let mid = finite / 2;
+    if finite == 0 || (high < finite - mid && low < mid + 1) {
+        return None;
+    }
+    let mut values: Vec<f64> = raw.iter().copied().filter(|v| v.is_finite()).collect();
+    let m = median(&mut values)?;
     (m.abs() >= RAW_COUNTS_MEDIAN).then(|| {
         format!(
             "the median reading is {m:.0}, but psi from a skin-touch sensor is rarely above \
@@ -79,14 +96,12 @@ pub fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
 pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> {
     let (mut below, mut above) = (0usize, 0usize);
     let mut deepest = 0.0f64;
-    let mut cell = Vec::new();
-    for lane in raw.lanes(Axis(0)) {
-        cell.clear();
-        cell.extend(lane.iter().copied().filter(|v| v.is_finite()));
-        let Some(rest) = median(&mut cell) else {
-            continue;
+    for_each_cell_series(raw, |_, cell| {
+        cell.retain(|v| v.is_finite());
+        let Some(rest) = median(cell) else {
+            return;
         };
-        for &v in &cell {
+        for &v in cell.iter() {
             let d = v - rest;
             if d < -threshold {
                 below += 1;
@@ -95,7 +110,7 @@ pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> 
                 above += 1;
             }
         }
-    }
+    });
     // Noise deviates both ways about equally; touch on a falling sensor only down.
     (below > 2 * above && below >= 10).then(|| {
         format!(
@@ -120,25 +135,23 @@ pub fn touch_in_tare_window(
         return None;
     }
     let threshold = cfg.input.touch_threshold_psi;
+    let q = cfg.input.baseline_quantile.clamp(0.0, 1.0);
     let (mut cells, mut highest) = (0usize, 0.0f64);
-    let mut values = Vec::new();
-    for lane in raw.lanes(Axis(0)) {
-        let window = lane.slice(ndarray::s![..frames]);
+    for_each_cell_series(raw, |_, values| {
+        let window = &values[..frames];
         if window.iter().any(|v| !v.is_finite()) {
-            continue; // the leading baseline makes such a cell "no cell" anyway
+            return; // the leading baseline makes such a cell "no cell" anyway
         }
-        let mean = window.sum() / frames as f64;
-        values.clear();
-        values.extend(lane.iter().copied().filter(|v| v.is_finite()));
-        values.sort_unstable_by(f64::total_cmp);
-        let q = cfg.input.baseline_quantile.clamp(0.0, 1.0);
-        let rest = values[(q * (values.len() - 1) as f64).round() as usize];
+        let mean = window.iter().fold(0.0, |sum, &v| sum + v) / frames as f64;
+        values.retain(|v| v.is_finite());
+        let at = (q * (values.len() - 1) as f64).round() as usize;
+        let (_, &mut rest, _) = values.select_nth_unstable_by(at, f64::total_cmp);
         let excess = mean - rest;
         if excess > threshold {
             cells += 1;
             highest = highest.max(excess);
         }
-    }
+    });
     (cells > 0).then(|| {
         format!(
             "touch in the tare window: {cells} cell(s) read up to {highest:.3} psi above \
@@ -239,6 +252,54 @@ pub fn single_frame_touches(
 mod tests {
     use super::*;
     use ndarray::Array3;
+
+    /// The counting rule of [`raw_counts`] against the median itself, on readings
+    /// around the bound (ties at exactly +-100 included) and with NaN among them.
+    #[test]
+    fn raw_counts_fires_exactly_when_the_median_is_out_of_bounds() {
+        let levels = [f64::NAN, -150.0, -100.0, -99.0, 0.0, 99.0, 100.0, 150.0];
+        let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+        for n in 1..40usize {
+            for _ in 0..20 {
+                let values: Vec<f64> = (0..n)
+                    .map(|_| {
+                        x ^= x << 13;
+                        x ^= x >> 7;
+                        x ^= x << 17;
+                        levels[(x % levels.len() as u64) as usize]
+                    })
+                    .collect();
+                let mut finite: Vec<f64> =
+                    values.iter().copied().filter(|v| v.is_finite()).collect();
+                finite.sort_by(f64::total_cmp);
+                let expected = finite
+                    .get(finite.len() / 2)
+                    .is_some_and(|m| m.abs() >= RAW_COUNTS_MEDIAN);
+                let raw = Array3::from_shape_vec((n, 1, 1), values.clone()).unwrap();
+                assert_eq!(raw_counts(raw.view()).is_some(), expected, "{values:?}");
+            }
+        }
+    }
+
+    /// The cells' series, gathered eight at a time, are the time lanes of the
+    /// recording, for a standard and a transposed (not contiguous) layout.
+    #[test]
+    fn cell_series_are_the_time_lanes() {
+        let data = Array3::from_shape_fn((5, 3, 7), |(t, r, c)| (t * 100 + r * 10 + c) as f64);
+        let transposed = data.view().reversed_axes().to_owned();
+        let transposed = transposed.view().reversed_axes();
+        for view in [data.view(), transposed] {
+            let mut seen = Vec::new();
+            for_each_cell_series(view, |cell, s| seen.push((cell, s.clone())));
+            let lanes: Vec<(usize, Vec<f64>)> = view
+                .lanes(Axis(0))
+                .into_iter()
+                .enumerate()
+                .map(|(cell, lane)| (cell, lane.to_vec()))
+                .collect();
+            assert_eq!(seen, lanes);
+        }
+    }
 
     /// 100 frames of 6 x 10 cells at rest `rest` with +-0.004 noise and, from frame
     /// 40 to 70, a 2 x 2 press of `press` (added) sliding one column every `step` frames
