@@ -112,7 +112,10 @@ pub struct Solution {
 #[derive(Debug, Clone)]
 pub struct SubsetProblem {
     weights: Vec<f64>,
-    conflicts: Vec<BitSet>,
+    /// Conflicting pairs as added (repeats allowed). A list, not an `n x n` bit matrix:
+    /// on a long recording a transform has about a thousand vertices with a few
+    /// conflicts each, and the matrix made every transform quadratic in that count.
+    conflicts: Vec<(usize, usize)>,
     /// Each group: the vertices present at one frame with their workspace masks.
     groups: Vec<Vec<(usize, u32)>>,
 }
@@ -120,10 +123,9 @@ pub struct SubsetProblem {
 impl SubsetProblem {
     /// An instance without constraints; `weights[i]` is what choosing vertex `i` earns.
     pub fn new(weights: Vec<f64>) -> Self {
-        let n = weights.len();
         Self {
             weights,
-            conflicts: vec![BitSet::new(n); n],
+            conflicts: Vec::new(),
             groups: Vec::new(),
         }
     }
@@ -144,8 +146,9 @@ impl SubsetProblem {
     /// If `a` or `b` is not a vertex (a caller bug, not a data condition).
     pub fn add_conflict(&mut self, a: usize, b: usize) {
         if a != b {
-            self.conflicts[a].insert(b);
-            self.conflicts[b].insert(a);
+            let n = self.len();
+            assert!(a < n && b < n, "conflict ({a}, {b}) outside {n} vertices");
+            self.conflicts.push((a, b));
         }
     }
 
@@ -171,7 +174,11 @@ impl SubsetProblem {
         for &i in chosen {
             set.insert(i);
         }
-        if chosen.iter().any(|&i| self.conflicts[i].intersects(&set)) {
+        if self
+            .conflicts
+            .iter()
+            .any(|&(a, b)| set.contains(a) && set.contains(b))
+        {
             return false;
         }
         self.groups.iter().all(|g| {
@@ -199,6 +206,8 @@ impl SubsetProblem {
     pub fn solve_within(&self, node_budget: u64) -> Solution {
         let n = self.len();
         // Union-find over constraints: independent components are solved separately.
+        // Roots are the least vertex of their set, so the partition and its order do not
+        // depend on the order constraints were added in.
         let mut parent: Vec<usize> = (0..n).collect();
         fn find(p: &mut [usize], mut i: usize) -> usize {
             while p[i] != i {
@@ -207,42 +216,62 @@ impl SubsetProblem {
             }
             i
         }
+        fn union(p: &mut [usize], a: usize, b: usize) {
+            let (ra, rb) = (find(p, a), find(p, b));
+            p[ra.max(rb)] = ra.min(rb);
+        }
         let positive = |i: usize| self.weights[i] > 0.0;
-        for a in (0..n).filter(|&a| positive(a)) {
-            for b in (a + 1..n).filter(|&b| positive(b) && self.conflicts[a].contains(b)) {
-                let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-                parent[ra.max(rb)] = ra.min(rb);
+        for &(a, b) in &self.conflicts {
+            if positive(a) && positive(b) {
+                union(&mut parent, a, b);
             }
         }
         for g in &self.groups {
             let mut members = g.iter().map(|&(v, _)| v).filter(|&v| positive(v));
             if let Some(first) = members.next() {
                 for v in members {
-                    let (ra, rb) = (find(&mut parent, first), find(&mut parent, v));
-                    parent[ra.max(rb)] = ra.min(rb);
+                    union(&mut parent, first, v);
                 }
             }
         }
+        // Components in order of their least vertex; `local[v]`: v's place in its own.
         let mut components: Vec<Vec<usize>> = Vec::new();
         let mut slot = vec![usize::MAX; n];
+        let mut local = vec![usize::MAX; n];
         for v in (0..n).filter(|&v| positive(v)) {
             let root = find(&mut parent, v);
             if slot[root] == usize::MAX {
                 slot[root] = components.len();
                 components.push(Vec::new());
             }
+            local[v] = components[slot[root]].len();
             components[slot[root]].push(v);
+        }
+        let comp_of = |parent: &mut [usize], v: usize| slot[find(parent, v)];
+        // Each component's conflicts (local indices) and groups, gathered in one pass
+        // each rather than one pass per component.
+        let mut edges: Vec<Vec<(usize, usize)>> = vec![Vec::new(); components.len()];
+        for &(a, b) in &self.conflicts {
+            if positive(a) && positive(b) {
+                edges[comp_of(&mut parent, a)].push((local[a], local[b]));
+            }
+        }
+        let mut groups: Vec<Vec<usize>> = vec![Vec::new(); components.len()];
+        for (g, members) in self.groups.iter().enumerate() {
+            if let Some(&(v, _)) = members.iter().find(|&&(v, _)| positive(v)) {
+                groups[comp_of(&mut parent, v)].push(g);
+            }
         }
         let mut chosen = Vec::new();
         let mut exact = true;
         let mut remaining = node_budget;
-        for comp in components {
+        for ((comp, edges), groups) in components.iter().zip(&edges).zip(&groups) {
             if comp.len() == 1 {
-                chosen.extend(comp);
+                chosen.extend_from_slice(comp);
             } else {
                 // Components share the budget: once it is spent, each later one keeps
                 // its first (greedy) leaf.
-                let mut search = Search::new(self, &comp);
+                let mut search = Search::new(self, comp, edges, groups, &local);
                 search.budget = remaining;
                 let (best, proved, nodes) = search.run();
                 remaining = remaining.saturating_sub(nodes);
@@ -299,25 +328,30 @@ struct Search<'a> {
 }
 
 impl<'a> Search<'a> {
-    fn new(problem: &'a SubsetProblem, vertices: &'a [usize]) -> Self {
+    /// The search over `vertices` (one component, ascending), given its conflicts in
+    /// local indices, the groups that involve it (ascending) and each vertex's local
+    /// index (`local`, indexed by global vertex; `usize::MAX` outside any component).
+    fn new(
+        problem: &'a SubsetProblem,
+        vertices: &'a [usize],
+        edges: &[(usize, usize)],
+        groups: &[usize],
+        local: &[usize],
+    ) -> Self {
         let k = vertices.len();
-        let mut local = vec![usize::MAX; problem.len()];
-        for (l, &v) in vertices.iter().enumerate() {
-            local[v] = l;
-        }
         let mut conflicts = vec![BitSet::new(k); k];
-        for (l, &v) in vertices.iter().enumerate() {
-            for (m, &u) in vertices.iter().enumerate() {
-                if problem.conflicts[v].contains(u) {
-                    conflicts[l].insert(m);
-                }
-            }
+        for &(a, b) in edges {
+            conflicts[a].insert(b);
+            conflicts[b].insert(a);
         }
-        let mut groups_of = vec![Vec::new(); k];
-        for (g, members) in problem.groups.iter().enumerate() {
-            for &(v, _) in members {
-                if local[v] != usize::MAX && !groups_of[local[v]].contains(&g) {
-                    groups_of[local[v]].push(g);
+        let mut groups_of: Vec<Vec<usize>> = vec![Vec::new(); k];
+        for &g in groups {
+            for &(v, _) in &problem.groups[g] {
+                // Non-positive members have no local index: they are never chosen.
+                if let Some(of) = groups_of.get_mut(local[v]) {
+                    if !of.contains(&g) {
+                        of.push(g);
+                    }
                 }
             }
         }

@@ -1,5 +1,11 @@
 //! One transform's score: which points lie in which circle, the best compatible subset
 //! of trajectories, and its weighted cost.
+//!
+//! Cost: a transform visits only the trajectories whose bounding box meets one of its
+//! circles, and only their points; conflicts are found by chaining the in-circle points
+//! of each frame. Nothing here grows with the recording's length beyond what the
+//! transform's circles meet (a one-hour recording has 8,008 trajectories, of which a
+//! transform meets about a thousand).
 
 use super::*;
 
@@ -8,37 +14,76 @@ use super::*;
 pub(super) struct Point {
     pub(super) x: f64,
     pub(super) y: f64,
-    pub(super) traj: usize,
     pub(super) frame: usize,
     pub(super) cost: f64,
+    /// The pixel, for the per-row and per-column circle masks.
+    pub(super) row: usize,
+    pub(super) col: usize,
 }
+
+/// A trajectory's extent in mm: `[x_min, x_max, y_min, y_max]` of its points.
+type Extent = [f64; 4];
 
 /// The trajectories as the search needs them, computed once per call.
 pub(super) struct Scene {
     /// Every detection, trajectory-major and in detection order.
     pub(super) points: Vec<Point>,
-    /// Point indices sorted by x, so a circle finds its candidates by binary search.
-    pub(super) by_x: Vec<usize>,
-    /// The x of each point of `by_x`.
-    pub(super) sorted_x: Vec<f64>,
+    /// `points[start[t]..start[t + 1]]` are trajectory `t`'s detections.
+    pub(super) start: Vec<usize>,
+    /// Per trajectory: the extent of its points (empty trajectories have none).
+    pub(super) extent: Vec<Option<Extent>>,
     /// Per trajectory: what choosing it earns (`-total_cost`).
     pub(super) gains: Vec<f64>,
+    /// One more than the last frame of any point (the size of the frame chains).
+    pub(super) frames: usize,
+    /// The y of each pixel row's centre up to the last row of any point (ascending).
+    pub(super) row_y: Vec<f64>,
+    /// The x of each pixel column's centre up to the last column of any point.
+    pub(super) col_x: Vec<f64>,
 }
+
+/// An in-circle point of a trajectory that can be chosen, chained with the others of
+/// its frame.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Hit {
+    frame: usize,
+    /// The trajectory's index among the transform's candidates.
+    local: usize,
+    /// Workspaces containing the point.
+    mask: u32,
+    /// The previous hit of the same frame (a later candidate's is later), or `NONE`.
+    next: usize,
+}
+
+/// End of a chain of hits.
+const NONE: usize = usize::MAX;
 
 /// Per-transform work buffers, reused so the search allocates only when it must.
 pub(super) struct Scratch {
-    /// Workspace bitmask of each point under the current transform.
-    pub(super) mask: Vec<u32>,
-    /// Weight `D` of each point (of the last workspace containing it, as published).
-    pub(super) weight: Vec<f64>,
-    /// Points with a non-zero mask, to reset and to visit.
-    pub(super) touched: Vec<usize>,
-    /// (frame, trajectory, mask) of touched points of candidate trajectories.
-    pub(super) hits: Vec<(usize, usize, u32)>,
-    /// Per trajectory: chosen under the current transform.
-    pub(super) chosen: Vec<bool>,
-    /// Per trajectory: local index in the subset problem, or `usize::MAX`.
-    pub(super) local: Vec<usize>,
+    /// The circles (x, radius) that `near` was built for.
+    near_for: Option<[(f64, f64); CHANNELS]>,
+    /// Per pixel column: the circles whose x range (with slack) holds its centre.
+    col_mask: Vec<u32>,
+    /// Per pixel row: the circles whose y range (with slack) holds its centre.
+    row_mask: Vec<u32>,
+    /// Trajectories whose x extent meets a circle's, ascending, with the bitmask of those
+    /// circles: all a transform with these circle x positions may touch. Grid transforms
+    /// share x across 210 transforms, so this is rebuilt once per x.
+    near: Vec<(usize, u32)>,
+    /// In-circle points of candidate trajectories, candidate-major.
+    hits: Vec<Hit>,
+    /// Per frame: the last hit of that frame, or `NONE` (reset after each transform).
+    head: Vec<usize>,
+    /// Frames with at least two hits.
+    shared: Vec<usize>,
+    /// Members of one frame's group: (candidate, mask), ascending.
+    group: Vec<(usize, u32)>,
+    /// Candidates: trajectories with positive gain and a point inside a circle, ascending.
+    candidates: Vec<usize>,
+    /// Per candidate: the sum of `cost * D` over its in-circle points, in detection order.
+    sums: Vec<f64>,
+    /// Per candidate: chosen under the current transform.
+    chosen: Vec<bool>,
     /// Set when the last subset search ran out of its node budget.
     pub(super) inexact: bool,
     /// Nodes each transform's subset search may visit ([`super::bnb::transform_budget`]).
@@ -46,165 +91,298 @@ pub(super) struct Scratch {
 }
 
 impl Scene {
-    /// Points in mm, sorted by x, and each trajectory's gain.
+    /// Points in mm, each trajectory's extent and gain.
     pub(super) fn new(trajs: &[Trajectory], pitch_mm: f64) -> Scene {
         let mut points = Vec::new();
-        for (t, traj) in trajs.iter().enumerate() {
+        let mut start = Vec::with_capacity(trajs.len() + 1);
+        let mut extent = Vec::with_capacity(trajs.len());
+        let (mut frames, mut rows, mut cols) = (0, 0, 0);
+        for traj in trajs {
+            start.push(points.len());
+            let mut e: Option<Extent> = None;
             for d in &traj.points {
                 let (x, y) = pixel_centre_mm(d.row, d.col, pitch_mm);
                 points.push(Point {
                     x,
                     y,
-                    traj: t,
                     frame: d.frame,
                     cost: d.cost,
+                    row: d.row,
+                    col: d.col,
                 });
+                frames = frames.max(d.frame + 1);
+                rows = rows.max(d.row + 1);
+                cols = cols.max(d.col + 1);
+                let [x0, x1, y0, y1] = e.get_or_insert([x, x, y, y]);
+                (*x0, *x1) = (x0.min(x), x1.max(x));
+                (*y0, *y1) = (y0.min(y), y1.max(y));
             }
+            extent.push(e);
         }
-        let mut by_x: Vec<usize> = (0..points.len()).collect();
-        by_x.sort_by(|&a, &b| points[a].x.total_cmp(&points[b].x));
-        let sorted_x = by_x.iter().map(|&p| points[p].x).collect();
+        start.push(points.len());
         // The published objective: maximise the summed -total_cost of the chosen set.
         let gains = trajs.iter().map(|t| -t.total_cost()).collect();
         Scene {
             points,
-            by_x,
-            sorted_x,
+            start,
+            extent,
             gains,
+            frames,
+            row_y: (0..rows)
+                .map(|r| pixel_centre_mm(r, 0, pitch_mm).1)
+                .collect(),
+            col_x: (0..cols)
+                .map(|c| pixel_centre_mm(0, c, pitch_mm).0)
+                .collect(),
         }
     }
 }
 
 impl Scratch {
-    pub(super) fn new(scene: &Scene, trajectories: usize, node_budget: u64) -> Scratch {
+    pub(super) fn new(scene: &Scene, node_budget: u64) -> Scratch {
         Scratch {
-            mask: vec![0; scene.points.len()],
-            weight: vec![0.0; scene.points.len()],
-            touched: Vec::new(),
+            near_for: None,
+            col_mask: vec![0; scene.col_x.len()],
+            row_mask: vec![0; scene.row_y.len()],
+            near: Vec::new(),
             hits: Vec::new(),
-            chosen: vec![false; trajectories],
-            local: vec![usize::MAX; trajectories],
+            head: vec![NONE; scene.frames],
+            shared: Vec::new(),
+            group: Vec::new(),
+            candidates: Vec::new(),
+            sums: Vec::new(),
+            chosen: Vec::new(),
             inexact: false,
             node_budget,
         }
     }
+
+    /// Makes `near` the trajectories that circles at these x positions may contain.
+    fn near_circles(&mut self, circles: &[Circle; CHANNELS], scene: &Scene) {
+        let key = circles.map(|c| (c.x_mm, c.r_mm));
+        let same = self.near_for.is_some_and(|k| {
+            k.iter()
+                .zip(&key)
+                .all(|(a, b)| a.0.to_bits() == b.0.to_bits() && a.1.to_bits() == b.1.to_bits())
+        });
+        if same {
+            return;
+        }
+        self.near_for = Some(key);
+        self.near.clear();
+        mask_lines(
+            &mut self.col_mask,
+            &scene.col_x,
+            circles.map(|c| (c.x_mm, c.r_mm)),
+        );
+        for (t, e) in scene.extent.iter().enumerate() {
+            let Some([x0, x1, _, _]) = *e else { continue };
+            let mut mask = 0;
+            for (a, c) in circles.iter().enumerate() {
+                let slack = slack(c.x_mm, c.r_mm);
+                if x1 >= c.x_mm - c.r_mm - slack && x0 <= c.x_mm + c.r_mm + slack {
+                    mask |= 1 << a;
+                }
+            }
+            if mask != 0 {
+                self.near.push((t, mask));
+            }
+        }
+    }
+}
+
+/// Sets in `masks[i]` the bit of each circle `(centre, radius)` whose range holds
+/// `lines[i]` (ascending pixel centres along one axis), with slack: a point off that range
+/// is outside the circle, so the exact test is needed only where both its row and its
+/// column say so.
+fn mask_lines(masks: &mut [u32], lines: &[f64], circles: [(f64, f64); CHANNELS]) {
+    masks.fill(0);
+    for (a, (centre, r)) in circles.into_iter().enumerate() {
+        let slack = slack(centre, r);
+        let lo = lines.partition_point(|&v| v < centre - r - slack);
+        let hi = lines.partition_point(|&v| v <= centre + r + slack);
+        for m in masks.get_mut(lo..hi.max(lo)).unwrap_or_default() {
+            *m |= 1 << a;
+        }
+    }
+}
+
+/// How far past a circle's bounding box a point may be found inside it by the exact
+/// test (`dist2 <= r^2` in f64): far more than rounding, far less than a pixel.
+fn slack(centre: f64, r: f64) -> f64 {
+    1e-9 * (1.0 + centre.abs() + r)
 }
 
 /// Scores one transform; `None` when no point lies in any circle (score 0).
 ///
-/// `ranges[a]` is the slice of `scene.by_x` that circle `a` may contain. When `selected`
-/// is given, the chosen trajectories with a point inside a circle are written to it.
+/// When `selected` is given, the chosen trajectories with a point inside a circle are
+/// written to it.
 pub(super) fn score_transform(
     circles: &[Circle; CHANNELS],
-    ranges: &[(usize, usize); CHANNELS],
     scene: &Scene,
     cfg: &PlacementConfig,
     s: &mut Scratch,
     selected: Option<&mut Vec<usize>>,
 ) -> Option<f64> {
-    let Scene {
-        points,
-        by_x,
-        gains,
-        ..
-    } = scene;
-    let bonus = cfg.centre_bonus;
-    // Channel order, later circles overwriting the weight, as the published code does.
-    for (a, (c, &(lo, hi))) in circles.iter().zip(ranges).enumerate() {
-        let r2 = c.r_mm * c.r_mm;
-        for &p in &by_x[lo..hi] {
-            let pt = &points[p];
-            let d2 = c.dist2(pt.x, pt.y);
-            if d2 <= r2 {
-                if s.mask[p] == 0 {
-                    s.touched.push(p);
-                }
-                s.mask[p] |= 1 << a;
-                s.weight[p] = c.weight * ((1.0 + bonus) - bonus * d2 / r2);
-            }
-        }
-    }
-    if s.touched.is_empty() {
+    s.near_circles(circles, scene);
+    if s.near.is_empty() {
         return None;
     }
-    // Trajectory-major order: per-trajectory sums run in detection order, as published.
-    s.touched.sort_unstable();
+    let Scene {
+        points,
+        start,
+        extent,
+        gains,
+        row_y,
+        ..
+    } = scene;
+    let mut row_mask_ready = false;
+    let bonus = cfg.centre_bonus;
+    let r2 = circles.map(|c| c.r_mm * c.r_mm);
+    let y_range = circles.map(|c| {
+        let slack = slack(c.y_mm, c.r_mm);
+        (c.y_mm - c.r_mm - slack, c.y_mm + c.r_mm + slack)
+    });
 
-    // Conflicts only involve trajectories that can be chosen (positive gain) and that
-    // meet a circle; the rest are chosen or dropped on their own and never score.
-    s.hits.clear();
-    for &p in &s.touched {
-        let pt = &points[p];
-        if gains[pt.traj] > 0.0 {
-            s.hits.push((pt.frame, pt.traj, s.mask[p]));
+    // In-circle points, trajectory by trajectory in ascending order, each trajectory's
+    // in detection order (the published sums run in that order).
+    let mut touched = false;
+    for &(t, x_mask) in &s.near {
+        let Some([_, _, y0, y1]) = extent[t] else {
+            continue;
+        };
+        let mut near = 0u32;
+        let mut bits = x_mask;
+        while bits != 0 {
+            let a = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if y1 >= y_range[a].0 && y0 <= y_range[a].1 {
+                near |= 1 << a;
+            }
         }
-    }
-    let mut candidates: Vec<usize> = s.hits.iter().map(|h| h.1).collect();
-    candidates.dedup();
-    for (l, &t) in candidates.iter().enumerate() {
-        s.local[t] = l;
-    }
-    s.hits.sort_unstable();
-    let mut problem: Option<SubsetProblem> = None;
-    let new_problem = || SubsetProblem::new(candidates.iter().map(|&t| gains[t]).collect());
-    for group in s.hits.chunk_by(|a, b| a.0 == b.0) {
-        if group.len() < 2 {
+        if near == 0 {
             continue;
         }
-        for (i, &(_, ta, ma)) in group.iter().enumerate() {
-            for &(_, tb, mb) in &group[i + 1..] {
+        // Conflicts only involve trajectories that can be chosen (positive gain) and
+        // that meet a circle; the rest are chosen or dropped on their own and never score.
+        // A trajectory near many circles (a long one, or noise) tests each point only
+        // against the circles its row and column allow; near one or two, the exact test
+        // costs less than the look-ups.
+        let per_point = near.count_ones() > 2;
+        if per_point && !row_mask_ready {
+            mask_lines(&mut s.row_mask, row_y, circles.map(|c| (c.y_mm, c.r_mm)));
+            row_mask_ready = true;
+        }
+        let candidate = gains[t] > 0.0;
+        let local = s.candidates.len();
+        let mut inside = false;
+        let mut sum = 0.0;
+        for pt in &points[start[t]..start[t + 1]] {
+            let mut mask = 0u32;
+            let mut weight = 0.0;
+            let mut bits = if per_point {
+                near & s.col_mask[pt.col] & s.row_mask[pt.row]
+            } else {
+                near
+            };
+            // Channel order, later circles overwriting the weight, as the published code does.
+            while bits != 0 {
+                let a = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let c = &circles[a];
+                let d2 = c.dist2(pt.x, pt.y);
+                if d2 <= r2[a] {
+                    mask |= 1 << a;
+                    weight = c.weight * ((1.0 + bonus) - bonus * d2 / r2[a]);
+                }
+            }
+            if mask == 0 {
+                continue;
+            }
+            inside = true;
+            sum += pt.cost * weight;
+            if candidate {
+                let next = s.head[pt.frame];
+                if next != NONE && s.hits[next].next == NONE {
+                    s.shared.push(pt.frame);
+                }
+                s.head[pt.frame] = s.hits.len();
+                s.hits.push(Hit {
+                    frame: pt.frame,
+                    local,
+                    mask,
+                    next,
+                });
+            }
+        }
+        touched |= inside;
+        if candidate && inside {
+            s.candidates.push(t);
+            s.sums.push(sum);
+        }
+    }
+    if !touched {
+        return None;
+    }
+
+    // A frame where two candidates are inside circles constrains them. Frames in
+    // ascending order, members in candidate order, as the published grouping by frame.
+    s.shared.sort_unstable();
+    let mut problem: Option<SubsetProblem> = None;
+    let new_problem = || SubsetProblem::new(s.candidates.iter().map(|&t| gains[t]).collect());
+    for &frame in &s.shared {
+        s.group.clear();
+        let mut h = s.head[frame];
+        while h != NONE {
+            s.group.push((s.hits[h].local, s.hits[h].mask));
+            h = s.hits[h].next;
+        }
+        s.group.reverse();
+        let group = &s.group;
+        for (i, &(la, ma)) in group.iter().enumerate() {
+            for &(lb, mb) in &group[i + 1..] {
                 // Two trajectories whose only workspace is the same one.
                 if ma == mb && ma.count_ones() == 1 {
-                    problem
-                        .get_or_insert_with(new_problem)
-                        .add_conflict(s.local[ta], s.local[tb]);
+                    problem.get_or_insert_with(new_problem).add_conflict(la, lb);
                 }
             }
         }
-        if group.len() >= 3 && group.iter().any(|h| h.2.count_ones() > 1) {
-            let members = group.iter().map(|&(_, t, m)| (s.local[t], m)).collect();
+        if group.len() >= 3 && group.iter().any(|h| h.1.count_ones() > 1) {
             problem
                 .get_or_insert_with(new_problem)
-                .add_hall_group(members);
+                .add_hall_group(group.clone());
         }
     }
+    s.chosen.clear();
     match &problem {
-        None => candidates.iter().for_each(|&t| s.chosen[t] = true),
+        None => s.chosen.resize(s.candidates.len(), true),
         Some(p) => {
+            s.chosen.resize(s.candidates.len(), false);
             let solution = p.solve_within(s.node_budget);
             s.inexact |= !solution.exact;
             for l in solution.chosen {
-                s.chosen[candidates[l]] = true;
+                s.chosen[l] = true;
             }
         }
     }
 
     let mut score = 0.0;
-    let mut i = 0;
-    while i < s.touched.len() {
-        let traj = points[s.touched[i]].traj;
-        let mut sum = 0.0;
-        while i < s.touched.len() && points[s.touched[i]].traj == traj {
-            let p = s.touched[i];
-            sum += points[p].cost * s.weight[p];
-            i += 1;
-        }
-        if s.chosen[traj] {
+    for (&sum, &chosen) in s.sums.iter().zip(&s.chosen) {
+        if chosen {
             score += sum;
         }
     }
     if let Some(out) = selected {
         out.clear();
-        out.extend(candidates.iter().copied().filter(|&t| s.chosen[t]));
+        let chosen = s.candidates.iter().zip(&s.chosen).filter(|c| *c.1);
+        out.extend(chosen.map(|c| *c.0));
     }
-    for &t in &candidates {
-        s.chosen[t] = false;
-        s.local[t] = usize::MAX;
+    for h in &s.hits {
+        s.head[h.frame] = NONE;
     }
-    for &p in &s.touched {
-        s.mask[p] = 0;
-        s.weight[p] = 0.0;
-    }
-    s.touched.clear();
+    s.hits.clear();
+    s.shared.clear();
+    s.candidates.clear();
+    s.sums.clear();
     Some(score)
 }

@@ -113,34 +113,11 @@ impl Scores {
 impl Search<'_> {
     /// Scores `ks` one after another with one set of buffers; `None` = meets no point.
     pub(super) fn score_seq(&self, ks: &[usize]) -> Vec<Option<f64>> {
-        let scene = self.scene;
-        let mut scratch = Scratch::new(scene, scene.gains.len(), self.node_budget);
-        let mut ranges = [(0usize, 0usize); CHANNELS];
-        let mut current_x = f64::NAN;
+        let mut scratch = Scratch::new(self.scene, self.node_budget);
         ks.iter()
             .map(|&k| {
-                let transform = &self.grid[k];
-                let circles = transform.circles(self.layout);
-                if transform.x_mm != current_x {
-                    // Grid transforms have scale 1 and no rotation, so circle x positions
-                    // depend on x only: find each circle's slice of points once per x.
-                    current_x = transform.x_mm;
-                    for (range, c) in ranges.iter_mut().zip(&circles) {
-                        // Widened by a hair: the exact test below decides membership.
-                        let slack = 1e-9 * (1.0 + c.x_mm.abs() + c.r_mm);
-                        let lo = scene
-                            .sorted_x
-                            .partition_point(|&x| x < c.x_mm - c.r_mm - slack);
-                        let hi = scene
-                            .sorted_x
-                            .partition_point(|&x| x <= c.x_mm + c.r_mm + slack);
-                        *range = (lo, hi.max(lo));
-                    }
-                }
-                if ranges.iter().all(|&(lo, hi)| lo == hi) {
-                    return None;
-                }
-                let score = score_transform(&circles, &ranges, scene, self.cfg, &mut scratch, None);
+                let circles = self.grid[k].circles(self.layout);
+                let score = score_transform(&circles, self.scene, self.cfg, &mut scratch, None);
                 if std::mem::take(&mut scratch.inexact) {
                     self.inexact
                         .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
