@@ -832,6 +832,46 @@ fn tube_scheduled(
     let count = (n - 1).div_ceil(period) + 1;
     let pf = period as f64;
     let mut stored = vec![[0i64; CHANNELS]; count];
+    // The model's error, segment by segment, as soon as both ends of a segment are final
+    // on every channel (keyframes up to the earliest line start): those rows were read
+    // lately and are still in cache, where a pass after the tube reads a long signal from
+    // memory again. Segments are taken in order, so the sums are the same.
+    let (mut sum2, mut max, mut done) = (0.0f64, 0.0f64, 0usize);
+    let windows = if costs {
+        (count - 1).div_ceil(schedule.keyframes).max(1)
+    } else {
+        0
+    };
+    let mut cost: WindowCosts = vec![[(0, 0.0); CHANNELS]; windows];
+    let mut measure_to = |stored: &[[i64; CHANNELS]], upto: usize| {
+        for k in done..upto {
+            let (a, b) = (stored[k].map(|v| v as f64), stored[k + 1].map(|v| v as f64));
+            let mut segment = [0.0f64; CHANNELS];
+            for (i, t) in (k * period..((k + 1) * period).min(n)).enumerate() {
+                let w = i as f64 / pf;
+                let x = row(t);
+                for c in 0..CHANNELS {
+                    let e = a[c] + (b[c] - a[c]) * w - x[c];
+                    segment[c] += e * e;
+                    max = larger(max, e.abs());
+                }
+            }
+            sum2 += segment.iter().sum::<f64>();
+            if let Some(window) =
+                cost.get_mut((k / schedule.keyframes).min(windows.saturating_sub(1)))
+            {
+                for c in 0..CHANNELS {
+                    window[c].1 += segment[c] * unit * unit;
+                    // A bend at keyframe k: the residual of keyframe k + 1.
+                    let before = if k == 0 { 0 } else { stored[k - 1][c] };
+                    if stored[k + 1][c] - 2 * stored[k][c] + before != 0 {
+                        window[c].0 += 1;
+                    }
+                }
+            }
+        }
+        done = done.max(upto);
+    };
     let mut lines: [Line; CHANNELS] = std::array::from_fn(|c| Line::at(0, rounded(0, c)));
     stored[0] = lines.map(|l| l.base);
     for j in 1..count {
@@ -881,45 +921,15 @@ fn tube_scheduled(
             stored[j][c] = rounded(j * period, c);
             *line = Line::at(j, stored[j][c]);
         }
+        measure_to(&stored, lines.iter().map(|l| l.start).min().unwrap_or(0));
     }
     for (c, line) in lines.iter().enumerate() {
         if line.start + 1 < count {
             line.commit(&mut stored, count - 1, c, pf);
         }
     }
-    // The model's error, segment by segment.
-    let (mut sum2, mut max) = (0.0f64, 0.0f64);
-    let windows = if costs {
-        (count - 1).div_ceil(schedule.keyframes).max(1)
-    } else {
-        0
-    };
-    let mut cost: WindowCosts = vec![[(0, 0.0); CHANNELS]; windows];
-    for (k, ends) in stored.windows(2).enumerate() {
-        let (a, b) = (ends[0].map(|v| v as f64), ends[1].map(|v| v as f64));
-        let mut segment = [0.0f64; CHANNELS];
-        for (i, t) in (k * period..((k + 1) * period).min(n)).enumerate() {
-            let w = i as f64 / pf;
-            let x = row(t);
-            for c in 0..CHANNELS {
-                let e = a[c] + (b[c] - a[c]) * w - x[c];
-                segment[c] += e * e;
-                max = larger(max, e.abs());
-            }
-        }
-        sum2 += segment.iter().sum::<f64>();
-        if let Some(window) = cost.get_mut((k / schedule.keyframes).min(windows.saturating_sub(1)))
-        {
-            for c in 0..CHANNELS {
-                window[c].1 += segment[c] * unit * unit;
-                // A bend at keyframe k: the residual of keyframe k + 1.
-                let before = if k == 0 { 0 } else { stored[k - 1][c] };
-                if ends[1][c] - 2 * ends[0][c] + before != 0 {
-                    window[c].0 += 1;
-                }
-            }
-        }
-    }
+    // The rest of the model's error.
+    measure_to(&stored, count - 1);
     if (count - 1) * period < n {
         // A signal of one tick: its only keyframe.
         let (a, x) = (stored[count - 1], row((count - 1) * period));
