@@ -7,7 +7,10 @@
 //! residual, with a run of keyframes that all keep their lines in two bytes; so the
 //! keyframes are laid on straight lines that stay within a tolerance of the signal
 //! (`tube_keyframes`) rather than rounded one by one (which puts rounding noise in
-//! every residual). The tolerance is the largest whose error meets the bounds.
+//! every residual). The tolerance is the largest whose error meets the bounds; then,
+//! for a signal searched whole, each second and channel gets a multiple of it chosen
+//! so that the RMS budget goes where it saves most bends (`allocate`), when that gives
+//! a smaller file.
 //!
 //! The choice is measured, not guessed: the winner is encoded, decoded and played by
 //! the protocol crate's player (the firmware's code), and its 1 kHz output is compared
@@ -54,7 +57,9 @@ pub struct Encoded {
     /// Chosen quantisation shift.
     pub quant_shift: u8,
     /// How far the keyframes' lines may stray from the signal, fraction of full scale
-    /// (0: every keyframe is the signal's value, rounded).
+    /// (0: every keyframe is the signal's value, rounded). Where each second and
+    /// channel has its own tolerance (see the module documentation), the uniform one
+    /// they are multiples of.
     pub tolerance_fs: f64,
     /// RMS error of the player's output against the f64 signal, fraction of full scale.
     pub rms_error_fs: f64,
@@ -251,6 +256,16 @@ fn encode_lines(
     let Some((mut bytes, period, shift, mut tol)) = best else {
         return Ok(None);
     };
+    if !windows_sampled(signal, usize::from(period.max(1))) {
+        // A tolerance per second and channel instead of one for all, where that is smaller.
+        let header = |shift| header(fields, opts, period, shift);
+        let p = usize::from(period.max(1));
+        if let Some(b) = allocate(signal, fs_a, p, shift, tol, (rms_model, max_model), &header)? {
+            if b.len() < bytes.len() {
+                bytes = b;
+            }
+        }
+    }
     if windows_sampled(signal, usize::from(period.max(1))) {
         // The tolerance was found on samples of a long signal: the whole signal's
         // lines, a little tighter while their modelled error misses the bounds.
@@ -297,6 +312,145 @@ fn encode_lines(
         max_error_fs: max,
         candidates_tried: 1,
     }))
+}
+
+/// Multiples of the uniform tube's tolerance that [`allocate`] chooses among, per
+/// window and channel (those over the max bound are left out). Measured on the 166
+/// stimuli of `examples/sizes.rs`: 16 factors from 0.5 to 2.6 give a worst case 3% lower
+/// than 9 from 0.7 to 1.8.
+const ALLOCATE_FACTORS: [f64; 16] = [
+    0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.8, 2.0, 2.3, 2.6,
+];
+
+/// The window lengths [`allocate`] tries, in units of [`ALLOCATE_UNIT_MS`]: 800 and
+/// 1200 ms. The outcome of a schedule is chaotic (a window's lines run on into the
+/// next); of the two, the smaller file wins (on the 166 stimuli, 2-4% smaller at the
+/// worst case than one window length; 250 and 500 ms windows were larger).
+const ALLOCATE_WINDOWS: [usize; 2] = [2, 3];
+
+/// The granularity of the windows, ms.
+const ALLOCATE_UNIT_MS: usize = 400;
+
+/// Schedules [`allocate`] plays out per window length, at most.
+const ALLOCATE_TRIES: usize = 6;
+
+/// Spends the RMS budget where it saves most bends. The uniform tube at `tol`
+/// (fraction of full scale) times each of [`ALLOCATE_FACTORS`] gives, per window and
+/// channel, its bends and squared error; each window and channel then takes the factor
+/// that minimises `bends + lambda * error`, `lambda` the smallest whose predicted total
+/// error meets the RMS bound (a Lagrangian allocation: a busy stretch may stray further
+/// where that saves many bends, a quiet one less). The tube is run with those
+/// tolerances and its modelled error checked; the prediction errs by a few per cent
+/// either way, so the target is lowered after a miss and bisected after a pass. The
+/// smallest passing file, if any.
+fn allocate<'a>(
+    signal: &[[f64; CHANNELS]],
+    fs_a: f64,
+    period: usize,
+    shift: u8,
+    tol: f64,
+    (rms_model, max_model): (f64, f64),
+    header: &impl Fn(u8) -> stimulus::Header<'a>,
+) -> Result<Option<Vec<u8>>, KeyframeError> {
+    let unit = (ALLOCATE_UNIT_MS / period).max(1);
+    let factors: Vec<f64> = ALLOCATE_FACTORS
+        .iter()
+        .map(|f| f * tol)
+        .filter(|&t| t <= max_model)
+        .collect();
+    // The uniform runs, costed per unit window (a window of either length is a sum of
+    // them: the uniform tube does not depend on the windows).
+    let runs: Vec<WindowCosts> = factors
+        .iter()
+        .map(|&t| {
+            let uniform = Schedule {
+                keyframes: unit,
+                tols: vec![[t * 32768.0; CHANNELS]],
+            };
+            tube_scheduled(signal, fs_a, period, shift, &uniform, true).3
+        })
+        .collect();
+    let q = 32768.0 * rms_model;
+    let budget = q * q * (signal.len() * CHANNELS) as f64;
+    let mut best: Option<Vec<u8>> = None;
+    for per in ALLOCATE_WINDOWS {
+        // The runs' costs per window of `per` units.
+        let costs: Vec<WindowCosts> = runs
+            .iter()
+            .map(|run| {
+                run.chunks(per)
+                    .map(|chunk| {
+                        std::array::from_fn(|c| {
+                            chunk
+                                .iter()
+                                .fold((0, 0.0), |(b, e), w| (b + w[c].0, e + w[c].1))
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let windows = costs.first().map_or(0, Vec::len);
+        // Each window and channel's factor at `lambda`, and the total error predicted.
+        let choose = |lambda: f64| {
+            let mut total = 0.0;
+            let pick: Vec<[usize; CHANNELS]> = (0..windows)
+                .map(|w| {
+                    std::array::from_fn(|c| {
+                        let cost = |f: usize| {
+                            let (bends, error) = costs[f][w][c];
+                            f64::from(bends) + lambda * error
+                        };
+                        let f = (0..costs.len())
+                            .min_by(|&a, &b| cost(a).total_cmp(&cost(b)))
+                            .unwrap_or(0);
+                        total += costs[f][w][c].1;
+                        f
+                    })
+                })
+                .collect();
+            (total, pick)
+        };
+        let (mut passed, mut missed): (Option<f64>, Option<f64>) = (None, None);
+        let mut target = 0.98 * budget;
+        for _ in 0..ALLOCATE_TRIES {
+            // The smallest lambda (in log10) whose choice meets the target: the error
+            // falls as lambda grows.
+            let (mut lo, mut hi) = (-40.0f64, 10.0f64);
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                if choose(10f64.powf(mid)).0 <= target {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            let schedule = Schedule {
+                keyframes: unit * per,
+                tols: choose(10f64.powf(hi))
+                    .1
+                    .iter()
+                    .map(|p| p.map(|f| factors[f] * 32768.0))
+                    .collect(),
+            };
+            let (keyframes, rms, max, _) =
+                tube_scheduled(signal, fs_a, period, shift, &schedule, false);
+            if rms / 32768.0 <= rms_model && max / 32768.0 <= max_model {
+                let bytes = stimulus::encode(header(shift), &keyframes)?;
+                if best.as_ref().is_none_or(|b| bytes.len() < b.len()) {
+                    best = Some(bytes);
+                }
+                passed = Some(target);
+            } else {
+                missed = Some(target);
+            }
+            target = match (passed, missed) {
+                (Some(p), Some(m)) if p < m => 0.5 * (p + m),
+                (Some(_), _) => break,
+                (None, _) => 0.93 * target,
+            };
+        }
+    }
+    Ok(best)
 }
 
 /// A signal longer than this many search windows' worth is searched on windows.
@@ -624,10 +778,49 @@ fn tube_keyframes(
     shift: u8,
     tol: f64,
 ) -> (Vec<[i16; CHANNELS]>, f64, f64) {
+    let uniform = Schedule {
+        keyframes: usize::MAX,
+        tols: vec![[tol; CHANNELS]],
+    };
+    let (keyframes, rms, max, _) = tube_scheduled(signal, fs_a, period, shift, &uniform, false);
+    (keyframes, rms, max)
+}
+
+/// Tube half-widths (Q15 units) per channel, in windows of `keyframes` keyframes: the
+/// segment that ends at keyframe `j` has the tolerances `tols[(j - 1) / keyframes]`
+/// (the last entry's past the end).
+#[derive(Debug, Clone)]
+struct Schedule {
+    keyframes: usize,
+    tols: Vec<[f64; CHANNELS]>,
+}
+
+impl Schedule {
+    /// The tolerances of the segment after keyframe `k`.
+    fn at(&self, k: usize) -> [f64; CHANNELS] {
+        let w = (k / self.keyframes).min(self.tols.len().saturating_sub(1));
+        self.tols.get(w).copied().unwrap_or([0.0; CHANNELS])
+    }
+}
+
+/// Per window of a [`Schedule`] and channel: the bends (keyframes where the line's
+/// slope changes, each a residual in the file) and the squared model error, Q15 units
+/// squared.
+type WindowCosts = Vec<[(u32, f64); CHANNELS]>;
+
+/// [`tube_keyframes`] with a tolerance per window and channel. With `costs`, also what
+/// each window and channel cost in bends and squared error (else an empty list).
+fn tube_scheduled(
+    signal: &[[f64; CHANNELS]],
+    fs_a: f64,
+    period: usize,
+    shift: u8,
+    schedule: &Schedule,
+    costs: bool,
+) -> (Vec<[i16; CHANNELS]>, f64, f64, WindowCosts) {
     let n = signal.len();
     let unit = f64::from(1u32 << shift);
     let to_stored = 32768.0 / fs_a / unit;
-    let tol = tol / unit;
     let (min_s, max_s) = (i64::from(i16::MIN) >> shift, i64::from(i16::MAX) >> shift);
     // The signal in stored units; 0 after its end (the last keyframe may lie beyond).
     let row = |t: usize| {
@@ -639,9 +832,50 @@ fn tube_keyframes(
     let count = (n - 1).div_ceil(period) + 1;
     let pf = period as f64;
     let mut stored = vec![[0i64; CHANNELS]; count];
+    // The model's error, segment by segment, as soon as both ends of a segment are final
+    // on every channel (keyframes up to the earliest line start): those rows were read
+    // lately and are still in cache, where a pass after the tube reads a long signal from
+    // memory again. Segments are taken in order, so the sums are the same.
+    let (mut sum2, mut max, mut done) = (0.0f64, 0.0f64, 0usize);
+    let windows = if costs {
+        (count - 1).div_ceil(schedule.keyframes).max(1)
+    } else {
+        0
+    };
+    let mut cost: WindowCosts = vec![[(0, 0.0); CHANNELS]; windows];
+    let mut measure_to = |stored: &[[i64; CHANNELS]], upto: usize| {
+        for k in done..upto {
+            let (a, b) = (stored[k].map(|v| v as f64), stored[k + 1].map(|v| v as f64));
+            let mut segment = [0.0f64; CHANNELS];
+            for (i, t) in (k * period..((k + 1) * period).min(n)).enumerate() {
+                let w = i as f64 / pf;
+                let x = row(t);
+                for c in 0..CHANNELS {
+                    let e = a[c] + (b[c] - a[c]) * w - x[c];
+                    segment[c] += e * e;
+                    max = larger(max, e.abs());
+                }
+            }
+            sum2 += segment.iter().sum::<f64>();
+            if let Some(window) =
+                cost.get_mut((k / schedule.keyframes).min(windows.saturating_sub(1)))
+            {
+                for c in 0..CHANNELS {
+                    window[c].1 += segment[c] * unit * unit;
+                    // A bend at keyframe k: the residual of keyframe k + 1.
+                    let before = if k == 0 { 0 } else { stored[k - 1][c] };
+                    if stored[k + 1][c] - 2 * stored[k][c] + before != 0 {
+                        window[c].0 += 1;
+                    }
+                }
+            }
+        }
+        done = done.max(upto);
+    };
     let mut lines: [Line; CHANNELS] = std::array::from_fn(|c| Line::at(0, rounded(0, c)));
     stored[0] = lines.map(|l| l.base);
     for j in 1..count {
+        let tol = schedule.at(j - 1).map(|t| t / unit);
         // Every channel's line over the segment ending at keyframe `j`, in step (one
         // pass over the rows, eight independent chains).
         let mut extended = lines;
@@ -655,8 +889,8 @@ fn tube_keyframes(
                 let m = t as f64 - from[c];
                 let per_tick = pf / m;
                 let v = x[c] - base[c];
-                lo[c] = larger(lo[c], (v - tol) * per_tick);
-                hi[c] = smaller(hi[c], (v + tol) * per_tick);
+                lo[c] = larger(lo[c], (v - tol[c]) * per_tick);
+                hi[c] = smaller(hi[c], (v + tol[c]) * per_tick);
                 mv[c] += m * v;
             }
         }
@@ -667,7 +901,7 @@ fn tube_keyframes(
         let bends = (0..CHANNELS).any(|c| !fits[c] && lines[c].start + 1 < j);
         for c in 0..CHANNELS {
             let line = &mut lines[c];
-            let early = bends && line.start + 1 < j && line.nearly_done(j - 1, tol);
+            let early = bends && line.start + 1 < j && line.nearly_done(j - 1, tol[c]);
             if fits[c] && !early {
                 *line = extended[c];
                 continue;
@@ -677,7 +911,7 @@ fn tube_keyframes(
                 line.commit(&mut stored, j - 1, c, pf);
                 let mut fresh = Line::at(j - 1, stored[j - 1][c]);
                 for t in (j - 1) * period + 1..=j * period {
-                    fresh.take(t, row(t)[c], period, pf, tol);
+                    fresh.take(t, row(t)[c], period, pf, tol[c]);
                 }
                 if fresh.fits(j, min_s, max_s) {
                     *line = fresh;
@@ -687,26 +921,15 @@ fn tube_keyframes(
             stored[j][c] = rounded(j * period, c);
             *line = Line::at(j, stored[j][c]);
         }
+        measure_to(&stored, lines.iter().map(|l| l.start).min().unwrap_or(0));
     }
     for (c, line) in lines.iter().enumerate() {
         if line.start + 1 < count {
             line.commit(&mut stored, count - 1, c, pf);
         }
     }
-    // The model's error, segment by segment.
-    let (mut sum2, mut max) = (0.0f64, 0.0f64);
-    for (k, ends) in stored.windows(2).enumerate() {
-        let (a, b) = (ends[0].map(|v| v as f64), ends[1].map(|v| v as f64));
-        for (i, t) in (k * period..((k + 1) * period).min(n)).enumerate() {
-            let w = i as f64 / pf;
-            let x = row(t);
-            for c in 0..CHANNELS {
-                let e = a[c] + (b[c] - a[c]) * w - x[c];
-                sum2 += e * e;
-                max = larger(max, e.abs());
-            }
-        }
-    }
+    // The rest of the model's error.
+    measure_to(&stored, count - 1);
     if (count - 1) * period < n {
         // A signal of one tick: its only keyframe.
         let (a, x) = (stored[count - 1], row((count - 1) * period));
@@ -725,6 +948,7 @@ fn tube_keyframes(
         keyframes,
         unit * (sum2 / (n * CHANNELS) as f64).sqrt(),
         unit * max,
+        cost,
     )
 }
 
@@ -1133,6 +1357,122 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Presses of 60-200 ms and 0.05-0.25 A at random on channels 0-5, busy on some
+    /// channels and stretches, quiet on others; 6 and 7 still.
+    fn busy(seconds: f64) -> Vec<[f64; CHANNELS]> {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // (channel, centre s, width s, amplitude A)
+        let mut presses = Vec::new();
+        for c in 0..6 {
+            // Silent at both ends: the player ramps in from 0 A and out to it.
+            let mut x = 0.6 + next();
+            while x < seconds - 0.6 {
+                presses.push((c, x, 0.06 + 0.14 * next(), 0.05 + 0.2 * next()));
+                // Channel c presses about 1 + c times a second.
+                x += (0.3 + 1.4 * next()) / (1.0 + c as f64);
+            }
+        }
+        (0..(seconds * 1000.0) as usize)
+            .map(|t| {
+                let x = t as f64 / 1000.0;
+                let mut v = [0.0; CHANNELS];
+                for &(c, centre, width, amp) in &presses {
+                    v[c] += amp * (-0.5 * ((x - centre) / width).powi(2)).exp();
+                }
+                v
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_schedule_holds_each_window_and_channel_to_its_own_tolerance() {
+        let signal = stroke(6.0);
+        let (narrow, wide) = (0.004 * 32768.0, 0.012 * 32768.0);
+        // One-second windows (100 keyframes), narrow and wide by turns and by channel.
+        let schedule = Schedule {
+            keyframes: 100,
+            tols: (0..6)
+                .map(|w| std::array::from_fn(|c| if (w + c) % 2 == 0 { narrow } else { wide }))
+                .collect(),
+        };
+        let (keyframes, rms, max, costs) = tube_scheduled(&signal, 1.0, 10, 5, &schedule, true);
+        let mut worst = [0.0f64; 2];
+        let mut sum2 = 0.0;
+        for (t, s) in signal.iter().enumerate() {
+            let (k, w) = (t / 10, (t % 10) as f64 / 10.0);
+            let next = keyframes[(k + 1).min(keyframes.len() - 1)];
+            for c in 0..CHANNELS {
+                let (a, b) = (f64::from(keyframes[k][c]), f64::from(next[c]));
+                let e = a + (b - a) * w - s[c] * 32768.0;
+                sum2 += e * e;
+                let tol = schedule.at(k)[c];
+                assert!(e.abs() <= tol + 1e-6, "tick {t} channel {c}: {e} > {tol}");
+                let i = usize::from(tol == wide);
+                worst[i] = worst[i].max(e.abs());
+            }
+        }
+        // The wide windows use their room.
+        assert!(worst[1] > narrow, "{worst:?}");
+        assert!(
+            (worst[0].max(worst[1]) - max).abs() < 1e-6,
+            "{worst:?} {max}"
+        );
+        // The costs add up to the whole: squared error, and the bends in the file.
+        assert_eq!(costs.len(), 6);
+        let total: f64 = costs.iter().flatten().map(|w| w.1).sum();
+        assert!((total - sum2).abs() <= 1e-9 * sum2, "{total} {sum2}");
+        let n = (signal.len() * CHANNELS) as f64;
+        assert!((rms - (sum2 / n).sqrt()).abs() < 1e-9 * rms, "{rms}");
+        let counted: u32 = costs.iter().flatten().map(|w| w.0).sum();
+        let stored: Vec<[i16; CHANNELS]> = keyframes.iter().map(|k| k.map(|q| q >> 5)).collect();
+        let residuals = (1..stored.len())
+            .map(|k| {
+                (0..CHANNELS)
+                    .filter(|&c| {
+                        let s = |i: usize| i32::from(stored[i][c]);
+                        let before = if k >= 2 { s(k - 2) } else { 0 };
+                        s(k) - 2 * s(k - 1) + before != 0
+                    })
+                    .count() as u32
+            })
+            .sum::<u32>();
+        assert_eq!(counted, residuals);
+    }
+
+    #[test]
+    fn a_tolerance_per_second_and_channel_beats_one_for_all() {
+        let signal = busy(12.0);
+        let e = encode(&signal, fields(), &KeyframeOptions::default()).unwrap();
+        let (rms, max) = playback_error(&e.bytes, &signal, 1000, Limits::SLEEVE).unwrap();
+        assert!(rms <= 0.005 && max <= 0.02, "{rms} {max}");
+        // The same period, shift and tolerance for every second and channel.
+        let (keyframes, _, _) = tube_keyframes(
+            &signal,
+            1.0,
+            usize::from(e.period_ms),
+            e.quant_shift,
+            e.tolerance_fs * 32768.0,
+        );
+        let opts = KeyframeOptions::default();
+        let uniform = stimulus::encode(
+            header(fields(), &opts, e.period_ms, e.quant_shift),
+            &keyframes,
+        )
+        .unwrap();
+        assert!(
+            e.bytes.len() * 100 < uniform.len() * 97,
+            "{} vs {} bytes",
+            e.bytes.len(),
+            uniform.len()
+        );
     }
 
     #[test]
