@@ -209,6 +209,13 @@ impl Config {
             " of full scale",
         )?;
         count("keyframes.ramp_ms", usize::from(k.ramp_ms), 0, 10_000)?;
+        within(
+            "keyframes.allocate_above_bytes_per_s",
+            k.allocate_above_bytes_per_s,
+            0.0,
+            1e9,
+            " B/s",
+        )?;
         count("keyframes.periods_ms (count)", k.periods_ms.len(), 1, 1000)?;
         for &p in &k.periods_ms {
             count("keyframes.periods_ms", usize::from(p), 1, 1000)?;

@@ -256,7 +256,11 @@ fn encode_lines(
     let Some((mut bytes, period, shift, mut tol)) = best else {
         return Ok(None);
     };
-    if !windows_sampled(signal, usize::from(period.max(1))) {
+    // Bytes per second of the 1 kHz signal.
+    let density = bytes.len() as f64 * 1000.0 / signal.len() as f64;
+    if !windows_sampled(signal, usize::from(period.max(1)))
+        && density > bounds.allocate_above_bytes_per_s
+    {
         // A tolerance per second and channel instead of one for all, where that is smaller.
         let header = |shift| header(fields, opts, period, shift);
         let p = usize::from(period.max(1));
@@ -1447,32 +1451,50 @@ mod tests {
         assert_eq!(counted, residuals);
     }
 
-    #[test]
-    fn a_tolerance_per_second_and_channel_beats_one_for_all() {
-        let signal = busy(12.0);
-        let e = encode(&signal, fields(), &KeyframeOptions::default()).unwrap();
-        let (rms, max) = playback_error(&e.bytes, &signal, 1000, Limits::SLEEVE).unwrap();
+    /// The encoding of `signal` under `opts`, and the same signal encoded with the
+    /// chosen period, shift and tolerance for every second and channel.
+    fn with_uniform(signal: &[[f64; CHANNELS]], opts: &KeyframeOptions) -> (Encoded, Vec<u8>) {
+        let e = encode(signal, fields(), opts).unwrap();
+        let (rms, max) = playback_error(&e.bytes, signal, 1000, Limits::SLEEVE).unwrap();
         assert!(rms <= 0.005 && max <= 0.02, "{rms} {max}");
-        // The same period, shift and tolerance for every second and channel.
         let (keyframes, _, _) = tube_keyframes(
-            &signal,
+            signal,
             1.0,
             usize::from(e.period_ms),
             e.quant_shift,
             e.tolerance_fs * 32768.0,
         );
-        let opts = KeyframeOptions::default();
         let uniform = stimulus::encode(
-            header(fields(), &opts, e.period_ms, e.quant_shift),
+            header(fields(), opts, e.period_ms, e.quant_shift),
             &keyframes,
         )
         .unwrap();
+        (e, uniform)
+    }
+
+    /// Options that allocate a tolerance per second and channel above `bytes_per_s`.
+    fn allocating_above(bytes_per_s: f64) -> KeyframeOptions {
+        KeyframeOptions::new(&KeyframeConfig {
+            allocate_above_bytes_per_s: bytes_per_s,
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn a_tolerance_per_second_and_channel_beats_one_for_all() {
+        let (e, uniform) = with_uniform(&busy(12.0), &allocating_above(0.0));
         assert!(
             e.bytes.len() * 100 < uniform.len() * 97,
             "{} vs {} bytes",
             e.bytes.len(),
             uniform.len()
         );
+    }
+
+    #[test]
+    fn a_file_under_the_allocation_threshold_keeps_one_tolerance() {
+        let (e, uniform) = with_uniform(&busy(12.0), &allocating_above(1e9));
+        assert_eq!(e.bytes, uniform);
     }
 
     #[test]
