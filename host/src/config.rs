@@ -429,6 +429,12 @@ pub struct SignalConfig {
     pub peak_a: f64,
     /// Length of the ramps from 0 A to the pre-dent and back, in seconds.
     pub ramp_s: f64,
+    /// With `--fit`, the share of the coil's thermal budget a signal that exceeds it is
+    /// fitted to: the played codes heat the coil a little more than the f64 signal (the
+    /// keyframes' error), so a signal fitted to the whole budget trips the player's
+    /// limit and is encoded again, 1% quieter. At an hour of touch 0.96 costs 0.05 dB
+    /// against the whole budget and saves that second encode.
+    pub fit_thermal_share: f64,
 }
 
 impl Default for SignalConfig {
@@ -441,6 +447,7 @@ impl Default for SignalConfig {
             pre_dent_a: -0.9,
             peak_a: 1.0,
             ramp_s: 0.5,
+            fit_thermal_share: 0.96,
         }
     }
 }

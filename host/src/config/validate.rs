@@ -193,6 +193,13 @@ impl Config {
         within("signal.pre_dent_a", s.pre_dent_a, -1.0, 1.0, " A")?;
         within("signal.peak_a", s.peak_a, -1.0, 1.0, " A")?;
         within("signal.ramp_s", s.ramp_s, 0.0, 60.0, " s")?;
+        within(
+            "signal.fit_thermal_share",
+            s.fit_thermal_share,
+            0.01,
+            1.0,
+            "",
+        )?;
         let k = &self.keyframes;
         within(
             "keyframes.max_rms_error_fs",

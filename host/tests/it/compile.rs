@@ -6,6 +6,7 @@ use crate::common;
 use bin::{ok, refused, touchc};
 
 use touchc::compile::{compile, CompileOptions, Compiled};
+use touchc::config::Config;
 use touchc::input::recording::Recording;
 use touchc::input::synth::{self, Gesture, SynthSpec};
 use touchc::placement::layout::Layout;
@@ -346,22 +347,34 @@ fn a_fitted_long_touch_still_encodes() {
         unfitted.is_err(),
         "104 s of this touch exceeds the 30 A^2 s budget"
     );
-    let fitted = compile(
-        &rec,
-        &CompileOptions {
-            fit: true,
-            ..CompileOptions::default()
-        },
-    )
-    .unwrap();
-    let r = &fitted.report;
-    assert!(r.fit_scale < 1.0, "{}", r.fit_scale);
-    assert!(r.max_error_fs <= 0.02 && r.rms_error_fs <= 0.005, "{r:?}");
-    assert!(
-        r.warnings.iter().any(|w| w.contains("to pass the limits")),
-        "{:?}",
-        r.warnings
-    );
+    // Fitted to the default share of the budget: one encode. Fitted to the whole
+    // budget: the played codes trip the player's limit and the refit steps in.
+    for (share, refits) in [(0.96, false), (1.0, true)] {
+        let mut config = Config::default();
+        config.signal.fit_thermal_share = share;
+        let fitted = compile(
+            &rec,
+            &CompileOptions {
+                fit: true,
+                config,
+                ..CompileOptions::default()
+            },
+        )
+        .unwrap();
+        let r = &fitted.report;
+        assert!(r.fit_scale < 1.0, "{}", r.fit_scale);
+        assert!(r.max_error_fs <= 0.02 && r.rms_error_fs <= 0.005, "{r:?}");
+        let warning = r
+            .warnings
+            .iter()
+            .find(|w| w.contains("to pass the limits"))
+            .unwrap_or_else(|| panic!("{:?}", r.warnings));
+        assert_eq!(
+            warning.contains("after the fit"),
+            refits,
+            "{share}: {warning}"
+        );
+    }
 }
 
 /// Dense noise on a 6 x 6 sensor under the default preset's wide gate (a compile fuzz
