@@ -43,6 +43,7 @@ use sci_rs::signal::filter::design::{
     butter_dyn, DigitalFilter, FilterBandType, FilterOutputType, Sos,
 };
 use sci_rs::signal::filter::sosfilt_dyn;
+use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::config::SignalConfig;
@@ -494,7 +495,12 @@ pub fn condition(
     let (first, last) = (at(0), at(body.saturating_sub(1)));
     let mut output = Vec::with_capacity(ramp + body + ramp);
     output.extend((0..ramp).map(|j| first.map(|v| v * raised_cosine(j, ramp))));
-    output.extend((0..body).map(at));
+    // Each sample on its own (an hour is 3.6 M of them), so on every core.
+    output.resize(ramp + body, [0.0; CHANNELS]);
+    output[ramp..]
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(j, sample)| *sample = at(j));
     output.extend((1..=ramp).map(|j| last.map(|v| v * raised_cosine(ramp - j, ramp))));
 
     Ok(Conditioned {
