@@ -456,22 +456,36 @@ pub fn score_candidates(
     std: f64,
     cfg: &DetectConfig,
 ) -> Detections {
+    use rayon::prelude::*;
     let usable = std > 0.0 && std.is_finite() && mean.is_finite();
-    let mut all = Vec::new();
+    // Each cost on its own (an hour holds millions of candidates), so on every core.
+    let costs: Vec<f64> = if usable {
+        candidates
+            .points
+            .par_iter()
+            .map(|&(_, _, value)| detection_cost((value - mean) / std, cfg))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let mut all = Vec::with_capacity(costs.len());
     let mut frame_start = Vec::with_capacity(candidates.frames() + 1);
     frame_start.push(0);
     for frame in 0..candidates.frames() {
         if usable {
-            all.extend(candidates.frame(frame).iter().map(|&(row, col, value)| {
-                let cost = detection_cost((value - mean) / std, cfg);
-                Detection {
-                    frame,
-                    row,
-                    col,
-                    value,
-                    cost,
-                }
-            }));
+            let (a, b) = (candidates.starts[frame], candidates.starts[frame + 1]);
+            all.extend(
+                candidates.points[a..b]
+                    .iter()
+                    .zip(&costs[a..b])
+                    .map(|(&(row, col, value), &cost)| Detection {
+                        frame,
+                        row,
+                        col,
+                        value,
+                        cost,
+                    }),
+            );
         }
         frame_start.push(all.len());
     }
