@@ -39,11 +39,11 @@
 //! 1 kHz signal keeps exactly the normalised range, and its slope is at most three times
 //! the steepest frame-to-frame step.
 
+use rayon::prelude::*;
 use sci_rs::signal::filter::design::{
     butter_dyn, DigitalFilter, FilterBandType, FilterOutputType, Sos,
 };
 use sci_rs::signal::filter::sosfilt_dyn;
-use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::config::SignalConfig;
@@ -320,19 +320,39 @@ impl<'a> Pchip<'a> {
         Some(Self { y, secant, slope })
     }
 
-    /// Value at position `u` (in samples from the first), `0 <= u <= n - 1`.
+    /// Value at position `u` (in samples from the first), `0 <= u <= n - 1` (the
+    /// compile evaluates all eight channels at once: [`eval_channels`]).
+    #[cfg(test)]
     fn eval(&self, u: f64) -> f64 {
-        let k = (u.max(0.0).floor() as usize).min(self.y.len() - 2);
-        let s = u - k as f64;
-        let (s2, s3) = (s * s, s * s * s);
-        let h01 = 3.0 * s2 - 2.0 * s3;
-        let h10 = s3 - 2.0 * s2 + s;
-        let h11 = s3 - s2;
+        let (k, h) = hermite(u, self.y.len());
+        self.piece(k, h)
+    }
+
+    /// Value on piece `k` with the Hermite weights `h` of [`hermite`].
+    #[inline(always)]
+    fn piece(&self, k: usize, (h01, h10, h11): (f64, f64, f64)) -> f64 {
         let (a, b) = (self.y[k], self.y[k + 1]);
         // Written around y[k] so that a flat piece returns y[k] exactly.
         let v = a + self.secant[k] * h01 + self.slope[k] * h10 + self.slope[k + 1] * h11;
         v.clamp(a.min(b), a.max(b))
     }
+}
+
+/// The piece `k` of `n >= 2` unit-spaced samples that position `u` falls in, and the
+/// cubic Hermite weights `(h01, h10, h11)` at its offset in that piece.
+#[inline(always)]
+fn hermite(u: f64, n: usize) -> (usize, (f64, f64, f64)) {
+    let k = (u.max(0.0).floor() as usize).min(n - 2);
+    let s = u - k as f64;
+    let (s2, s3) = (s * s, s * s * s);
+    (k, (3.0 * s2 - 2.0 * s3, s3 - 2.0 * s2 + s, s3 - s2))
+}
+
+/// [`Pchip::eval`] of every channel's curve at `u`: the curves share their samples'
+/// positions, so the piece and its weights are found once for all eight.
+fn eval_channels(curves: &[Pchip; CHANNELS], u: f64) -> [f64; CHANNELS] {
+    let (k, h) = hermite(u, curves[0].y.len());
+    std::array::from_fn(|ch| curves[ch].piece(k, h))
 }
 
 /// Number of `out_hz` samples from the first to the last of `n` samples at `rate_hz`.
@@ -480,17 +500,17 @@ pub fn condition(
         .map(|ch| frames_a.iter().map(|f| f[ch]).collect())
         .collect();
     let curves: Vec<Pchip> = columns.iter().filter_map(|y| Pchip::new(y)).collect();
-    if curves.len() != CHANNELS {
+    let Ok(curves) = <[Pchip; CHANNELS]>::try_from(curves) else {
         return Err(ConditionError::InvalidParameter {
             name: "frames",
             value: len as f64,
         });
-    }
+    };
     let ramp = (cfg.ramp_s * OUTPUT_RATE_HZ).round() as usize;
     let body = resampled_len(len, frame_rate_hz, OUTPUT_RATE_HZ);
     let at = |j: usize| -> [f64; CHANNELS] {
         let u = resampled_position(j, frame_rate_hz, OUTPUT_RATE_HZ);
-        std::array::from_fn(|ch| curves[ch].eval(u))
+        eval_channels(&curves, u)
     };
     let (first, last) = (at(0), at(body.saturating_sub(1)));
     let mut output = Vec::with_capacity(ramp + body + ramp);
