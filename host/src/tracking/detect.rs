@@ -474,18 +474,15 @@ pub fn score_candidates(
     for frame in 0..candidates.frames() {
         if usable {
             let (a, b) = (candidates.starts[frame], candidates.starts[frame + 1]);
-            all.extend(
-                candidates.points[a..b]
-                    .iter()
-                    .zip(&costs[a..b])
-                    .map(|(&(row, col, value), &cost)| Detection {
-                        frame,
-                        row,
-                        col,
-                        value,
-                        cost,
-                    }),
-            );
+            all.extend(candidates.points[a..b].iter().zip(&costs[a..b]).map(
+                |(&(row, col, value), &cost)| Detection {
+                    frame,
+                    row,
+                    col,
+                    value,
+                    cost,
+                },
+            ));
         }
         frame_start.push(all.len());
     }
