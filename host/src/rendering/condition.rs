@@ -348,7 +348,7 @@ fn hermite(u: f64, n: usize) -> (usize, (f64, f64, f64)) {
     (k, (3.0 * s2 - 2.0 * s3, s3 - 2.0 * s2 + s, s3 - s2))
 }
 
-/// [`Pchip::eval`] of every channel's curve at `u`: the curves share their samples'
+/// The value of every channel's [`Pchip`] at `u`: the curves share their samples'
 /// positions, so the piece and its weights are found once for all eight.
 fn eval_channels(curves: &[Pchip; CHANNELS], u: f64) -> [f64; CHANNELS] {
     let (k, h) = hermite(u, curves[0].y.len());

@@ -1,0 +1,341 @@
+//! Keyframes on straight lines through a tolerance tube around the 1 kHz signal: the
+//! greedy longest lines per channel ([`tube_keyframes`]), with a tolerance per window
+//! and channel ([`tube_scheduled`]) and what each window costs in bends and error.
+
+use touch_protocol::CHANNELS;
+
+/// A line this many keyframes long ends where another channel's bends (see
+/// [`Line::nearly_done`]). Measured with [`LINE_SHIFTS`](super::LINE_SHIFTS) on the same 40 stimuli: 4 with
+/// the slope test gives 9% fewer bytes than never joining, 2% fewer than 6; on the
+/// benchmark's busy synthetic scene, 21% fewer.
+const JOIN_AFTER: usize = 4;
+
+/// One channel's current line in [`tube_keyframes`]: it leaves keyframe `start` at
+/// stored value `base`; `lo..=hi` bound the slopes (stored units per keyframe) that
+/// keep every tick so far within the tolerance, and `whole` is the range of whole
+/// slopes among them at the last keyframe reached.
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    start: usize,
+    base: i64,
+    lo: f64,
+    hi: f64,
+    whole: (i64, i64),
+    /// Sum over the ticks so far of `m v`, `m` the ticks since `start` and `v` the
+    /// signal less `base`: the least-squares slope is `period * mv / sum(m^2)`.
+    mv: f64,
+}
+
+impl Line {
+    /// A line reaching keyframe `end` that a bend elsewhere may end there too: it is
+    /// [`JOIN_AFTER`] keyframes long, or its slopes have narrowed until the spread they
+    /// allow at `end` is under the tube's half-width (`tol`, stored units). It would
+    /// likely end soon anyway, and ending with another channel shares that keyframe's
+    /// record (a mask byte, and no run between).
+    fn nearly_done(&self, end: usize, tol: f64) -> bool {
+        let steps = end - self.start;
+        steps >= JOIN_AFTER || (self.hi - self.lo) * (steps as f64) < tol
+    }
+
+    /// Narrows the slopes by tick `t`, where the signal is `x` (stored units).
+    #[inline(always)]
+    fn take(&mut self, t: usize, x: f64, period: usize, pf: f64, tol: f64) {
+        let m = (t - self.start * period) as f64;
+        let per_tick = pf / m;
+        let v = x - self.base as f64;
+        self.lo = larger(self.lo, (v - tol) * per_tick);
+        self.hi = smaller(self.hi, (v + tol) * per_tick);
+        self.mv += m * v;
+    }
+
+    /// Whether some whole slope is left after the ticks up to keyframe `end` that also
+    /// keeps the line's end in `min..=max`; records those slopes.
+    fn fits(&mut self, end: usize, min: i64, max: i64) -> bool {
+        // Slopes are never NaN: the signal is finite (checked) and every tick narrows
+        // them by finite bounds.
+        if self.lo > self.hi {
+            return false;
+        }
+        let steps = (end - self.start) as i64;
+        let (mut lo, mut hi) = (ceil(self.lo), floor(self.hi));
+        // Rarely binding (a line at full scale): only then the divisions.
+        if self.base + lo * steps < min {
+            lo = (min - self.base + steps - 1).div_euclid(steps);
+        }
+        if self.base + hi * steps > max {
+            hi = (max - self.base).div_euclid(steps);
+        }
+        self.whole = (lo, hi);
+        lo <= hi
+    }
+
+    /// Writes the line's keyframes after its start up to `end` into channel `c` of
+    /// `stored`: the least-squares slope among the whole slopes that fit.
+    fn commit(&self, stored: &mut [[i64; CHANNELS]], end: usize, c: usize, pf: f64) {
+        // Sum of m^2 for m = 1..=ticks.
+        let ticks = ((end - self.start) as f64) * pf;
+        let mm = ticks * (ticks + 1.0) * (2.0 * ticks + 1.0) / 6.0;
+        let slope = ((pf * self.mv / mm).round() as i64).clamp(self.whole.0, self.whole.1);
+        for (k, s) in stored
+            .iter_mut()
+            .enumerate()
+            .take(end + 1)
+            .skip(self.start + 1)
+        {
+            s[c] = self.base + slope * (k - self.start) as i64;
+        }
+    }
+
+    fn at(start: usize, base: i64) -> Self {
+        Line {
+            start,
+            base,
+            lo: f64::NEG_INFINITY,
+            hi: f64::INFINITY,
+            whole: (0, 0),
+            mv: 0.0,
+        }
+    }
+}
+
+/// Keyframes on straight lines through a tube of half-width `tol` (Q15 units) around
+/// the 1 kHz signal, at `period` ms and `2^shift` Q15 units per stored step.
+///
+/// The format predicts each stored value as `2 s[k-1] - s[k-2]` and codes keyframes
+/// in which every channel meets its prediction as one run, so a channel costs nothing
+/// while it moves on a straight line and a residual where it bends. Each channel's
+/// line leaves its corner and is extended keyframe by keyframe while some whole slope
+/// keeps every tick so far within the tube (each tick narrows the slope interval; this
+/// is the greedy longest line, which for a tube is the fewest corners up to one per
+/// line); it then takes the middle of the slopes left and the next line starts at its
+/// end. Where not even one segment fits (a bend sharper than the period resolves),
+/// the keyframe is the signal's value, rounded, as without a tube.
+///
+/// Returns the keyframes (Q15, multiples of `2^shift`) and the RMS and max of the
+/// linear interpolation's error over the signal's ticks, in Q15 units (f64; the
+/// player's integer arithmetic and 12-bit output add under a code). O(ticks x
+/// channels), in one pass through time plus one to measure.
+pub(super) fn tube_keyframes(
+    signal: &[[f64; CHANNELS]],
+    fs_a: f64,
+    period: usize,
+    shift: u8,
+    tol: f64,
+) -> (Vec<[i16; CHANNELS]>, f64, f64) {
+    let uniform = Schedule {
+        keyframes: usize::MAX,
+        tols: vec![[tol; CHANNELS]],
+    };
+    let (keyframes, rms, max, _) = tube_scheduled(signal, fs_a, period, shift, &uniform, false);
+    (keyframes, rms, max)
+}
+
+/// Tube half-widths (Q15 units) per channel, in windows of `keyframes` keyframes: the
+/// segment that ends at keyframe `j` has the tolerances `tols[(j - 1) / keyframes]`
+/// (the last entry's past the end).
+#[derive(Debug, Clone)]
+pub(super) struct Schedule {
+    pub(super) keyframes: usize,
+    pub(super) tols: Vec<[f64; CHANNELS]>,
+}
+
+impl Schedule {
+    /// The tolerances of the segment after keyframe `k`.
+    pub(super) fn at(&self, k: usize) -> [f64; CHANNELS] {
+        let w = (k / self.keyframes).min(self.tols.len().saturating_sub(1));
+        self.tols.get(w).copied().unwrap_or([0.0; CHANNELS])
+    }
+}
+
+/// Per window of a [`Schedule`] and channel: the bends (keyframes where the line's
+/// slope changes, each a residual in the file) and the squared model error, Q15 units
+/// squared.
+pub(super) type WindowCosts = Vec<[(u32, f64); CHANNELS]>;
+
+/// [`tube_keyframes`] with a tolerance per window and channel. With `costs`, also what
+/// each window and channel cost in bends and squared error (else an empty list).
+pub(super) fn tube_scheduled(
+    signal: &[[f64; CHANNELS]],
+    fs_a: f64,
+    period: usize,
+    shift: u8,
+    schedule: &Schedule,
+    costs: bool,
+) -> (Vec<[i16; CHANNELS]>, f64, f64, WindowCosts) {
+    let n = signal.len();
+    let unit = f64::from(1u32 << shift);
+    let to_stored = 32768.0 / fs_a / unit;
+    let (min_s, max_s) = (i64::from(i16::MIN) >> shift, i64::from(i16::MAX) >> shift);
+    // The signal in stored units; 0 after its end (the last keyframe may lie beyond).
+    let row = |t: usize| {
+        signal
+            .get(t)
+            .map_or([0.0; CHANNELS], |s| s.map(|a| a * to_stored))
+    };
+    let rounded = |t: usize, c: usize| (row(t)[c].round() as i64).clamp(min_s, max_s);
+    let count = (n - 1).div_ceil(period) + 1;
+    let pf = period as f64;
+    let mut stored = vec![[0i64; CHANNELS]; count];
+    // The model's error, segment by segment, as soon as both ends of a segment are final
+    // on every channel (keyframes up to the earliest line start): those rows were read
+    // lately and are still in cache, where a pass after the tube reads a long signal from
+    // memory again. Segments are taken in order, so the sums are the same.
+    let (mut sum2, mut max, mut done) = (0.0f64, 0.0f64, 0usize);
+    let windows = if costs {
+        (count - 1).div_ceil(schedule.keyframes).max(1)
+    } else {
+        0
+    };
+    let mut cost: WindowCosts = vec![[(0, 0.0); CHANNELS]; windows];
+    let mut measure_to = |stored: &[[i64; CHANNELS]], upto: usize| {
+        for k in done..upto {
+            let (a, b) = (stored[k].map(|v| v as f64), stored[k + 1].map(|v| v as f64));
+            let mut segment = [0.0f64; CHANNELS];
+            for (i, t) in (k * period..((k + 1) * period).min(n)).enumerate() {
+                let w = i as f64 / pf;
+                let x = row(t);
+                for c in 0..CHANNELS {
+                    let e = a[c] + (b[c] - a[c]) * w - x[c];
+                    segment[c] += e * e;
+                    max = larger(max, e.abs());
+                }
+            }
+            sum2 += segment.iter().sum::<f64>();
+            if let Some(window) =
+                cost.get_mut((k / schedule.keyframes).min(windows.saturating_sub(1)))
+            {
+                for c in 0..CHANNELS {
+                    window[c].1 += segment[c] * unit * unit;
+                    // A bend at keyframe k: the residual of keyframe k + 1.
+                    let before = if k == 0 { 0 } else { stored[k - 1][c] };
+                    if stored[k + 1][c] - 2 * stored[k][c] + before != 0 {
+                        window[c].0 += 1;
+                    }
+                }
+            }
+        }
+        done = done.max(upto);
+    };
+    let mut lines: [Line; CHANNELS] = std::array::from_fn(|c| Line::at(0, rounded(0, c)));
+    stored[0] = lines.map(|l| l.base);
+    for j in 1..count {
+        let tol = schedule.at(j - 1).map(|t| t / unit);
+        // Every channel's line over the segment ending at keyframe `j`, in step (one
+        // pass over the rows, eight independent chains).
+        let mut extended = lines;
+        let from = lines.map(|l| (l.start * period) as f64);
+        let base = lines.map(|l| l.base as f64);
+        let (mut lo, mut hi) = (lines.map(|l| l.lo), lines.map(|l| l.hi));
+        let mut mv = lines.map(|l| l.mv);
+        for t in (j - 1) * period + 1..=j * period {
+            let x = row(t);
+            for c in 0..CHANNELS {
+                let m = t as f64 - from[c];
+                let per_tick = pf / m;
+                let v = x[c] - base[c];
+                lo[c] = larger(lo[c], (v - tol[c]) * per_tick);
+                hi[c] = smaller(hi[c], (v + tol[c]) * per_tick);
+                mv[c] += m * v;
+            }
+        }
+        for (c, e) in extended.iter_mut().enumerate() {
+            (e.lo, e.hi, e.mv) = (lo[c], hi[c], mv[c]);
+        }
+        let fits: [bool; CHANNELS] = std::array::from_fn(|c| extended[c].fits(j, min_s, max_s));
+        let bends = (0..CHANNELS).any(|c| !fits[c] && lines[c].start + 1 < j);
+        for c in 0..CHANNELS {
+            let line = &mut lines[c];
+            let early = bends && line.start + 1 < j && line.nearly_done(j - 1, tol[c]);
+            if fits[c] && !early {
+                *line = extended[c];
+                continue;
+            }
+            if line.start + 1 < j {
+                // The line ends at the last keyframe it reached; a new one leaves there.
+                line.commit(&mut stored, j - 1, c, pf);
+                let mut fresh = Line::at(j - 1, stored[j - 1][c]);
+                for t in (j - 1) * period + 1..=j * period {
+                    fresh.take(t, row(t)[c], period, pf, tol[c]);
+                }
+                if fresh.fits(j, min_s, max_s) {
+                    *line = fresh;
+                    continue;
+                }
+            }
+            stored[j][c] = rounded(j * period, c);
+            *line = Line::at(j, stored[j][c]);
+        }
+        measure_to(&stored, lines.iter().map(|l| l.start).min().unwrap_or(0));
+    }
+    for (c, line) in lines.iter().enumerate() {
+        if line.start + 1 < count {
+            line.commit(&mut stored, count - 1, c, pf);
+        }
+    }
+    // The rest of the model's error.
+    measure_to(&stored, count - 1);
+    if (count - 1) * period < n {
+        // A signal of one tick: its only keyframe.
+        let (a, x) = (stored[count - 1], row((count - 1) * period));
+        for c in 0..CHANNELS {
+            let e = a[c] as f64 - x[c];
+            sum2 += e * e;
+            max = max.max(e.abs());
+        }
+    }
+    // In range by construction (every slope and rounded value is clamped to it).
+    let keyframes = stored
+        .iter()
+        .map(|s| s.map(|v| (v << shift).clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16))
+        .collect();
+    (
+        keyframes,
+        unit * (sum2 / (n * CHANNELS) as f64).sqrt(),
+        unit * max,
+        cost,
+    )
+}
+
+/// `x.ceil()` for the slopes of a line (finite, far inside i64), without the libm
+/// call that `f64::ceil` is on baseline x86-64.
+#[inline(always)]
+pub(super) fn ceil(x: f64) -> i64 {
+    let i = x as i64;
+    if (i as f64) < x {
+        i + 1
+    } else {
+        i
+    }
+}
+
+/// `x.floor()`, as [`ceil`].
+#[inline(always)]
+pub(super) fn floor(x: f64) -> i64 {
+    let i = x as i64;
+    if (i as f64) > x {
+        i - 1
+    } else {
+        i
+    }
+}
+
+/// The larger of two numbers that are not NaN (`f64::max` also orders NaN, at several
+/// instructions a call in the tube's inner loop).
+#[inline(always)]
+pub(super) fn larger(a: f64, b: f64) -> f64 {
+    if b > a {
+        b
+    } else {
+        a
+    }
+}
+
+/// The smaller of two numbers that are not NaN.
+#[inline(always)]
+pub(super) fn smaller(a: f64, b: f64) -> f64 {
+    if b < a {
+        b
+    } else {
+        a
+    }
+}
