@@ -4,35 +4,23 @@
 
 use std::hint::black_box;
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use criterion::{criterion_group, criterion_main, Criterion};
 use touchc::compile::{compile, layout_tag, CompileOptions};
 use touchc::config::{Config, Preset};
 use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::input::recording::Recording;
-use touchc::input::synth::{generate, Gesture, Mask, SynthSpec};
 use touchc::placement::layout::Layout;
 use touchc::placement::place;
 use touchc::rendering::condition;
 use touchc::tracking::{detect, preprocess, scene, track};
 
-/// `touchc synth stroke tap pat squeeze shake (x3) stroke --seed 5 --quiet-frames 30`:
-/// 698 frames.
+/// The 698-frame combination ([`common::combination_698`]).
 fn long_recording() -> Recording {
-    use Gesture::*;
-    let mut gestures = Vec::new();
-    for _ in 0..3 {
-        gestures.extend([Stroke, Tap, Pat, Squeeze, Shake]);
-    }
-    gestures.push(Stroke);
-    let data = generate(&SynthSpec {
-        gestures,
-        seed: 5,
-        mask: Mask::Cells142,
-        noise_psi: 0.004,
-        quiet_frames: 30,
-        ..SynthSpec::default()
-    });
-    Recording::from_array("combination_698", data.view()).expect("valid synthetic data")
+    Recording::from_array("combination_698", common::combination_698().view())
+        .expect("valid synthetic data")
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {

@@ -119,14 +119,14 @@ fn run_case(case: &Case) -> anyhow::Result<()> {
     };
     let mut best = f64::INFINITY;
     for _ in 1..case.runs {
-        let start = cpu_seconds();
+        let start = common::cpu_seconds();
         compile(&rec, &opts)?;
-        best = best.min(cpu_seconds() - start);
+        best = best.min(common::cpu_seconds() - start);
     }
     // The last run as the CLI compiles: handing the recording over.
-    let start = cpu_seconds();
+    let start = common::cpu_seconds();
     let last = compile_owned(rec, &opts)?;
-    best = best.min(cpu_seconds() - start);
+    best = best.min(common::cpu_seconds() - start);
     let report = last.report;
     println!(
         "| {} | `{}` | {:.3} | {} | {:.0} | {} | {:.2} | {:.3} |",
@@ -159,20 +159,6 @@ fn recording(repeat: usize) -> anyhow::Result<Recording> {
         format!("combination x{repeat}"),
         long.view(),
     )?)
-}
-
-/// CPU seconds all of this process's threads have spent running (Linux schedstat, in
-/// ns: the sum over `/proc/self/task/*/schedstat`, rayon's worker included).
-fn cpu_seconds() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return f64::NAN;
-    };
-    let ns: f64 = tasks
-        .flatten()
-        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
-        .sum();
-    ns * 1e-9
 }
 
 /// This process's peak resident memory, MB (Linux `VmHWM`).

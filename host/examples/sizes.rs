@@ -32,7 +32,7 @@ use touchc::compile::{compile, layout_tag, stimulus_name, CompileOptions};
 use touchc::config::{Config, MetadataOverrides, Preset};
 use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::input::recording::Recording;
-use touchc::input::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
+use touchc::input::synth::{self, Gesture, Sensor, SynthSpec};
 use touchc::placement::layout::Layout;
 
 /// One recording: its name, its frames and the sensor's rate and pitch when they are
@@ -168,9 +168,9 @@ fn encode_kept(dir: &Path) -> anyhow::Result<()> {
             layout_id: layout_tag(&Layout::paper()),
             limits: Limits::SLEEVE,
         };
-        let start = cpu_seconds();
+        let start = common::cpu_seconds();
         let e = encode(&signal, fields, &KeyframeOptions::new(&config.keyframes))?;
-        cpu += cpu_seconds() - start;
+        cpu += common::cpu_seconds() - start;
         let s = signal.len().saturating_sub(1) as f64 / 1000.0;
         let bps = if s > 0.0 {
             e.bytes.len() as f64 / s
@@ -222,7 +222,10 @@ fn inputs() -> anyhow::Result<Vec<Input>> {
         "bench: moving_blobs(705, 4, 42)".into(),
         common::moving_blobs(705, 4, 42),
     ));
-    out.push(plain("bench: combination 698".into(), bench_combination()));
+    out.push(plain(
+        "bench: combination 698".into(),
+        common::combination_698(),
+    ));
     // The synthetic scenes the integration tests compile (tracking-only tests aside).
     for (frames, blobs, seed, test) in [
         (100, 1, 6, "cli_sanity"),
@@ -259,7 +262,7 @@ fn inputs() -> anyhow::Result<Vec<Input>> {
         ));
     }
     for sensor in [Sensor::Sleeve, Sensor::Grid10] {
-        for (name, spec) in touch_cases(sensor) {
+        for (name, spec) in common::touch_cases(sensor) {
             for seed in [1, 2] {
                 let (data, truth) = synth::generate_with_truth(&SynthSpec {
                     seed,
@@ -286,102 +289,4 @@ fn load(path: &Path, name: &str) -> anyhow::Result<Input> {
         data: Recording::load(path)?.data().to_owned(),
         metadata: MetadataOverrides::default(),
     })
-}
-
-/// The compile bench's recording: `touchc synth stroke tap pat squeeze shake (x3)
-/// stroke --seed 5 --quiet-frames 30`, 698 frames.
-fn bench_combination() -> Array3<f64> {
-    use Gesture::*;
-    let mut gestures = Vec::new();
-    for _ in 0..3 {
-        gestures.extend([Stroke, Tap, Pat, Squeeze, Shake]);
-    }
-    gestures.push(Stroke);
-    synth::generate(&SynthSpec {
-        gestures,
-        seed: 5,
-        mask: Mask::Cells142,
-        noise_psi: 0.004,
-        quiet_frames: 30,
-        ..SynthSpec::default()
-    })
-}
-
-/// The cases of `host/tests/it/touch.rs` on `sensor` (kept in step with it by hand).
-fn touch_cases(sensor: Sensor) -> Vec<(String, SynthSpec)> {
-    let spec = |gestures: &[Gesture], tuning| SynthSpec {
-        gestures: gestures.to_vec(),
-        seed: 1,
-        noise_psi: 0.003,
-        quiet_frames: (sensor.rate_hz() * 1.5).round() as usize,
-        sensor,
-        tuning,
-        ..SynthSpec::default()
-    };
-    use Gesture::*;
-    let mut out = Vec::new();
-    for v in [0.05, 0.3, 1.0, 1.5] {
-        let t = Tuning {
-            stroke_speed_mps: Some(v),
-            ..Tuning::default()
-        };
-        out.push((format!("stroke {v} m/s"), spec(&[Stroke], t)));
-    }
-    for ms in [50.0, 100.0] {
-        let t = Tuning {
-            tap_s: Some(ms / 1000.0),
-            ..Tuning::default()
-        };
-        out.push((format!("taps {ms} ms"), spec(&[Tap], t)));
-    }
-    out.push(("palm".into(), spec(&[Palm], Tuning::default())));
-    for hz in [2.0, 4.0] {
-        let t = Tuning {
-            shake_hz: Some(hz),
-            shake_amplitude_mm: Some(40.0),
-            ..Tuning::default()
-        };
-        out.push((format!("shake {hz} Hz 40 mm"), spec(&[Shake], t)));
-    }
-    let t = Tuning {
-        gap_s: Some(0.15),
-        ..Tuning::default()
-    };
-    out.push(("strokes 150 ms apart".into(), spec(&[Strokes], t)));
-    out.push((
-        "begins mid-touch (palm, stroke)".into(),
-        SynthSpec {
-            begin_mid_touch: true,
-            ..spec(&[Palm, Stroke], Tuning::default())
-        },
-    ));
-    out.push((
-        "ends mid-touch (stroke, palm)".into(),
-        SynthSpec {
-            end_mid_touch: true,
-            ..spec(&[Stroke, Palm], Tuning::default())
-        },
-    ));
-    out.push((
-        "flicker (strokes, palm)".into(),
-        SynthSpec {
-            flicker: 5.0,
-            ..spec(&[Strokes, Palm], Tuning::default())
-        },
-    ));
-    out.push(("noise only".into(), spec(&[Rest], Tuning::default())));
-    out
-}
-
-/// CPU seconds all of this process's threads have spent running (Linux schedstat, ns).
-fn cpu_seconds() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return f64::NAN;
-    };
-    let ns: f64 = tasks
-        .flatten()
-        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
-        .sum();
-    ns * 1e-9
 }

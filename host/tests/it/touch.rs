@@ -1,10 +1,11 @@
 //! Real touch, measured: every case of issue 12 on both sensors, under each preset,
 //! against the truth of where each contact was (`touchc::measure::evaluate`).
 
+use crate::common;
 use touchc::compile::{compile, CompileOptions, Compiled};
 use touchc::config::{Config, MetadataOverrides, Preset};
 use touchc::input::recording::Recording;
-use touchc::input::synth::{self, Gesture, Sensor, SynthSpec, Tuning};
+use touchc::input::synth::{self, Gesture, Sensor, SynthSpec};
 use touchc::measure::evaluate::{evaluate_compiled, Evaluation};
 use touchc::rendering::signals::Source;
 
@@ -14,92 +15,11 @@ struct Case {
     spec: SynthSpec,
 }
 
-fn spec(sensor: Sensor, gestures: &[Gesture], tuning: Tuning) -> SynthSpec {
-    SynthSpec {
-        gestures: gestures.to_vec(),
-        seed: 1,
-        noise_psi: 0.003,
-        // 1.5 s of quiet on each side: more than any tare window.
-        quiet_frames: (sensor.rate_hz() * 1.5).round() as usize,
-        sensor,
-        tuning,
-        ..SynthSpec::default()
-    }
-}
-
 fn cases(sensor: Sensor) -> Vec<Case> {
-    let mut out = Vec::new();
-    let mut add = |name: String, spec: SynthSpec| out.push(Case { name, spec });
-    for v in [0.05, 0.3, 1.0, 1.5] {
-        let t = Tuning {
-            stroke_speed_mps: Some(v),
-            ..Tuning::default()
-        };
-        add(
-            format!("stroke {v} m/s"),
-            spec(sensor, &[Gesture::Stroke], t),
-        );
-    }
-    for ms in [50.0, 100.0] {
-        let t = Tuning {
-            tap_s: Some(ms / 1000.0),
-            ..Tuning::default()
-        };
-        add(format!("taps {ms} ms"), spec(sensor, &[Gesture::Tap], t));
-    }
-    add(
-        "palm".into(),
-        spec(sensor, &[Gesture::Palm], Tuning::default()),
-    );
-    for hz in [2.0, 4.0] {
-        let t = Tuning {
-            shake_hz: Some(hz),
-            shake_amplitude_mm: Some(40.0),
-            ..Tuning::default()
-        };
-        add(
-            format!("shake {hz} Hz 40 mm"),
-            spec(sensor, &[Gesture::Shake], t),
-        );
-    }
-    let t = Tuning {
-        gap_s: Some(0.15),
-        ..Tuning::default()
-    };
-    add(
-        "strokes 150 ms apart".into(),
-        spec(sensor, &[Gesture::Strokes], t),
-    );
-    add(
-        "begins mid-touch (palm, stroke)".into(),
-        SynthSpec {
-            begin_mid_touch: true,
-            ..spec(sensor, &[Gesture::Palm, Gesture::Stroke], Tuning::default())
-        },
-    );
-    add(
-        "ends mid-touch (stroke, palm)".into(),
-        SynthSpec {
-            end_mid_touch: true,
-            ..spec(sensor, &[Gesture::Stroke, Gesture::Palm], Tuning::default())
-        },
-    );
-    add(
-        "flicker (strokes, palm)".into(),
-        SynthSpec {
-            flicker: 5.0,
-            ..spec(
-                sensor,
-                &[Gesture::Strokes, Gesture::Palm],
-                Tuning::default(),
-            )
-        },
-    );
-    add(
-        "noise only".into(),
-        spec(sensor, &[Gesture::Rest], Tuning::default()),
-    );
-    out
+    common::touch_cases(sensor)
+        .into_iter()
+        .map(|(name, spec)| Case { name, spec })
+        .collect()
 }
 
 /// Compiles `case` under `preset` at the sensor's rate and pitch, and measures it.
