@@ -393,20 +393,11 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     let mut signal = conditioned.output;
     let limits = condition::Limits::from(opts.limits);
     let fit_scale = if opts.fit {
-        if condition::check_limits(&signal, &limits).is_ok() {
-            1.0
-        } else {
-            // The played codes heat the coil a little more than the f64 signal (the
-            // keyframes' error): fitted to the whole thermal budget, a long touch trips
-            // the player's limit and is encoded again (a second stage 7, 1 s at an
-            // hour). Fitted to a share of it, once; the refit in stage 7 stays the
-            // backstop.
-            let fitted = condition::Limits {
-                thermal_budget_a2s: limits.thermal_budget_a2s * cfg.signal.fit_thermal_share,
-                ..limits
-            };
-            condition::fit(&mut signal, &fitted)?
-        }
+        // The played codes heat the coil a little more than the f64 signal (the
+        // keyframes' error): fitted to the whole thermal budget, a long touch trips the
+        // player's limit and is encoded again (a second stage 7, 1 s at an hour). Fitted
+        // to a share of it, once; the refit in stage 7 stays the backstop.
+        condition::fit_to(&mut signal, &limits, cfg.signal.fit_thermal_share)?
     } else {
         condition::check_limits(&signal, &limits)?;
         1.0

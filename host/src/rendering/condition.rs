@@ -545,7 +545,7 @@ fn raised_cosine(j: usize, n: usize) -> f64 {
 
 mod limits;
 
-pub use limits::{check_limits, fit, LimitViolation, Limits};
+pub use limits::{check_limits, fit, fit_to, LimitViolation, Limits};
 
 #[cfg(test)]
 mod tests;

@@ -412,12 +412,29 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 /// # Ok::<(), touchc::rendering::condition::LimitViolation>(())
 /// ```
 pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, LimitViolation> {
+    fit_to(signal, limits, 1.0)
+}
+
+/// [`fit`], but a signal that breaks `limits` is fitted to `thermal_share` of the
+/// thermal budget (peak and slew in full): room for what the encoding adds to the heat
+/// (`signal.fit_thermal_share`). A signal that passes `limits` is left alone, so the
+/// factor is 1 exactly when [`fit`]'s is.
+pub fn fit_to(
+    signal: &mut [[f64; CHANNELS]],
+    limits: &Limits,
+    thermal_share: f64,
+) -> Result<f64, LimitViolation> {
     validate_limits(limits)?;
     match check_scaled(signal, 1.0, limits) {
         Ok(()) => return Ok(1.0),
         Err(e @ LimitViolation::NotFinite { .. }) => return Err(e),
         Err(_) => {}
     }
+    let limits = &Limits {
+        thermal_budget_a2s: limits.thermal_budget_a2s * thermal_share,
+        ..*limits
+    };
+    validate_limits(limits)?;
     let linear = linear_limit(signal, limits);
     let at_linear = scan(signal, linear, limits);
     let lo = match at_linear.violation {

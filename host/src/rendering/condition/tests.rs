@@ -627,6 +627,34 @@ fn thermal_bucket_leaks_and_saturates_at_zero() {
 /// shares only the limit check with it): the same factor to within 2^-31, on signals
 /// whose bucket fills at different times on different channels, some over the peak
 /// too.
+/// A share of the thermal budget: a signal that passes the whole budget is left alone,
+/// one that does not is fitted under the share (the largest factor there, as `fit`
+/// finds it against that budget), and share 1 is `fit`.
+#[test]
+fn fit_to_a_share_of_the_thermal_budget() {
+    let limits = Limits::default();
+    let share = 0.8;
+    let under = Limits {
+        thermal_budget_a2s: limits.thermal_budget_a2s * share,
+        ..limits
+    };
+    // 60 s at 0.9 A: about 27 A^2 s in the bucket ((0.81 - 0.36) A^2 a second), under
+    // the budget of 30 but over 80% of it.
+    let mut warm = constant(60_000, 0.9);
+    assert!(check_limits(&warm, &limits).is_ok() && check_limits(&warm, &under).is_err());
+    assert_eq!(fit_to(&mut warm, &limits, share), Ok(1.0));
+    // 80 s: over the whole budget, fitted to 80% of it.
+    let hot = constant(80_000, 0.9);
+    let mut shared = hot.clone();
+    let s = fit_to(&mut shared, &limits, share).unwrap();
+    let mut alone = hot.clone();
+    assert_eq!(fit(&mut alone, &under), Ok(s));
+    assert_eq!(check_limits(&shared, &under), Ok(()));
+    let mut whole = hot.clone();
+    let mut one = hot;
+    assert_eq!(fit_to(&mut whole, &limits, 1.0), fit(&mut one, &limits));
+}
+
 #[test]
 fn fit_agrees_with_bisection_on_thermal_signals() {
     let limits = Limits::default();
