@@ -340,7 +340,8 @@ pub fn blur_stream(
     mut visit: impl FnMut(usize, ArrayView2<f64>),
 ) -> Result<BlurStats, PreprocessError> {
     let (t, r, c) = tared.dim();
-    let mut blur = FrameBlur::new(BlurOperator::new(r, c, &Blur::new(cfg, sampling))?);
+    let op = BlurOperator::new(r, c, &Blur::new(cfg, sampling))?;
+    let mut blur = FrameBlur::new(&op);
     let mut moments = Vec::with_capacity(t);
     for (f, src) in tared.axis_iter(Axis(0)).enumerate() {
         moments.push(blur.next(src));
@@ -384,7 +385,7 @@ pub fn blur_chunks<S: Send>(
             .into_par_iter()
             .map(|run| {
                 let clock = Instant::now();
-                let mut blur = FrameBlur::new(op.clone());
+                let mut blur = FrameBlur::new(&op);
                 let mut state = start(run.clone());
                 let mut run_moments = Vec::with_capacity(run.len());
                 for f in run {
@@ -403,14 +404,14 @@ pub fn blur_chunks<S: Send>(
 }
 
 /// One blurred frame at a time: the operator, the frame and the scratch it reuses.
-struct FrameBlur {
-    op: BlurOperator,
+struct FrameBlur<'a> {
+    op: &'a BlurOperator,
     frame: Array2<f64>,
     scratch: Vec<f64>,
 }
 
-impl FrameBlur {
-    fn new(op: BlurOperator) -> Self {
+impl<'a> FrameBlur<'a> {
+    fn new(op: &'a BlurOperator) -> Self {
         let frame = Array2::zeros(op.out_dim());
         FrameBlur {
             op,
