@@ -140,42 +140,63 @@ fn check_scaled(
 /// non-finite violation stops the scan; a thermal one does not, so that the level says
 /// how far over the budget the whole signal goes ([`fit`] steers by it, with its slope).
 ///
-/// [`fit`] scans an hour of signal a dozen times, so the scan runs in blocks of
-/// [`SCAN_BLOCK`] samples: each block first in lanes, the eight channels at once with
-/// no branch per sample ([`Scan::block_passes`]), and only a block in which something is
+/// [`fit`] scans an hour of signal several times, so the scan runs in blocks of
+/// [`SCAN_BLOCK`] samples: each block first in lanes, the channels at once with no
+/// branch per sample ([`Scan::block_passes`]), and only a block in which something is
 /// to be reported (a broken peak or slew, a non-finite sample, the first bucket over
 /// the budget) again from its start, sample by sample and channel by channel
 /// ([`Scan::walk`]), to name the first violation. Both update the buckets with the same
 /// operations in the same order, so the levels are the same numbers either way.
+///
+/// The channels do not interact, so on a pool of several threads channels 0-3 and 4-7
+/// are scanned at once ([`scan_halves`]); the result is the one-thread scan's, bit for
+/// bit.
 fn scan(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scanned {
-    let mut state = Scan {
-        previous: [0.0; CHANNELS],
-        heat: [Heat::default(); CHANNELS],
-        thermal: None,
+    if rayon::current_num_threads() > 1 {
+        scan_halves(signal, scale, limits)
+    } else {
+        scan_whole(signal, scale, limits)
+    }
+}
+
+/// [`scan`] of all eight channels in one pass.
+fn scan_whole(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scanned {
+    let (state, stop) = Scan::<0, CHANNELS>::run(signal, scale, limits);
+    Scanned::of(state.hottest(), state.thermal, stop)
+}
+
+/// [`scan`] as two halves of four channels on two threads, merged into what one scan of
+/// all eight reports. A peak, slew or non-finite violation in either half stops the
+/// whole scan at that sample and channel, which the other half ran past: the rare scan
+/// that stops is then done again whole, so that its level ends where it stopped.
+fn scan_halves(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scanned {
+    const HALF: usize = CHANNELS / 2;
+    let ((low, low_stop), (high, high_stop)) = rayon::join(
+        || Scan::<0, HALF>::run(signal, scale, limits),
+        || Scan::<HALF, HALF>::run(signal, scale, limits),
+    );
+    if low_stop.is_some() || high_stop.is_some() {
+        return scan_whole(signal, scale, limits);
+    }
+    // The first thermal violation in (sample, channel) order; the hottest channel, the
+    // lower one on a tie (as one scan's fold over the channels picks it).
+    let (l, h) = (low.hottest(), high.hottest());
+    let thermal = match (low.thermal, high.thermal) {
+        (Some(a), Some(b)) => Some(if first_sample(&b) < first_sample(&a) { b } else { a }),
+        (a, b) => a.or(b),
     };
-    for (b, block) in signal.chunks(SCAN_BLOCK).enumerate() {
-        let start = state.clone();
-        if state.block_passes(block, scale, limits) {
-            continue;
-        }
-        state = start;
-        if let Some(stop) = state.walk(block, b * SCAN_BLOCK, scale, limits) {
-            return state.result(Some(stop));
-        }
+    Scanned::of(if h.hottest > l.hottest { h } else { l }, thermal, None)
+}
+
+/// The sample a violation names (the channel breaks ties: halves never share one).
+fn first_sample(v: &LimitViolation) -> usize {
+    match v {
+        LimitViolation::Peak { sample, .. }
+        | LimitViolation::Slew { sample, .. }
+        | LimitViolation::Thermal { sample, .. }
+        | LimitViolation::NotFinite { sample, .. } => *sample,
+        LimitViolation::InvalidLimits { .. } => usize::MAX,
     }
-    // The device rests at 0 A after playback: the last step is to 0 A.
-    for (channel, &current) in state.previous.iter().enumerate() {
-        if current.abs() > limits.slew_a_per_ms {
-            let v = LimitViolation::Slew {
-                channel,
-                sample: signal.len(),
-                step_a: current.abs(),
-                limit_a_per_ms: limits.slew_a_per_ms,
-            };
-            return state.result(Some(v));
-        }
-    }
-    state.result(None)
 }
 
 /// Samples [`scan`] checks in lanes before it looks for what to report: long enough
@@ -189,6 +210,9 @@ struct Scanned {
     /// The first thermal violation if there was one, else the first peak, slew or
     /// non-finite one (which stopped the scan).
     violation: Option<LimitViolation>,
+    /// Whether a peak, slew or non-finite violation stopped the scan (the level is then
+    /// that of the samples before it).
+    stopped: bool,
     /// The highest bucket level of any channel, A^2 s.
     level: f64,
     /// How fast that level grows with the square of the scale, A^2 s: 1 ms times the sum
@@ -199,12 +223,25 @@ struct Scanned {
     slope: f64,
 }
 
-/// [`scan`]'s state between samples.
+impl Scanned {
+    /// The scan's report from its hottest channel, its first thermal violation and
+    /// what stopped it.
+    fn of(hottest: Heat, thermal: Option<LimitViolation>, stop: Option<LimitViolation>) -> Self {
+        Scanned {
+            stopped: stop.is_some(),
+            violation: thermal.or(stop),
+            level: hottest.hottest,
+            slope: hottest.hottest_run * (1.0 / OUTPUT_RATE_HZ),
+        }
+    }
+}
+
+/// [`scan`]'s state between samples, for the `N` channels from `FIRST` on.
 #[derive(Clone)]
-struct Scan {
+struct Scan<const FIRST: usize, const N: usize> {
     /// The last sample's currents (0 A before the first).
-    previous: [f64; CHANNELS],
-    heat: [Heat; CHANNELS],
+    previous: [f64; N],
+    heat: [Heat; N],
     /// The first thermal violation, once there is one.
     thermal: Option<LimitViolation>,
 }
@@ -238,7 +275,44 @@ impl Heat {
     }
 }
 
-impl Scan {
+impl<const FIRST: usize, const N: usize> Scan<FIRST, N> {
+    /// Scans channels `FIRST..FIRST + N` of `scale * signal`: the state at the end (or
+    /// where it stopped) and the first peak, slew or non-finite violation, if any.
+    fn run(
+        signal: &[[f64; CHANNELS]],
+        scale: f64,
+        limits: &Limits,
+    ) -> (Self, Option<LimitViolation>) {
+        let mut state = Scan {
+            previous: [0.0; N],
+            heat: [Heat::default(); N],
+            thermal: None,
+        };
+        for (b, block) in signal.chunks(SCAN_BLOCK).enumerate() {
+            let start = state.clone();
+            if state.block_passes(block, scale, limits) {
+                continue;
+            }
+            state = start;
+            if let Some(stop) = state.walk(block, b * SCAN_BLOCK, scale, limits) {
+                return (state, Some(stop));
+            }
+        }
+        // The device rests at 0 A after playback: the last step is to 0 A.
+        for (c, &current) in state.previous.iter().enumerate() {
+            if current.abs() > limits.slew_a_per_ms {
+                let v = LimitViolation::Slew {
+                    channel: FIRST + c,
+                    sample: signal.len(),
+                    step_a: current.abs(),
+                    limit_a_per_ms: limits.slew_a_per_ms,
+                };
+                return (state, Some(v));
+            }
+        }
+        (state, None)
+    }
+
     /// Runs `block` in lanes; true when it has nothing to report (no peak, slew or
     /// non-finite sample, and no first thermal violation), else the state is to be
     /// thrown away and the block walked.
@@ -249,11 +323,11 @@ impl Scan {
         // (a chain through every sample) on samples the first pass left in L1.
         // [`within`] is false for NaN, and an infinity is above any finite limit, so a
         // block without a raised flag is finite on every channel.
-        let mut breaks = [false; CHANNELS];
+        let mut breaks = [false; N];
         let mut previous = self.previous;
         for frame in block {
-            for c in 0..CHANNELS {
-                let current = scale * frame[c];
+            for c in 0..N {
+                let current = scale * frame[FIRST + c];
                 let step = current - previous[c];
                 breaks[c] |= !(within(current, limits.peak_a) & within(step, limits.slew_a_per_ms));
                 previous[c] = current;
@@ -262,15 +336,15 @@ impl Scan {
         if breaks.iter().any(|&b| b) {
             return false;
         }
-        // The buckets field by field in lanes of eight (vectorises; the same steps as
+        // The buckets field by field in lanes (vectorises; the same steps as
         // [`Heat::take`]).
         let mut bucket = self.heat.map(|h| h.bucket);
         let mut hottest = self.heat.map(|h| h.hottest);
         let mut run = self.heat.map(|h| h.run);
         let mut hottest_run = self.heat.map(|h| h.hottest_run);
         for frame in block {
-            for c in 0..CHANNELS {
-                let x = frame[c];
+            for c in 0..N {
+                let x = frame[FIRST + c];
                 bucket[c] = heat(bucket[c], scale * x, leak);
                 run[c] = if bucket[c] > 0.0 { run[c] + x * x } else { 0.0 };
                 let higher = bucket[c] > hottest[c];
@@ -305,9 +379,10 @@ impl Scan {
     ) -> Option<LimitViolation> {
         let leak = limits.continuous_a * limits.continuous_a;
         for (sample, frame) in (start..).zip(block) {
-            for (channel, &value) in frame.iter().enumerate() {
+            for (c, &value) in frame[FIRST..FIRST + N].iter().enumerate() {
+                let channel = FIRST + c;
                 let current = scale * value;
-                let step_a = (current - self.previous[channel]).abs();
+                let step_a = (current - self.previous[c]).abs();
                 if !current.is_finite() {
                     return Some(LimitViolation::NotFinite { channel, sample });
                 } else if current.abs() > limits.peak_a {
@@ -325,9 +400,9 @@ impl Scan {
                         limit_a_per_ms: limits.slew_a_per_ms,
                     });
                 }
-                self.previous[channel] = current;
-                self.heat[channel].take(value, scale, leak);
-                let b = self.heat[channel].bucket;
+                self.previous[c] = current;
+                self.heat[c].take(value, scale, leak);
+                let b = self.heat[c].bucket;
                 if self.thermal.is_none() && b > limits.thermal_budget_a2s {
                     self.thermal = Some(LimitViolation::Thermal {
                         channel,
@@ -341,19 +416,12 @@ impl Scan {
         None
     }
 
-    /// What [`scan`] returns: the first thermal violation if there was one, else
-    /// `stop`; the highest bucket level of any channel, and its slope.
-    fn result(self, stop: Option<LimitViolation>) -> Scanned {
-        let hottest =
-            self.heat.iter().fold(
-                Heat::default(),
-                |m, &h| if h.hottest > m.hottest { h } else { m },
-            );
-        Scanned {
-            violation: self.thermal.or(stop),
-            level: hottest.hottest,
-            slope: hottest.hottest_run * (1.0 / OUTPUT_RATE_HZ),
-        }
+    /// The hottest of these channels, the lowest on a tie.
+    fn hottest(&self) -> Heat {
+        self.heat.iter().fold(
+            Heat::default(),
+            |m, &h| if h.hottest > m.hottest { h } else { m },
+        )
     }
 }
 
@@ -425,30 +493,45 @@ pub fn fit_to(
     thermal_share: f64,
 ) -> Result<f64, LimitViolation> {
     validate_limits(limits)?;
-    match check_scaled(signal, 1.0, limits) {
-        Ok(()) => return Ok(1.0),
-        Err(e @ LimitViolation::NotFinite { .. }) => return Err(e),
-        Err(_) => {}
-    }
-    let limits = &Limits {
+    let shared = &Limits {
         thermal_budget_a2s: limits.thermal_budget_a2s * thermal_share,
         ..*limits
     };
-    validate_limits(limits)?;
-    let linear = linear_limit(signal, limits);
-    let at_linear = scan(signal, linear, limits);
+    validate_limits(shared)?;
+    // One scan at scale 1 answers for both budgets: the budget only decides where a
+    // thermal violation is named, not the levels, and a scan that did not stop breaks
+    // a budget exactly when its hottest level is above it.
+    let at_one = scan(signal, 1.0, shared);
+    if let Some(e @ LimitViolation::NotFinite { .. }) = at_one.violation {
+        return Err(e);
+    }
+    if !at_one.stopped && at_one.level <= limits.thermal_budget_a2s {
+        return Ok(1.0);
+    }
+    let linear = linear_limit(signal, shared);
+    let at_linear = if linear == 1.0 && !at_one.stopped {
+        at_one
+    } else {
+        scan(signal, linear, shared)
+    };
     let lo = match at_linear.violation {
         None => linear,
-        Some(LimitViolation::Thermal { .. }) => fit_thermal(signal, limits, linear, &at_linear),
+        Some(LimitViolation::Thermal { .. }) => fit_thermal(signal, shared, linear, &at_linear),
         // Peak or slew refused by rounding at their own exact factor: bisect below it.
-        Some(_) => bisect(|s| check_scaled(signal, s, limits).is_ok(), 0.0, linear),
+        Some(_) => bisect(|s| check_scaled(signal, s, shared).is_ok(), 0.0, linear),
     };
-    for frame in signal.iter_mut() {
-        for v in frame.iter_mut() {
-            *v *= lo;
-        }
-    }
+    scale_in_place(signal, lo);
     Ok(lo)
+}
+
+/// `signal *= scale`, in runs on the rayon pool (each sample's product is the same).
+fn scale_in_place(signal: &mut [[f64; CHANNELS]], scale: f64) {
+    use rayon::prelude::*;
+    signal.par_chunks_mut(1 << 14).for_each(|run| {
+        for v in run.iter_mut().flatten() {
+            *v *= scale;
+        }
+    });
 }
 
 /// How close [`fit`] gets to the largest passing factor: within 2^-32 of it.
@@ -518,16 +601,20 @@ const NEWTON_STEPS: usize = 12;
 /// The largest factor in `[0, 1]` that peak and slew allow (both linear in the scale),
 /// the steps from and back to 0 A included; 1 for a silent signal.
 fn linear_limit(signal: &[[f64; CHANNELS]], limits: &Limits) -> f64 {
-    let mut peak = 0.0_f64;
-    let mut step = 0.0_f64;
+    // Per channel, in lanes (vectorises; one chain of maxima does not). A comparison,
+    // not `f64::max`: the same maximum of these finite values, in one instruction.
+    let larger = |m: f64, v: f64| if v > m { v } else { m };
+    let mut peak = [0.0_f64; CHANNELS];
+    let mut step = [0.0_f64; CHANNELS];
     let mut previous = [0.0_f64; CHANNELS];
     for frame in signal.iter().chain(std::iter::once(&[0.0; CHANNELS])) {
-        for (p, &v) in previous.iter_mut().zip(frame) {
-            peak = peak.max(v.abs());
-            step = step.max((v - *p).abs());
-            *p = v;
+        for c in 0..CHANNELS {
+            peak[c] = larger(peak[c], frame[c].abs());
+            step[c] = larger(step[c], (frame[c] - previous[c]).abs());
+            previous[c] = frame[c];
         }
     }
+    let (peak, step) = (peak.into_iter().fold(0.0, larger), step.into_iter().fold(0.0, larger));
     let ratio = |limit: f64, value: f64| if value > 0.0 { limit / value } else { 1.0 };
     ratio(limits.peak_a, peak)
         .min(ratio(limits.slew_a_per_ms, step))
@@ -551,7 +638,7 @@ mod tests {
         let mut hottest = [(0.0_f64, 0.0_f64); CHANNELS];
         let mut run = [0.0_f64; CHANNELS];
         let mut thermal = None;
-        let done = |hottest: [(f64, f64); CHANNELS], violation| {
+        let done = |hottest: [(f64, f64); CHANNELS], violation, stopped| {
             let mut top = (0.0, 0.0);
             for h in hottest {
                 if h.0 > top.0 {
@@ -559,6 +646,7 @@ mod tests {
                 }
             }
             Scanned {
+                stopped,
                 violation,
                 level: top.0,
                 slope: top.1 * dt_s,
@@ -588,7 +676,7 @@ mod tests {
                     None
                 };
                 if let Some(v) = stop {
-                    return done(hottest, Some(thermal.unwrap_or(v)));
+                    return done(hottest, Some(thermal.unwrap_or(v)), true);
                 }
                 previous[channel] = current;
                 bucket[channel] = (bucket[channel] + (current * current - leak) * dt_s).max(0.0);
@@ -619,10 +707,10 @@ mod tests {
                     step_a: current.abs(),
                     limit_a_per_ms: limits.slew_a_per_ms,
                 };
-                return done(hottest, Some(thermal.unwrap_or(v)));
+                return done(hottest, Some(thermal.unwrap_or(v)), true);
             }
         }
-        done(hottest, thermal)
+        done(hottest, thermal, false)
     }
 
     /// Slow random walks per channel (within the slew limit) with ramps at both ends,
@@ -657,11 +745,50 @@ mod tests {
         })
     }
 
+    /// Channels at `levels` (A), each reached by a 40 ms ramp, held for `n` ms.
+    fn held(levels: [f64; CHANNELS], n: usize) -> Vec<[f64; CHANNELS]> {
+        (0..n)
+            .map(|t| levels.map(|a| a * (t as f64 / 40.0).min(1.0)))
+            .collect()
+    }
+
+    /// Where the halves' first thermal violations meet, the merged scan names the
+    /// earlier sample, and on the same sample the lower channel: what one pass names.
+    #[test]
+    fn halves_name_the_first_thermal_violation_as_one_scan_does() {
+        let limits = Limits {
+            thermal_budget_a2s: 0.02,
+            continuous_a: 0.1,
+            ..Limits::default()
+        };
+        let cases = [
+            // Channels 2 and 5 (one per half) cross on the same sample: channel 2.
+            ([0.0, 0.0, 0.5, 0.0, 0.0, 0.5, 0.0, 0.0], 2),
+            // Channel 6 is hotter and crosses first: channel 6, not the lower channel 1.
+            ([0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.7, 0.0], 6),
+            // Only the low half: channel 3.
+            ([0.0, 0.0, 0.0, 0.6, 0.0, 0.0, 0.0, 0.0], 3),
+        ];
+        for (levels, expected) in cases {
+            let signal = held(levels, 2_000);
+            let plain = plain_scan(&signal, 1.0, &limits);
+            let halves = scan_halves(&signal, 1.0, &limits);
+            assert!(
+                matches!(halves.violation, Some(LimitViolation::Thermal { channel, .. }) if channel == expected),
+                "{:?}",
+                halves.violation
+            );
+            assert_eq!(halves, plain);
+            assert_eq!(scan_whole(&signal, 1.0, &limits), plain);
+        }
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(256))]
 
         /// The lanes and blocks report exactly what the plain loop reports: the same
-        /// first violation (sample, channel, figure), hottest level and slope.
+        /// first violation (sample, channel, figure), whether it stopped, hottest level
+        /// and slope; whole or in halves.
         #[test]
         fn scan_reports_what_the_plain_loop_reports(
             signal in signals(),
@@ -674,11 +801,14 @@ mod tests {
                 continuous_a: continuous,
                 ..Limits::default()
             };
-            let fast = scan(&signal, scale, &limits);
             let plain = plain_scan(&signal, scale, &limits);
-            prop_assert_eq!(fast.violation, plain.violation);
-            prop_assert_eq!(fast.level.to_bits(), plain.level.to_bits());
-            prop_assert_eq!(fast.slope.to_bits(), plain.slope.to_bits());
+            // One pass over all channels, and two halves on two threads.
+            for fast in [scan_whole(&signal, scale, &limits), scan_halves(&signal, scale, &limits)] {
+                prop_assert_eq!(&fast.violation, &plain.violation);
+                prop_assert_eq!(fast.stopped, plain.stopped);
+                prop_assert_eq!(fast.level.to_bits(), plain.level.to_bits());
+                prop_assert_eq!(fast.slope.to_bits(), plain.slope.to_bits());
+            }
         }
     }
 }
