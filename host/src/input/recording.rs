@@ -430,53 +430,64 @@ fn leading_baseline(data: ArrayView3<f64>, frames: usize) -> Array2<f64> {
 /// read, which the tare then turns into 0 ("no cell").
 fn robust_baseline(data: ArrayView3<f64>, q: f64) -> Array2<f64> {
     let (_, r, c) = data.dim();
-    let mut baseline = Array2::<f64>::zeros((r, c));
-    for_each_cell_series(data, |cell, values| {
+    let quantiles = map_cell_series(data, |values| {
         values.retain(|v| !v.is_nan());
-        baseline[[cell / c, cell % c]] = quantile(values, q);
+        quantile(values, q)
     });
-    baseline
+    Array2::from_shape_fn((r, c), |(i, j)| quantiles[i * c + j])
 }
 
-/// Calls `visit(cell, series)` for every cell of `data` (`[T, R, C]`), in row-major cell
-/// order, with the cell's readings in time order (a scratch buffer the visitor may
-/// reorder). The series are gathered eight cells at a time in one pass over the frames:
-/// a cell's readings lie a frame apart, so a pass per cell reads a whole cache line for
-/// each reading (an hour of the paper's sleeve, 97 MB, read 168 times over).
-pub(crate) fn for_each_cell_series(
+/// `f(series)` for every cell of `data` (`[T, R, C]`), in row-major cell order, with the
+/// cell's readings in time order (a scratch buffer `f` may reorder). The series are
+/// gathered eight cells at a time in one pass over the frames: a cell's readings lie a
+/// frame apart, so a pass per cell reads a whole cache line for each reading (an hour of
+/// the paper's sleeve, 97 MB, read 168 times over). The groups of eight run on the rayon
+/// pool, a few at a time (memory: eight series per thread), and the results come back
+/// in cell order whatever the number of threads.
+pub(crate) fn map_cell_series<R: Send>(
     data: ArrayView3<f64>,
-    mut visit: impl FnMut(usize, &mut Vec<f64>),
-) {
+    f: impl Fn(&mut Vec<f64>) -> R + Sync,
+) -> Vec<R> {
+    use rayon::prelude::*;
     const GROUP: usize = 8;
     let (t, r, c) = data.dim();
     let cells = r * c;
-    // Eight series side by side, `t` readings each, filled by index (a push per reading
-    // costs more than the reading).
-    let mut group = vec![0.0; GROUP.min(cells) * t];
-    let mut series = Vec::with_capacity(t);
-    for first in (0..cells).step_by(GROUP) {
-        let n = GROUP.min(cells - first);
-        for (f, frame) in data.axis_iter(Axis(0)).enumerate() {
-            match frame.as_slice() {
-                Some(readings) => {
-                    for (k, &v) in readings[first..first + n].iter().enumerate() {
-                        group[k * t + f] = v;
+    let firsts: Vec<usize> = (0..cells).step_by(GROUP).collect();
+    let groups: Vec<Vec<R>> = firsts
+        .into_par_iter()
+        .map(|first| {
+            let n = GROUP.min(cells - first);
+            // Eight series side by side, `t` readings each, filled by index (a push per
+            // reading costs more than the reading).
+            let mut group = vec![0.0; n * t];
+            for (i, frame) in data.axis_iter(Axis(0)).enumerate() {
+                match frame.as_slice() {
+                    Some(readings) => {
+                        for (k, &v) in readings[first..first + n].iter().enumerate() {
+                            group[k * t + i] = v;
+                        }
                     }
-                }
-                None => {
-                    for k in 0..n {
-                        let cell = first + k;
-                        group[k * t + f] = frame[[cell / c, cell % c]];
+                    None => {
+                        for k in 0..n {
+                            let cell = first + k;
+                            group[k * t + i] = frame[[cell / c, cell % c]];
+                        }
                     }
                 }
             }
-        }
-        for (k, readings) in group.chunks_exact(t.max(1)).take(n).enumerate() {
-            series.clear();
-            series.extend_from_slice(readings);
-            visit(first + k, &mut series);
-        }
-    }
+            let mut series = Vec::with_capacity(t);
+            group
+                .chunks_exact(t.max(1))
+                .take(n)
+                .map(|readings| {
+                    series.clear();
+                    series.extend_from_slice(readings);
+                    f(&mut series)
+                })
+                .collect()
+        })
+        .collect();
+    groups.into_iter().flatten().collect()
 }
 
 /// The `q`-quantile of `values` (reordered in place); NaN when empty.

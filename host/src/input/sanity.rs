@@ -11,7 +11,7 @@
 use ndarray::{ArrayView3, Axis};
 
 use crate::config::{Baseline, Config, Sampling};
-use crate::input::recording::{for_each_cell_series, Recording};
+use crate::input::recording::{map_cell_series, Recording};
 
 /// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
 /// and looks like raw ADC counts.
@@ -94,13 +94,14 @@ pub fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
 /// The dominant deviation from each cell's resting level (its median) is negative: a
 /// sensor whose reading falls with pressure (e.g. 10-bit counts near 1020 at rest).
 pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> {
-    let (mut below, mut above) = (0usize, 0usize);
-    let mut deepest = 0.0f64;
-    for_each_cell_series(raw, |_, cell| {
+    // Per cell: readings below and above its rest by more than `threshold`, and the
+    // deepest fall.
+    let cells = map_cell_series(raw, |cell| {
         cell.retain(|v| v.is_finite());
         let Some(rest) = median(cell) else {
-            return;
+            return (0usize, 0usize, 0.0f64);
         };
+        let (mut below, mut above, mut deepest) = (0, 0, 0.0f64);
         for &v in cell.iter() {
             let d = v - rest;
             if d < -threshold {
@@ -110,7 +111,11 @@ pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> 
                 above += 1;
             }
         }
+        (below, above, deepest)
     });
+    let (below, above, deepest) = cells
+        .into_iter()
+        .fold((0, 0, 0.0f64), |(b, a, d), (cb, ca, cd)| (b + cb, a + ca, d.min(cd)));
     // Noise deviates both ways about equally; touch on a falling sensor only down.
     (below > 2 * above && below >= 10).then(|| {
         format!(
@@ -136,22 +141,20 @@ pub fn touch_in_tare_window(
     }
     let threshold = cfg.input.touch_threshold_psi;
     let q = cfg.input.baseline_quantile.clamp(0.0, 1.0);
-    let (mut cells, mut highest) = (0usize, 0.0f64);
-    for_each_cell_series(raw, |_, values| {
+    // Per cell: how far its mean in the window lies above its rest, if it is read there.
+    let excess = map_cell_series(raw, |values| {
         let window = &values[..frames];
         if window.iter().any(|v| !v.is_finite()) {
-            return; // the leading baseline makes such a cell "no cell" anyway
+            return None; // the leading baseline makes such a cell "no cell" anyway
         }
         let mean = window.iter().fold(0.0, |sum, &v| sum + v) / frames as f64;
         values.retain(|v| v.is_finite());
         let at = (q * (values.len() - 1) as f64).round() as usize;
         let (_, &mut rest, _) = values.select_nth_unstable_by(at, f64::total_cmp);
-        let excess = mean - rest;
-        if excess > threshold {
-            cells += 1;
-            highest = highest.max(excess);
-        }
+        Some(mean - rest)
     });
+    let over: Vec<f64> = excess.into_iter().flatten().filter(|&e| e > threshold).collect();
+    let (cells, highest) = (over.len(), over.iter().fold(0.0f64, |m, &e| m.max(e)));
     (cells > 0).then(|| {
         format!(
             "touch in the tare window: {cells} cell(s) read up to {highest:.3} psi above \
@@ -289,13 +292,11 @@ mod tests {
         let transposed = data.view().reversed_axes().to_owned();
         let transposed = transposed.view().reversed_axes();
         for view in [data.view(), transposed] {
-            let mut seen = Vec::new();
-            for_each_cell_series(view, |cell, s| seen.push((cell, s.clone())));
-            let lanes: Vec<(usize, Vec<f64>)> = view
+            let seen = map_cell_series(view, |s| s.clone());
+            let lanes: Vec<Vec<f64>> = view
                 .lanes(Axis(0))
                 .into_iter()
-                .enumerate()
-                .map(|(cell, lane)| (cell, lane.to_vec()))
+                .map(|lane| lane.to_vec())
                 .collect();
             assert_eq!(seen, lanes);
         }
