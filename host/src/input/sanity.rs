@@ -8,7 +8,7 @@
 //! ([`raw_counts`], [`falls_with_touch`]) come first: when either fires, the psi
 //! thresholds the later checks use mean nothing, so those are skipped.
 
-use ndarray::{ArrayView3, Axis};
+use ndarray::{ArrayView2, ArrayView3, Axis};
 
 use crate::config::{Baseline, Config, Sampling};
 use crate::input::recording::{map_cell_series, Recording};
@@ -38,17 +38,29 @@ pub fn check(
     let raw = rec.data();
     let threshold = cfg.input.touch_threshold_psi;
     let mut out = Vec::new();
-    let units = [raw_counts(raw), falls_with_touch(raw, threshold)];
+    // The checks of the raw readings and those of the tared touch side by side (an hour
+    // is 12 M readings); the warnings in the same order either way.
+    let (units, (in_tare, centroids)) = rayon::join(
+        || [raw_counts(raw), falls_with_touch(raw, threshold)],
+        || {
+            rayon::join(
+                || {
+                    (cfg.input.baseline == Baseline::Leading)
+                        .then(|| touch_in_tare_window(raw, cfg, sampling))
+                        .flatten()
+                },
+                || centroids(tared, threshold),
+            )
+        },
+    );
     let units_wrong = units.iter().any(Option::is_some);
     out.extend(units.into_iter().flatten());
     if units_wrong {
         return out;
     }
-    if cfg.input.baseline == Baseline::Leading {
-        out.extend(touch_in_tare_window(raw, cfg, sampling));
-    }
-    out.extend(implausible_speed(tared, threshold, sampling));
-    out.extend(single_frame_touches(tared, threshold, sampling));
+    out.extend(in_tare);
+    out.extend(speed_of(&centroids, sampling));
+    out.extend(single_frames_of(&centroids, sampling));
     out
 }
 
@@ -68,12 +80,21 @@ fn median(values: &mut [f64]) -> Option<f64> {
 /// recording (97 MB for an hour of the paper's sleeve); only a recording that is
 /// warned about is copied, to name its median.
 pub fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
-    let (mut finite, mut high, mut low) = (0usize, 0usize, 0usize);
-    for &v in raw.iter().filter(|v| v.is_finite()) {
-        finite += 1;
-        high += usize::from(v >= RAW_COUNTS_MEDIAN);
-        low += usize::from(v <= -RAW_COUNTS_MEDIAN);
-    }
+    use rayon::prelude::*;
+    // Counts, so any order gives the same; by frames on the rayon pool.
+    let count = |frame: ArrayView2<f64>| {
+        let (mut finite, mut high, mut low) = (0usize, 0usize, 0usize);
+        for &v in frame.iter().filter(|v| v.is_finite()) {
+            finite += 1;
+            high += usize::from(v >= RAW_COUNTS_MEDIAN);
+            low += usize::from(v <= -RAW_COUNTS_MEDIAN);
+        }
+        (finite, high, low)
+    };
+    let (finite, high, low) = (0..raw.dim().0)
+        .into_par_iter()
+        .map(|f| count(raw.index_axis(Axis(0), f)))
+        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
     // The median is the reading at sorted position `finite / 2` ([`median`]): at or
     // above the bound when the readings from there on all are, at or below minus the
     // bound when those up to there all are.
@@ -115,7 +136,9 @@ pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> 
     });
     let (below, above, deepest) = cells
         .into_iter()
-        .fold((0, 0, 0.0f64), |(b, a, d), (cb, ca, cd)| (b + cb, a + ca, d.min(cd)));
+        .fold((0, 0, 0.0f64), |(b, a, d), (cb, ca, cd)| {
+            (b + cb, a + ca, d.min(cd))
+        });
     // Noise deviates both ways about equally; touch on a falling sensor only down.
     (below > 2 * above && below >= 10).then(|| {
         format!(
@@ -153,7 +176,11 @@ pub fn touch_in_tare_window(
         let (_, &mut rest, _) = values.select_nth_unstable_by(at, f64::total_cmp);
         Some(mean - rest)
     });
-    let over: Vec<f64> = excess.into_iter().flatten().filter(|&e| e > threshold).collect();
+    let over: Vec<f64> = excess
+        .into_iter()
+        .flatten()
+        .filter(|&e| e > threshold)
+        .collect();
     let (cells, highest) = (over.len(), over.iter().fold(0.0f64, |m, &e| m.max(e)));
     (cells > 0).then(|| {
         format!(
@@ -167,17 +194,21 @@ pub fn touch_in_tare_window(
 }
 
 /// The pressure-weighted centroid, in cells, of the readings above `threshold` in each
-/// frame (`None` in a frame without touch).
+/// frame (`None` in a frame without touch); frames on the rayon pool.
 fn centroids(tared: ArrayView3<f64>, threshold: f64) -> Vec<Option<(f64, f64)>> {
-    tared
-        .axis_iter(Axis(0))
-        .map(|frame| {
+    use rayon::prelude::*;
+    (0..tared.dim().0)
+        .into_par_iter()
+        .map(|f| {
+            let frame = tared.index_axis(Axis(0), f);
             let (mut w, mut r, mut c) = (0.0, 0.0, 0.0);
-            for ((row, col), &v) in frame.indexed_iter() {
-                if v > threshold {
-                    w += v;
-                    r += v * row as f64;
-                    c += v * col as f64;
+            for (row, readings) in frame.outer_iter().enumerate() {
+                for (col, &v) in readings.iter().enumerate() {
+                    if v > threshold {
+                        w += v;
+                        r += v * row as f64;
+                        c += v * col as f64;
+                    }
                 }
             }
             (w > 0.0).then(|| (r / w, c / w))
@@ -192,7 +223,11 @@ pub fn implausible_speed(
     threshold: f64,
     sampling: &Sampling,
 ) -> Option<String> {
-    let cs = centroids(tared, threshold);
+    speed_of(&centroids(tared, threshold), sampling)
+}
+
+/// [`implausible_speed`] of the frames' centroids.
+fn speed_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<String> {
     let mut speeds: Vec<f64> = cs
         .windows(2)
         .filter_map(|w| match (w[0], w[1]) {
@@ -226,14 +261,15 @@ pub fn single_frame_touches(
     threshold: f64,
     sampling: &Sampling,
 ) -> Option<String> {
-    let touched: Vec<bool> = centroids(tared, threshold)
-        .iter()
-        .map(Option::is_some)
-        .collect();
+    single_frames_of(&centroids(tared, threshold), sampling)
+}
+
+/// [`single_frame_touches`] of the frames' centroids.
+fn single_frames_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<String> {
     let mut runs = Vec::new();
     let mut len = 0usize;
-    for &t in touched.iter().chain([false].iter()) {
-        if t {
+    for touched in cs.iter().map(Option::is_some).chain([false]) {
+        if touched {
             len += 1;
         } else if len > 0 {
             runs.push(len);

@@ -774,7 +774,9 @@ impl<'s> PlaybackErrors<'s> {
         };
         PlaybackErrors {
             signal,
-            amps: (0..4096u16).map(|c| code_to_amps(c, full_scale_ma)).collect(),
+            amps: (0..4096u16)
+                .map(|c| code_to_amps(c, full_scale_ma))
+                .collect(),
             full_scale_ma,
             fs_a: f64::from(full_scale_ma) / 1000.0,
             sum2: 0.0,
@@ -788,7 +790,11 @@ impl<'s> PlaybackErrors<'s> {
     /// Adds one tick's codes; false once the error is sure to miss the bounds.
     #[inline]
     fn add(&mut self, codes: &[u16; CHANNELS]) -> bool {
-        let want = self.signal.get(self.ticks).copied().unwrap_or([0.0; CHANNELS]);
+        let want = self
+            .signal
+            .get(self.ticks)
+            .copied()
+            .unwrap_or([0.0; CHANNELS]);
         let mut over = false;
         for (c, &code) in codes.iter().enumerate() {
             let amps = match self.amps.get(usize::from(code)) {
@@ -892,7 +898,10 @@ mod tests {
             assert_eq!(outcome, expected, "{limits:?} {bounds:?}");
             match (in_turn, pipelined) {
                 (Ok(a), Ok(b)) => {
-                    assert_eq!((a.0.to_bits(), a.1.to_bits()), (b.0.to_bits(), b.1.to_bits()));
+                    assert_eq!(
+                        (a.0.to_bits(), a.1.to_bits()),
+                        (b.0.to_bits(), b.1.to_bits())
+                    );
                 }
                 (a, b) => assert_eq!(format!("{a:?}"), format!("{b:?}")),
             }

@@ -182,7 +182,11 @@ fn scan_halves(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scann
     // lower one on a tie (as one scan's fold over the channels picks it).
     let (l, h) = (low.hottest(), high.hottest());
     let thermal = match (low.thermal, high.thermal) {
-        (Some(a), Some(b)) => Some(if first_sample(&b) < first_sample(&a) { b } else { a }),
+        (Some(a), Some(b)) => Some(if first_sample(&b) < first_sample(&a) {
+            b
+        } else {
+            a
+        }),
         (a, b) => a.or(b),
     };
     Scanned::of(if h.hottest > l.hottest { h } else { l }, thermal, None)
@@ -614,7 +618,10 @@ fn linear_limit(signal: &[[f64; CHANNELS]], limits: &Limits) -> f64 {
             previous[c] = frame[c];
         }
     }
-    let (peak, step) = (peak.into_iter().fold(0.0, larger), step.into_iter().fold(0.0, larger));
+    let (peak, step) = (
+        peak.into_iter().fold(0.0, larger),
+        step.into_iter().fold(0.0, larger),
+    );
     let ratio = |limit: f64, value: f64| if value > 0.0 { limit / value } else { 1.0 };
     ratio(limits.peak_a, peak)
         .min(ratio(limits.slew_a_per_ms, step))
