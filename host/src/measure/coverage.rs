@@ -13,6 +13,7 @@
 //! unexplained cells lets a picture show the touch that no contact explains.
 
 use ndarray::{Array3, ArrayView3, Axis};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::tracking::trajectory::Trajectory;
@@ -101,29 +102,39 @@ pub fn classify(
         by_frame[p.frame].push((p.row, p.col));
     }
     let r2 = radius_cells * radius_cells;
-    let mut out = Array3::from_elem((t, rows, cols), Cell::Quiet);
-    for (f, (frame, mut cells)) in tared
-        .axis_iter(Axis(0))
-        .zip(out.axis_iter_mut(Axis(0)))
+    // Frame by frame on the rayon pool (each frame's cells depend on that frame only).
+    let frame_cells = rows * cols;
+    let mut cells = vec![Cell::Quiet; t * frame_cells];
+    cells
+        .par_chunks_mut(frame_cells.max(1))
         .enumerate()
-    {
-        let near = &by_frame[f];
-        for ((r, c), &v) in frame.indexed_iter() {
-            // NaN compares false: "no cell" is never touch.
-            if v > threshold_psi {
-                let hit = near.iter().any(|&(pr, pc)| {
-                    let (dr, dc) = (pr - r as f64, pc - c as f64);
-                    dr * dr + dc * dc <= r2
-                });
-                cells[[r, c]] = if hit {
-                    Cell::Explained
-                } else {
-                    Cell::Unexplained
-                };
+        .for_each(|(f, cells)| {
+            let near = &by_frame[f];
+            for ((r, readings), cells) in tared
+                .index_axis(Axis(0), f)
+                .outer_iter()
+                .enumerate()
+                .zip(cells.chunks_exact_mut(cols.max(1)))
+            {
+                for ((c, &v), cell) in readings.iter().enumerate().zip(cells) {
+                    // NaN compares false: "no cell" is never touch.
+                    if v > threshold_psi {
+                        let hit = near.iter().any(|&(pr, pc)| {
+                            let (dr, dc) = (pr - r as f64, pc - c as f64);
+                            dr * dr + dc * dc <= r2
+                        });
+                        *cell = if hit {
+                            Cell::Explained
+                        } else {
+                            Cell::Unexplained
+                        };
+                    }
+                }
             }
-        }
-    }
-    out
+        });
+    // `t * rows * cols` cells by construction: the shape always fits.
+    Array3::from_shape_vec((t, rows, cols), cells)
+        .unwrap_or_else(|_| Array3::from_elem((t, rows, cols), Cell::Quiet))
 }
 
 /// The coverage of `tared` by the contact `points` (see the module docs).
@@ -273,32 +284,32 @@ pub fn explain(
     for p in points.iter().filter(|p| p.frame < frames) {
         tracked[p.frame] = true;
     }
-    // Per frame: touch present, unexplained pressure, pressure centroid.
-    let mut touched = vec![false; frames];
-    let mut missed = vec![0.0; frames];
-    let mut centroid = vec![None; frames];
-    for (f, (frame, class)) in tared
-        .axis_iter(Axis(0))
-        .zip(cells.axis_iter(Axis(0)))
-        .enumerate()
-    {
-        let (mut w, mut sr, mut sc) = (0.0, 0.0, 0.0);
-        for (((r, c), &v), &cell) in frame.indexed_iter().zip(class.iter()) {
-            if cell == Cell::Quiet {
-                continue;
+    // Per frame (on the rayon pool): touch present, unexplained pressure, pressure
+    // centroid.
+    let per_frame: Vec<(bool, f64, Option<(f64, f64)>)> = (0..frames)
+        .into_par_iter()
+        .map(|f| {
+            let (frame, class) = (tared.index_axis(Axis(0), f), cells.index_axis(Axis(0), f));
+            let (mut touched, mut missed) = (false, 0.0);
+            let (mut w, mut sr, mut sc) = (0.0, 0.0, 0.0);
+            for (((r, c), &v), &cell) in frame.indexed_iter().zip(class.iter()) {
+                if cell == Cell::Quiet {
+                    continue;
+                }
+                touched = true;
+                w += v;
+                sr += v * r as f64;
+                sc += v * c as f64;
+                if cell == Cell::Unexplained {
+                    missed += v;
+                }
             }
-            touched[f] = true;
-            w += v;
-            sr += v * r as f64;
-            sc += v * c as f64;
-            if cell == Cell::Unexplained {
-                missed[f] += v;
-            }
-        }
-        if w > 0.0 {
-            centroid[f] = Some((sr / w, sc / w));
-        }
-    }
+            (touched, missed, (w > 0.0).then(|| (sr / w, sc / w)))
+        })
+        .collect();
+    let touched: Vec<bool> = per_frame.iter().map(|p| p.0).collect();
+    let missed: Vec<f64> = per_frame.iter().map(|p| p.1).collect();
+    let centroid: Vec<Option<(f64, f64)>> = per_frame.iter().map(|p| p.2).collect();
     let total: f64 = missed.iter().sum();
     let mut m = Misses::default();
     // Runs of touched frames, and the gaps between them.
