@@ -12,6 +12,7 @@
 //! (the published code appends silent frames after the active ones; that is a bug).
 
 use ndarray::{ArrayView2, ArrayView3, Axis};
+use rayon::prelude::*;
 
 use crate::geometry::{pixel_centre_mm, Circle};
 use crate::tracking::trajectory::Trajectory;
@@ -135,15 +136,15 @@ pub fn actuator_signals(
 /// [`actuator_signals`] without the blurred movie: `dim` is its shape `[T, rows_px,
 /// cols_px]`, and `frame(t, read)` calls `read` with blurred frame `t`. Only the
 /// neighbour fill reads pixels, so `frame` is asked only for the frames where some
-/// channel fills, once each, in increasing order: a caller can recompute just those
-/// frames instead of keeping every one.
+/// channel fills, once each, from the threads of the rayon pool in any order: a caller
+/// can recompute just those frames instead of keeping every one.
 pub fn actuator_signals_with(
     trajs: &[Trajectory],
     selected: &[usize],
     circles: &[Circle; CHANNELS],
     dim: (usize, usize, usize),
     pitch_mm: f64,
-    mut frame: impl FnMut(usize, &mut dyn FnMut(ArrayView2<f64>)),
+    frame: impl Fn(usize, &mut dyn FnMut(ArrayView2<f64>)) + Sync,
 ) -> ChannelSignals {
     let (frames, rows, cols) = dim;
     let mut psi: [Vec<f64>; CHANNELS] = std::array::from_fn(|_| vec![0.0; frames]);
@@ -183,30 +184,43 @@ pub fn actuator_signals_with(
     let renders = |source: &[Vec<Source>; CHANNELS], ch: usize, t: usize| {
         matches!(source[ch][t], Source::Trajectory(_))
     };
-    for t in 0..frames {
-        let mut fill = [false; CHANNELS];
-        for (ch, f) in fill.iter_mut().enumerate() {
-            if renders(&source, ch, t) || pixels[ch].is_empty() {
-                continue;
+    // The frames where some channel fills, and which channels: decided from rule-1
+    // states only, so all of them first; then their pixels, frames on the rayon pool.
+    let fills: Vec<(usize, [bool; CHANNELS])> = (0..frames)
+        .filter_map(|t| {
+            let mut fill = [false; CHANNELS];
+            for (ch, f) in fill.iter_mut().enumerate() {
+                if renders(&source, ch, t) || pixels[ch].is_empty() {
+                    continue;
+                }
+                let (row, col) = (ch / COLUMNS, ch % COLUMNS);
+                let left = col > 0 && renders(&source, row * COLUMNS + col - 1, t);
+                let right = col + 1 < COLUMNS && renders(&source, row * COLUMNS + col + 1, t);
+                *f = left || right;
             }
-            let (row, col) = (ch / COLUMNS, ch % COLUMNS);
-            let left = col > 0 && renders(&source, row * COLUMNS + col - 1, t);
-            let right = col + 1 < COLUMNS && renders(&source, row * COLUMNS + col + 1, t);
-            *f = left || right;
+            fill.contains(&true).then_some((t, fill))
+        })
+        .collect();
+    let values: Vec<[f64; CHANNELS]> = fills
+        .par_iter()
+        .map(|&(t, fill)| {
+            let mut value = [f64::NEG_INFINITY; CHANNELS];
+            frame(t, &mut |blurred| {
+                for ch in (0..CHANNELS).filter(|&ch| fill[ch]) {
+                    value[ch] = pixels[ch]
+                        .iter()
+                        .map(|&(r, c)| blurred[[r, c]])
+                        .fold(f64::NEG_INFINITY, f64::max);
+                }
+            });
+            value
+        })
+        .collect();
+    for (&(t, fill), value) in fills.iter().zip(&values) {
+        for ch in (0..CHANNELS).filter(|&ch| fill[ch]) {
+            psi[ch][t] = value[ch];
+            source[ch][t] = Source::NeighbourFill;
         }
-        if !fill.contains(&true) {
-            continue;
-        }
-        frame(t, &mut |blurred| {
-            for ch in (0..CHANNELS).filter(|&ch| fill[ch]) {
-                let max = pixels[ch]
-                    .iter()
-                    .map(|&(r, c)| blurred[[r, c]])
-                    .fold(f64::NEG_INFINITY, f64::max);
-                psi[ch][t] = max;
-                source[ch][t] = Source::NeighbourFill;
-            }
-        });
     }
 
     ChannelSignals { psi, source }

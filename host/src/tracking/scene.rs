@@ -20,7 +20,7 @@
 use std::ops::Range;
 use std::time::{Duration, Instant};
 
-use ndarray::{s, Array2, Array3, ArrayView2, ArrayView3, Axis};
+use ndarray::{s, Array3, ArrayView2, ArrayView3, Axis};
 use serde::Serialize;
 
 use crate::config::{Config, Sampling};
@@ -327,18 +327,13 @@ pub fn recomputed_actuator_signals(
     let (t, r, c) = tared.dim();
     let op = BlurOperator::new(r, c, &Blur::new(&cfg.preprocess, sampling))?;
     let (h, w) = op.out_dim();
-    let mut frame = Array2::<f64>::zeros((h, w));
-    let mut scratch = Vec::new();
     Ok(signals::actuator_signals_with(
         &tracked.trajectories,
         &placement.selected,
         &placement.circles,
         (t, h, w),
         tracked.pitch_mm(),
-        |f, read| {
-            op.apply_into(tared.index_axis(Axis(0), f), frame.view_mut(), &mut scratch);
-            read(frame.view());
-        },
+        |f, read| read(op.apply(tared.index_axis(Axis(0), f)).view()),
     ))
 }
 
