@@ -605,23 +605,40 @@ const NEWTON_STEPS: usize = 12;
 /// The largest factor in `[0, 1]` that peak and slew allow (both linear in the scale),
 /// the steps from and back to 0 A included; 1 for a silent signal.
 fn linear_limit(signal: &[[f64; CHANNELS]], limits: &Limits) -> f64 {
-    // Per channel, in lanes (vectorises; one chain of maxima does not). A comparison,
-    // not `f64::max`: the same maximum of these finite values, in one instruction.
+    use rayon::prelude::*;
+    // Per channel, in lanes (vectorises; one chain of maxima does not), by runs on the
+    // rayon pool: maxima are the same in any order. A comparison, not `f64::max`: the
+    // same maximum of these finite values, in one instruction.
     let larger = |m: f64, v: f64| if v > m { v } else { m };
-    let mut peak = [0.0_f64; CHANNELS];
-    let mut step = [0.0_f64; CHANNELS];
-    let mut previous = [0.0_f64; CHANNELS];
-    for frame in signal.iter().chain(std::iter::once(&[0.0; CHANNELS])) {
-        for c in 0..CHANNELS {
-            peak[c] = larger(peak[c], frame[c].abs());
-            step[c] = larger(step[c], (frame[c] - previous[c]).abs());
-            previous[c] = frame[c];
-        }
-    }
-    let (peak, step) = (
-        peak.into_iter().fold(0.0, larger),
-        step.into_iter().fold(0.0, larger),
-    );
+    const RUN: usize = 1 << 16;
+    let (peak, step) = signal
+        .par_chunks(RUN)
+        .enumerate()
+        .map(|(i, run)| {
+            let mut peak = [0.0_f64; CHANNELS];
+            let mut step = [0.0_f64; CHANNELS];
+            // The step into a run is from the sample before it (0 A before the first).
+            let mut previous = (i * RUN)
+                .checked_sub(1)
+                .map_or([0.0; CHANNELS], |before| signal[before]);
+            for frame in run {
+                for c in 0..CHANNELS {
+                    peak[c] = larger(peak[c], frame[c].abs());
+                    step[c] = larger(step[c], (frame[c] - previous[c]).abs());
+                    previous[c] = frame[c];
+                }
+            }
+            (
+                peak.into_iter().fold(0.0, larger),
+                step.into_iter().fold(0.0, larger),
+            )
+        })
+        .reduce(|| (0.0, 0.0), |a, b| (larger(a.0, b.0), larger(a.1, b.1)));
+    // The device rests at 0 A after playback: the last step is back to 0 A.
+    let last = signal
+        .last()
+        .map_or(0.0, |f| f.iter().fold(0.0, |m, v| larger(m, v.abs())));
+    let step = larger(step, last);
     let ratio = |limit: f64, value: f64| if value > 0.0 { limit / value } else { 1.0 };
     ratio(limits.peak_a, peak)
         .min(ratio(limits.slew_a_per_ms, step))
@@ -787,6 +804,48 @@ mod tests {
             );
             assert_eq!(halves, plain);
             assert_eq!(scan_whole(&signal, 1.0, &limits), plain);
+        }
+    }
+
+    /// The linear limit by runs on the pool is the plain loop's, wherever the largest
+    /// step falls: inside a run, across the boundary between two, into the first
+    /// sample, or back to 0 A after the last.
+    #[test]
+    fn linear_limit_by_runs_is_the_plain_loops() {
+        let plain = |signal: &[[f64; CHANNELS]], limits: &Limits| {
+            let (mut peak, mut step, mut previous) = (0.0_f64, 0.0_f64, [0.0; CHANNELS]);
+            for frame in signal.iter().chain(std::iter::once(&[0.0; CHANNELS])) {
+                for c in 0..CHANNELS {
+                    peak = peak.max(frame[c].abs());
+                    step = step.max((frame[c] - previous[c]).abs());
+                    previous[c] = frame[c];
+                }
+            }
+            (limits.peak_a / peak)
+                .min(limits.slew_a_per_ms / step)
+                .min(1.0)
+        };
+        let n = 3 * 65_536 + 17;
+        let base: Vec<[f64; CHANNELS]> = (0..n)
+            .map(|t| std::array::from_fn(|c| 0.3 * ((t as f64) * 1e-3 + c as f64).sin()))
+            .collect();
+        let limits = Limits::default();
+        for (at, jump) in [
+            (1000, 0.2),
+            (65_536, 0.3),
+            (2 * 65_536, -0.25),
+            (0, 0.2),
+            (n - 1, 0.4),
+        ] {
+            let mut signal = base.clone();
+            signal[at][3] += jump;
+            let got = linear_limit(&signal, &limits);
+            assert_eq!(
+                got.to_bits(),
+                plain(&signal, &limits).to_bits(),
+                "jump at {at}"
+            );
+            assert!(got < 1.0, "jump at {at}: {got}");
         }
     }
 
