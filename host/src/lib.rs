@@ -32,5 +32,7 @@ pub mod compile;
 pub mod stage;
 pub mod measure;
 
+mod wide;
+
 #[cfg(feature = "viz")]
 pub mod viz;

@@ -271,6 +271,16 @@ impl Misses {
     }
 }
 
+/// One frame's touch, for [`explain`].
+struct FrameTouch {
+    /// Any reading above the threshold.
+    touched: bool,
+    /// The pressure no contact explains, psi.
+    missed: f64,
+    /// The touch's pressure centroid, cells.
+    centroid: Option<(f64, f64)>,
+}
+
 /// Sorts the unexplained touch of `cells` (from [`classify`] on `tared`) by likely cause
 /// (see [`Misses`]); `points` are the contact points `cells` was classified against.
 pub fn explain(
@@ -286,7 +296,7 @@ pub fn explain(
     }
     // Per frame (on the rayon pool): touch present, unexplained pressure, pressure
     // centroid.
-    let per_frame: Vec<(bool, f64, Option<(f64, f64)>)> = (0..frames)
+    let per_frame: Vec<FrameTouch> = (0..frames)
         .into_par_iter()
         .map(|f| {
             let (frame, class) = (tared.index_axis(Axis(0), f), cells.index_axis(Axis(0), f));
@@ -304,12 +314,16 @@ pub fn explain(
                     missed += v;
                 }
             }
-            (touched, missed, (w > 0.0).then(|| (sr / w, sc / w)))
+            FrameTouch {
+                touched,
+                missed,
+                centroid: (w > 0.0).then(|| (sr / w, sc / w)),
+            }
         })
         .collect();
-    let touched: Vec<bool> = per_frame.iter().map(|p| p.0).collect();
-    let missed: Vec<f64> = per_frame.iter().map(|p| p.1).collect();
-    let centroid: Vec<Option<(f64, f64)>> = per_frame.iter().map(|p| p.2).collect();
+    let touched: Vec<bool> = per_frame.iter().map(|p| p.touched).collect();
+    let missed: Vec<f64> = per_frame.iter().map(|p| p.missed).collect();
+    let centroid: Vec<Option<(f64, f64)>> = per_frame.iter().map(|p| p.centroid).collect();
     let total: f64 = missed.iter().sum();
     let mut m = Misses::default();
     // Runs of touched frames, and the gaps between them.

@@ -62,92 +62,100 @@ impl Detections {
     }
 }
 
-/// Pixels `(row, col, value)` equal to the maximum of their 3 x 3 neighbourhood (outside
-/// the frame counts as 0, plateaus count), strictly above the frame minimum and above
-/// `min_value`, in row-major order.
-///
-/// Separable, and branch-free where the work is: each row's maxima of three neighbours
-/// (0 outside), then per pixel the larger of those of the rows above, at and below, so
-/// a pixel is a maximum of its 3 x 3 neighbourhood when it is at least that. Only the
-/// few pixels that pass are looked at one by one, for the plateau rule: the frame
-/// minimum matters only for a maximum whose in-frame neighbours all equal it, so it is
-/// computed lazily. NaN-free input is assumed (the tare turned NaN into 0).
-pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
-    let (h, w) = frame.dim();
-    if h == 0 || w == 0 {
-        return Vec::new();
-    }
-    let buf: Vec<f64>;
-    let f: &[f64] = match frame.as_slice() {
-        Some(s) => s,
-        None => {
-            buf = frame.iter().copied().collect();
-            &buf
+crate::wide::kernel! {
+    /// Pixels `(row, col, value)` equal to the maximum of their 3 x 3 neighbourhood (outside
+    /// the frame counts as 0, plateaus count), strictly above the frame minimum and above
+    /// `min_value`, in row-major order.
+    ///
+    /// Separable, and branch-free where the work is: each row's maxima of three neighbours
+    /// (0 outside), then per pixel the larger of those of the rows above, at and below, so
+    /// a pixel is a maximum of its 3 x 3 neighbourhood when it is at least that. Only the
+    /// few pixels that pass are looked at one by one, for the plateau rule: the frame
+    /// minimum matters only for a maximum whose in-frame neighbours all equal it, so it is
+    /// computed lazily. NaN-free input is assumed (the tare turned NaN into 0).
+    ///
+    /// Compiled for AVX2 too, picked at run time: the same numbers either way.
+    pub fn local_maxima / local_maxima_baseline / local_maxima_avx2 (
+        frame: ArrayView2<f64>,
+        min_value: f64,
+    ) -> Vec<(usize, usize, f64)> {
+        let (h, w) = frame.dim();
+        if h == 0 || w == 0 {
+            return Vec::new();
         }
-    };
-    let row = |r: usize| &f[r * w..(r + 1) * w];
-    // Row maxima of three for the rows above, at and below the current one (a row
-    // outside the frame is 0), rolled down the frame.
-    let zeros = vec![0.0; w];
-    let (mut above, mut at, mut below) = (zeros.clone(), vec![0.0; w], vec![0.0; w]);
-    max_of_three(row(0), &mut at);
-    if h > 1 {
-        max_of_three(row(1), &mut below);
-    }
-    let mut is_max = vec![0u8; w];
-    let mut fmin: Option<f64> = None;
-    let mut out = Vec::new();
-    for r in 0..h {
-        if r + 1 >= h {
-            below.copy_from_slice(&zeros);
-        }
-        for ((((m, &v), &a), &t), &b) in is_max
-            .iter_mut()
-            .zip(row(r))
-            .zip(&above)
-            .zip(&at)
-            .zip(&below)
-        {
-            *m = ((v >= larger(larger(a, t), b)) & (v > min_value)) as u8;
-        }
-        // Maxima are rare: skip eight flags at a time (one 64-bit word).
-        for (k, chunk) in is_max.chunks(8).enumerate() {
-            let none = match <[u8; 8]>::try_from(chunk) {
-                Ok(word) => u64::from_ne_bytes(word) == 0,
-                Err(_) => chunk.iter().all(|&m| m == 0),
-            };
-            if none {
-                continue;
+        let buf: Vec<f64>;
+        let f: &[f64] = match frame.as_slice() {
+            Some(s) => s,
+            None => {
+                buf = frame.iter().copied().collect();
+                &buf
             }
-            for c in (k * 8..k * 8 + chunk.len()).filter(|&c| is_max[c] != 0) {
-                let v = row(r)[c];
-                // A plateau (every in-frame neighbour equal) counts only above the
-                // frame minimum; any lower neighbour already puts it above.
-                let rows = r.saturating_sub(1)..(r + 2).min(h);
-                let cols = c.saturating_sub(1)..(c + 2).min(w);
-                let flat = rows
-                    .into_iter()
-                    .all(|rr| row(rr)[cols.clone()].iter().all(|&n| n == v));
-                if flat {
-                    let m = *fmin.get_or_insert_with(|| frame_min(f));
-                    if v <= m {
-                        continue;
-                    }
+        };
+        let row = |r: usize| &f[r * w..(r + 1) * w];
+        // Row maxima of three for the rows above, at and below the current one (a row
+        // outside the frame is 0), rolled down the frame.
+        let zeros = vec![0.0; w];
+        let (mut above, mut at, mut below) = (zeros.clone(), vec![0.0; w], vec![0.0; w]);
+        max_of_three(row(0), &mut at);
+        if h > 1 {
+            max_of_three(row(1), &mut below);
+        }
+        let mut is_max = vec![0u8; w];
+        let mut fmin: Option<f64> = None;
+        let mut out = Vec::new();
+        for r in 0..h {
+            if r + 1 >= h {
+                below.copy_from_slice(&zeros);
+            }
+            for ((((m, &v), &a), &t), &b) in is_max
+                .iter_mut()
+                .zip(row(r))
+                .zip(&above)
+                .zip(&at)
+                .zip(&below)
+            {
+                *m = ((v >= larger(larger(a, t), b)) & (v > min_value)) as u8;
+            }
+            // Maxima are rare: skip eight flags at a time (one 64-bit word).
+            for (k, chunk) in is_max.chunks(8).enumerate() {
+                let none = match <[u8; 8]>::try_from(chunk) {
+                    Ok(word) => u64::from_ne_bytes(word) == 0,
+                    Err(_) => chunk.iter().all(|&m| m == 0),
+                };
+                if none {
+                    continue;
                 }
-                out.push((r, c, v));
+                for c in (k * 8..k * 8 + chunk.len()).filter(|&c| is_max[c] != 0) {
+                    let v = row(r)[c];
+                    // A plateau (every in-frame neighbour equal) counts only above the
+                    // frame minimum; any lower neighbour already puts it above.
+                    let rows = r.saturating_sub(1)..(r + 2).min(h);
+                    let cols = c.saturating_sub(1)..(c + 2).min(w);
+                    let flat = rows
+                        .into_iter()
+                        .all(|rr| row(rr)[cols.clone()].iter().all(|&n| n == v));
+                    if flat {
+                        let m = *fmin.get_or_insert_with(|| frame_min(f));
+                        if v <= m {
+                            continue;
+                        }
+                    }
+                    out.push((r, c, v));
+                }
+            }
+            // Roll the row maxima down by one row.
+            std::mem::swap(&mut above, &mut at);
+            std::mem::swap(&mut at, &mut below);
+            if r + 2 < h {
+                max_of_three(row(r + 2), &mut below);
             }
         }
-        // Roll the row maxima down by one row.
-        std::mem::swap(&mut above, &mut at);
-        std::mem::swap(&mut at, &mut below);
-        if r + 2 < h {
-            max_of_three(row(r + 2), &mut below);
-        }
+        out
     }
-    out
 }
 
 /// `out[c]` = the largest of `row[c - 1]`, `row[c]` and `row[c + 1]`, 0 outside the row.
+#[inline(always)]
 fn max_of_three(row: &[f64], out: &mut [f64]) {
     let w = row.len();
     if w == 1 {
@@ -175,6 +183,7 @@ fn larger(a: f64, b: f64) -> f64 {
 
 /// Minimum of a NaN-free slice, in eight independent lanes (vectorises; `f64::min`
 /// must special-case NaN and does not).
+#[inline(always)]
 fn frame_min(f: &[f64]) -> f64 {
     let mut lanes = [f64::INFINITY; 8];
     let mut chunks = f.chunks_exact(8);
@@ -493,6 +502,43 @@ pub fn score_candidates(
 mod tests {
     use super::*;
     use ndarray::array;
+
+    /// The AVX2 build of the local maxima finds the baseline's, value for value
+    /// ([`crate::wide`]), on frames with peaks, plateaus and flat zeros.
+    #[test]
+    fn the_avx2_build_finds_the_baseline_maxima() {
+        if !crate::wide::avx2() {
+            return;
+        }
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for (i, dim) in [(56, 147), (3, 5), (1, 9), (7, 1), (17, 33)]
+            .into_iter()
+            .enumerate()
+        {
+            let frame = ndarray::Array2::from_shape_fn(dim, |_| {
+                let v = next();
+                // Quantised so that plateaus occur; a fifth exactly zero.
+                if v < 0.2 {
+                    0.0
+                } else {
+                    (v * 8.0).floor()
+                }
+            });
+            for min_value in [-1.0, 0.0, 3.0] {
+                let base = local_maxima_baseline(frame.view(), min_value);
+                // SAFETY: the CPU runs AVX2 (checked above).
+                let wide = unsafe { local_maxima_avx2(frame.view(), min_value) };
+                assert_eq!(base, wide, "frame {i}, above {min_value}");
+                assert!(i > 0 || min_value > 0.0 || !base.is_empty());
+            }
+        }
+    }
 
     #[test]
     fn candidates_keep_frames_apart_and_order_within_them() {

@@ -215,65 +215,78 @@ impl BlurOperator {
     pub fn apply_into(
         &self,
         frame: ArrayView2<f64>,
-        mut out: ArrayViewMut2<f64>,
+        out: ArrayViewMut2<f64>,
         scratch: &mut Vec<f64>,
     ) {
-        assert_eq!(frame.dim(), (self.rows, self.cols), "frame shape");
-        let (h, w) = self.out_dim();
-        assert_eq!(out.dim(), (h, w), "output shape");
-        // Y = F B^T, rows x w. Each `Y[r, j]` is the sum over `c` in row `j`'s range,
-        // in ascending `c`, from -0.0 (as `Iterator::sum`): by columns of `B^T` when it
-        // has them (whole runs of `j` at once, which vectorises), else row by row; the
-        // same additions in the same order either way.
-        scratch.clear();
-        scratch.resize(self.rows * w, -0.0);
-        for (r, src) in frame.outer_iter().enumerate() {
-            let y = &mut scratch[r * w..(r + 1) * w];
-            match &self.b.by_column {
-                Some(bt) => {
-                    for (c, (&f, &(lo, hi))) in src.iter().zip(&bt.range).enumerate() {
-                        let col = &bt.t[c * w + lo..c * w + hi];
-                        for (yj, &b) in y[lo..hi].iter_mut().zip(col) {
-                            *yj += f * b;
-                        }
-                    }
-                }
-                None => {
-                    for (j, yj) in y.iter_mut().enumerate() {
-                        let (lo, hi) = self.b.range[j];
-                        let brow = self.b.m.row(j);
-                        *yj = (lo..hi).map(|c| src[c] * brow[c]).sum();
-                    }
-                }
-            }
-        }
-        // out = A Y: each output row is a short sum of whole Y rows (vectorises).
-        for (i, mut orow) in out.outer_iter_mut().enumerate() {
-            let (lo, hi) = self.a.range[i];
-            let weights = self.a.m.row(i);
-            let sum = |o: &mut [f64]| {
-                o.fill(0.0);
-                for r in lo..hi {
-                    let wgt = weights[r];
-                    for (o, &y) in o.iter_mut().zip(&scratch[r * w..(r + 1) * w]) {
-                        *o += wgt * y;
-                    }
-                }
-            };
-            match orow.as_slice_mut() {
-                Some(o) => sum(o),
-                None => {
-                    let mut o = orow.to_vec();
-                    sum(&mut o);
-                    orow.assign(&ArrayView1::from(&o));
-                }
-            }
-        }
+        blur_into(self, frame, out, scratch);
     }
 
     /// Output frame shape `(R k, C k)`.
     pub fn out_dim(&self) -> (usize, usize) {
         (self.a.m.nrows(), self.b.m.nrows())
+    }
+}
+
+crate::wide::kernel! {
+    /// [`BlurOperator::apply_into`]; compiled for AVX2 too (`crate::wide`).
+    fn blur_into / blur_into_baseline / blur_into_avx2 (
+        op: &BlurOperator,
+        frame: ArrayView2<f64>,
+        out: ArrayViewMut2<f64>,
+        scratch: &mut Vec<f64>,
+    ) {
+        let mut out = out;
+            assert_eq!(frame.dim(), (op.rows, op.cols), "frame shape");
+            let (h, w) = op.out_dim();
+            assert_eq!(out.dim(), (h, w), "output shape");
+            // Y = F B^T, rows x w. Each `Y[r, j]` is the sum over `c` in row `j`'s range,
+            // in ascending `c`, from -0.0 (as `Iterator::sum`): by columns of `B^T` when it
+            // has them (whole runs of `j` at once, which vectorises), else row by row; the
+            // same additions in the same order either way.
+            scratch.clear();
+            scratch.resize(op.rows * w, -0.0);
+            for (r, src) in frame.outer_iter().enumerate() {
+                let y = &mut scratch[r * w..(r + 1) * w];
+                match &op.b.by_column {
+                    Some(bt) => {
+                        for (c, (&f, &(lo, hi))) in src.iter().zip(&bt.range).enumerate() {
+                            let col = &bt.t[c * w + lo..c * w + hi];
+                            for (yj, &b) in y[lo..hi].iter_mut().zip(col) {
+                                *yj += f * b;
+                            }
+                        }
+                    }
+                    None => {
+                        for (j, yj) in y.iter_mut().enumerate() {
+                            let (lo, hi) = op.b.range[j];
+                            let brow = op.b.m.row(j);
+                            *yj = (lo..hi).map(|c| src[c] * brow[c]).sum();
+                        }
+                    }
+                }
+            }
+            // out = A Y: each output row is a short sum of whole Y rows (vectorises).
+            for (i, mut orow) in out.outer_iter_mut().enumerate() {
+                let (lo, hi) = op.a.range[i];
+                let weights = op.a.m.row(i);
+                let sum = |o: &mut [f64]| {
+                    o.fill(0.0);
+                    for r in lo..hi {
+                        let wgt = weights[r];
+                        for (o, &y) in o.iter_mut().zip(&scratch[r * w..(r + 1) * w]) {
+                            *o += wgt * y;
+                        }
+                    }
+                };
+                match orow.as_slice_mut() {
+                    Some(o) => sum(o),
+                    None => {
+                        let mut o = orow.to_vec();
+                        sum(&mut o);
+                        orow.assign(&ArrayView1::from(&o));
+                    }
+                }
+            }
     }
 }
 
@@ -471,6 +484,7 @@ fn combine(stats: &[(f64, f64)], n: usize) -> (f64, f64) {
 /// Sum of `f(v)` over `values`: plain sums in eight lanes over blocks of 1024 values
 /// (vectorises), blocks combined with Neumaier compensation, so the mean of millions of
 /// values keeps all its digits at a fraction of the cost of compensating every value.
+#[inline(always)]
 fn blocked_sum(values: &[f64], f: impl Fn(f64) -> f64) -> f64 {
     let (mut sum, mut comp) = (0.0f64, 0.0f64);
     for block in values.chunks(1024) {
@@ -494,52 +508,113 @@ fn blocked_sum(values: &[f64], f: impl Fn(f64) -> f64) -> f64 {
     sum + comp
 }
 
-/// Population mean and standard deviation (numpy's `mean`, `std` with `ddof = 0`),
-/// two-pass with compensated block sums.
-///
-/// Values far from 1 are scaled by a power of two (exact) before squaring, so the sum
-/// of squares neither overflows for 1e30-psi data nor underflows for 1e-30-psi data.
-pub fn mean_std(values: &[f64]) -> (f64, f64) {
-    if values.is_empty() {
-        return (0.0, 0.0);
-    }
-    // A comparison, not `f64::max`: the same maximum (a NaN is skipped either way, as
-    // it never compares greater), in one instruction instead of a NaN-aware sequence.
-    // Eight independent running maxima (vectorises; one chain of maxima does not).
-    let larger = |m: f64, v: f64| if v > m { v } else { m };
-    let mut lanes = [0.0f64; 8];
-    let mut chunks = values.chunks_exact(8);
-    for chunk in &mut chunks {
-        for (l, v) in lanes.iter_mut().zip(chunk) {
-            *l = larger(*l, v.abs());
+crate::wide::kernel! {
+    /// Population mean and standard deviation (numpy's `mean`, `std` with `ddof = 0`),
+    /// two-pass with compensated block sums.
+    ///
+    /// Values far from 1 are scaled by a power of two (exact) before squaring, so the sum
+    /// of squares neither overflows for 1e30-psi data nor underflows for 1e-30-psi data.
+    ///
+    /// Compiled for AVX2 too, picked at run time: the same numbers either way.
+    pub fn mean_std / mean_std_baseline / mean_std_avx2 (values: &[f64]) -> (f64, f64) {
+        if values.is_empty() {
+            return (0.0, 0.0);
         }
+        // A comparison, not `f64::max`: the same maximum (a NaN is skipped either way, as
+        // it never compares greater), in one instruction instead of a NaN-aware sequence.
+        // Eight independent running maxima (vectorises; one chain of maxima does not).
+        let larger = |m: f64, v: f64| if v > m { v } else { m };
+        let mut lanes = [0.0f64; 8];
+        let mut chunks = values.chunks_exact(8);
+        for chunk in &mut chunks {
+            for (l, v) in lanes.iter_mut().zip(chunk) {
+                *l = larger(*l, v.abs());
+            }
+        }
+        let max_abs = chunks
+            .remainder()
+            .iter()
+            .map(|v| v.abs())
+            .chain(lanes)
+            .fold(0.0f64, larger);
+        if max_abs == 0.0 {
+            return (0.0, 0.0);
+        }
+        let scale = if (1e-100..1e100).contains(&max_abs) {
+            1.0
+        } else {
+            2f64.powf(-max_abs.log2().floor())
+        };
+        let n = values.len() as f64;
+        let mean_s = blocked_sum(values, |v| v * scale) / n;
+        let var_s = blocked_sum(values, |v| {
+            let d = v * scale - mean_s;
+            d * d
+        }) / n;
+        (mean_s / scale, var_s.sqrt() / scale)
     }
-    let max_abs = chunks
-        .remainder()
-        .iter()
-        .map(|v| v.abs())
-        .chain(lanes)
-        .fold(0.0f64, larger);
-    if max_abs == 0.0 {
-        return (0.0, 0.0);
-    }
-    let scale = if (1e-100..1e100).contains(&max_abs) {
-        1.0
-    } else {
-        2f64.powf(-max_abs.log2().floor())
-    };
-    let n = values.len() as f64;
-    let mean_s = blocked_sum(values, |v| v * scale) / n;
-    let var_s = blocked_sum(values, |v| {
-        let d = v * scale - mean_s;
-        d * d
-    }) / n;
-    (mean_s / scale, var_s.sqrt() / scale)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Frames of random bumps over a few decades, some with exact plateaus.
+    fn random_frames(seed: u64, count: usize, dim: (usize, usize)) -> Vec<Array2<f64>> {
+        let mut state = seed | 1;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..count)
+            .map(|i| {
+                let scale = 10f64.powi(i as i32 % 7 - 3);
+                Array2::from_shape_fn(dim, |_| {
+                    let v = next();
+                    if v < 0.2 {
+                        0.0
+                    } else {
+                        scale * (v - 0.2).powi(3)
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// The AVX2 builds of the blur and of the mean and std give the baseline's numbers
+    /// to the bit ([`crate::wide`]); on a CPU without AVX2 there is one build only.
+    #[test]
+    fn the_avx2_builds_compute_the_baseline_numbers() {
+        if !crate::wide::avx2() {
+            return;
+        }
+        let sampling = Sampling::PAPER;
+        let op = BlurOperator::new(8, 21, &Blur::new(&PreprocessConfig::default(), &sampling))
+            .expect("the paper's blur");
+        let (mut a, mut b) = (Array2::zeros(op.out_dim()), Array2::zeros(op.out_dim()));
+        let (mut sa, mut sb) = (Vec::new(), Vec::new());
+        for frame in random_frames(7, 40, (8, 21)) {
+            blur_into_baseline(&op, frame.view(), a.view_mut(), &mut sa);
+            // SAFETY: the CPU runs AVX2 (checked above).
+            unsafe { blur_into_avx2(&op, frame.view(), b.view_mut(), &mut sb) };
+            assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+            let values = a.as_slice().expect("standard layout");
+            let (m0, s0) = mean_std_baseline(values);
+            // SAFETY: as above.
+            let (m1, s1) = unsafe { mean_std_avx2(values) };
+            assert_eq!((m0.to_bits(), s0.to_bits()), (m1.to_bits(), s1.to_bits()));
+        }
+        for values in [&[1e300, -1e300, 3.0][..], &[1e-300; 9], &[]] {
+            // SAFETY: as above.
+            let wide = unsafe { mean_std_avx2(values) };
+            assert_eq!(
+                format!("{:?}", mean_std_baseline(values)),
+                format!("{wide:?}")
+            );
+        }
+    }
 
     #[test]
     fn kernel_matches_scipy_radius_and_normalisation() {

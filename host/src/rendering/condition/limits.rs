@@ -161,7 +161,7 @@ fn scan(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scanned {
 
 /// [`scan`] of all eight channels in one pass.
 fn scan_whole(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scanned {
-    let (state, stop) = Scan::<0, CHANNELS>::run(signal, scale, limits);
+    let (state, stop) = run_scan::<0, CHANNELS>(signal, scale, limits);
     Scanned::of(state.hottest(), state.thermal, stop)
 }
 
@@ -172,8 +172,8 @@ fn scan_whole(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scanne
 fn scan_halves(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scanned {
     const HALF: usize = CHANNELS / 2;
     let ((low, low_stop), (high, high_stop)) = rayon::join(
-        || Scan::<0, HALF>::run(signal, scale, limits),
-        || Scan::<HALF, HALF>::run(signal, scale, limits),
+        || run_scan::<0, HALF>(signal, scale, limits),
+        || run_scan::<HALF, HALF>(signal, scale, limits),
     );
     if low_stop.is_some() || high_stop.is_some() {
         return scan_whole(signal, scale, limits);
@@ -190,6 +190,37 @@ fn scan_halves(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scann
         (a, b) => a.or(b),
     };
     Scanned::of(if h.hottest > l.hottest { h } else { l }, thermal, None)
+}
+
+/// [`Scan::run`], in its AVX2 build when the CPU runs AVX2 (the same numbers, see
+/// [`crate::wide`]).
+fn run_scan<const FIRST: usize, const N: usize>(
+    signal: &[[f64; CHANNELS]],
+    scale: f64,
+    limits: &Limits,
+) -> (Scan<FIRST, N>, Option<LimitViolation>) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if crate::wide::avx2() {
+            // SAFETY: the CPU runs AVX2 (checked just above).
+            return unsafe { run_scan_avx2(signal, scale, limits) };
+        }
+    }
+    Scan::run(signal, scale, limits)
+}
+
+/// [`Scan::run`] compiled for AVX2.
+///
+/// # Safety
+/// Only on a CPU that runs AVX2 ([`crate::wide::avx2`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn run_scan_avx2<const FIRST: usize, const N: usize>(
+    signal: &[[f64; CHANNELS]],
+    scale: f64,
+    limits: &Limits,
+) -> (Scan<FIRST, N>, Option<LimitViolation>) {
+    Scan::run(signal, scale, limits)
 }
 
 /// The sample a violation names (the channel breaks ties: halves never share one).
@@ -282,6 +313,7 @@ impl Heat {
 impl<const FIRST: usize, const N: usize> Scan<FIRST, N> {
     /// Scans channels `FIRST..FIRST + N` of `scale * signal`: the state at the end (or
     /// where it stopped) and the first peak, slew or non-finite violation, if any.
+    #[inline(always)]
     fn run(
         signal: &[[f64; CHANNELS]],
         scale: f64,
@@ -320,6 +352,7 @@ impl<const FIRST: usize, const N: usize> Scan<FIRST, N> {
     /// Runs `block` in lanes; true when it has nothing to report (no peak, slew or
     /// non-finite sample, and no first thermal violation), else the state is to be
     /// thrown away and the block walked.
+    #[inline(always)]
     fn block_passes(&mut self, block: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> bool {
         let leak = limits.continuous_a * limits.continuous_a;
         // Two passes over the block: peak and slew first (no chain from one sample to
@@ -868,8 +901,15 @@ mod tests {
                 ..Limits::default()
             };
             let plain = plain_scan(&signal, scale, &limits);
-            // One pass over all channels, and two halves on two threads.
-            for fast in [scan_whole(&signal, scale, &limits), scan_halves(&signal, scale, &limits)] {
+            // One pass over all channels, and two halves on two threads (both in the
+            // AVX2 build on a CPU that runs it), and the baseline build of one pass.
+            let (state, stop) = Scan::<0, CHANNELS>::run(&signal, scale, &limits);
+            let baseline = Scanned::of(state.hottest(), state.thermal, stop);
+            for fast in [
+                scan_whole(&signal, scale, &limits),
+                scan_halves(&signal, scale, &limits),
+                baseline,
+            ] {
                 prop_assert_eq!(&fast.violation, &plain.violation);
                 prop_assert_eq!(fast.stopped, plain.stopped);
                 prop_assert_eq!(fast.level.to_bits(), plain.level.to_bits());
