@@ -414,12 +414,19 @@ impl Recording {
         };
         let mut out = Array3::<f64>::zeros(kept.dim());
         match (out.as_slice_mut(), kept.as_slice(), baseline.as_slice()) {
-            // Runs of frames on the rayon pool (an hour is 97 MB), each written once.
+            // Runs of frames on the rayon pool (an hour is 97 MB), each written once; a
+            // short recording on this thread (handing it to the pool costs more).
             (Some(dst), Some(src), Some(base)) if !base.is_empty() => {
                 use rayon::prelude::*;
                 let run = base.len() * 256;
+                let min_runs = if dst.len() < PARALLEL_TARE_VALUES {
+                    usize::MAX
+                } else {
+                    1
+                };
                 dst.par_chunks_mut(run)
                     .zip(src.par_chunks(run))
+                    .with_min_len(min_runs)
                     .for_each(|(dst, src)| {
                         for (d, s) in dst
                             .chunks_exact_mut(base.len())
@@ -441,6 +448,10 @@ impl Recording {
         Ok(out)
     }
 }
+
+/// Below this many readings (about 6,000 frames of the paper's sleeve) the tare stays on
+/// the calling thread.
+const PARALLEL_TARE_VALUES: usize = 1 << 20;
 
 /// Each cell's mean over the first `frames` frames (0 when `frames` is 0), summed frame
 /// by frame as numpy reduces a non-contiguous axis.
@@ -544,6 +555,40 @@ fn quantile(values: &mut [f64], q: f64) -> f64 {
 mod tests {
     use super::*;
     use ndarray::Array3;
+
+    /// A recording long enough for the tare to run on the pool gives, reading for
+    /// reading, the baseline subtracted (NaN as 0), trimmed at both ends.
+    #[test]
+    fn a_long_tare_on_the_pool_is_the_reading_minus_its_baseline() {
+        let (t, r, c) = (6_400, 8, 21);
+        assert!(t * r * c >= PARALLEL_TARE_VALUES);
+        let a = Array3::from_shape_fn((t, r, c), |(f, i, j)| {
+            if (f * 7 + i * 3 + j) % 101 == 0 {
+                f64::NAN
+            } else {
+                ((f * 31 + i * 17 + j * 5) % 97) as f64 * 0.01 + i as f64
+            }
+        });
+        let rec = Recording::from_array("long", a.view()).unwrap();
+        let cfg = InputConfig {
+            baseline: Baseline::Leading,
+            tare_s: 0.5,
+            trim_s: 1.0,
+            ..InputConfig::default()
+        };
+        let tared = rec.tare(&cfg, &Sampling::PAPER).unwrap();
+        let base = leading_baseline(a.view(), 10);
+        assert_eq!(tared.dim(), (t - 40, r, c));
+        for ((f, i, j), &v) in tared.indexed_iter() {
+            let x = a[[f + 20, i, j]] - base[[i, j]];
+            let expected = if x.is_nan() { 0.0 } else { x };
+            assert_eq!(
+                v.to_bits(),
+                expected.to_bits(),
+                "frame {f}, cell ({i}, {j})"
+            );
+        }
+    }
 
     #[test]
     fn tare_subtracts_baseline_and_trims() {
