@@ -423,3 +423,67 @@ fn compiling_an_owned_recording_gives_the_same_stimulus() {
         assert!(!owned.stimulus.is_empty() && owned.report.trajectories > 0);
     }
 }
+
+/// Issue 16's size bound, on the densest scenes `--example sizes` finds among the 166
+/// stimuli the project compiles (147.5, 136, 121 and 115 B/s when this test was written):
+/// each encodes at no more than 150 bytes per second of signal with `--fit`, within the
+/// fidelity bounds. A change upstream of stage 7 that makes a scene busier, or one to the
+/// encoder that costs bytes, fails here before it reaches a user's file.
+#[test]
+fn the_densest_scenes_encode_within_150_bytes_per_second() {
+    use touchc::config::{MetadataOverrides, Preset};
+    use touchc::input::synth::Sensor;
+    let blobs = Recording::from_array(
+        "moving_blobs(705, 4, 42)",
+        common::moving_blobs(705, 4, 42).view(),
+    )
+    .unwrap();
+    let mut cases = vec![
+        (blobs.clone(), Preset::Paper, MetadataOverrides::default()),
+        (blobs, Preset::Touch, MetadataOverrides::default()),
+    ];
+    let (_, flicker) = common::touch_cases(Sensor::Grid10)
+        .into_iter()
+        .find(|(name, _)| name == "flicker (strokes, palm)")
+        .expect("the flicker case");
+    for seed in [1, 2] {
+        let (data, truth) = synth::generate_with_truth(&SynthSpec {
+            seed,
+            ..flicker.clone()
+        });
+        let metadata = MetadataOverrides {
+            rate_hz: Some(truth.rate_hz),
+            pitch_mm: Some(truth.pitch_mm),
+        };
+        let rec =
+            Recording::from_array(format!("grid10 flicker seed {seed}"), data.view()).unwrap();
+        cases.push((rec, Preset::Touch, metadata));
+    }
+    for (rec, preset, metadata) in cases {
+        let opts = CompileOptions {
+            config: Config::preset(preset),
+            fit: true,
+            metadata,
+            ..CompileOptions::default()
+        };
+        let r = compile(&rec, &opts).unwrap().report;
+        let bounds = &opts.config.keyframes;
+        assert!(
+            r.bytes_per_second <= 150.0,
+            "{} under {}: {:.1} B/s ({} bytes over {:.1} s)",
+            rec.name(),
+            preset.name(),
+            r.bytes_per_second,
+            r.bytes,
+            r.duration_s
+        );
+        assert!(
+            r.bytes_per_second > 50.0,
+            "{}: not a dense scene any more",
+            rec.name()
+        );
+        assert!(
+            r.rms_error_fs <= bounds.max_rms_error_fs && r.max_error_fs <= bounds.max_abs_error_fs
+        );
+    }
+}
