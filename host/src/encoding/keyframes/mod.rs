@@ -416,7 +416,11 @@ fn encode_rounded(
         let mut passing: Option<Encoded> = None;
         loop {
             tried += 1;
-            let candidate = match try_encoding(signal, fields, opts, period, shift) {
+            let bounds = (
+                opts.encoding.max_rms_error_fs,
+                opts.encoding.max_abs_error_fs,
+            );
+            let candidate = match try_encoding(signal, fields, opts, period, shift, Some(bounds)) {
                 Ok(c) => c,
                 // The coil's heat is the signal's energy: neither a finer resolution
                 // nor more keyframes change it beyond rounding, so stop at once (with
@@ -464,10 +468,20 @@ fn encode_rounded(
             Some(kind) => Err(KeyframeError::LimitHit(kind)),
             None => {
                 if !closest.0.is_finite() {
-                    // Every period broke the max bound in interpolation alone, so no
-                    // figure was taken: the finest period's, in full, for the message.
-                    let finest = periods.last().map_or(1, |&p| usize::from(p.max(1)));
-                    if let Some(e) = interpolation_error(signal, finest, f64::INFINITY) {
+                    // No figure was taken: every candidate played stopped at a bound, or
+                    // every period broke the max bound in interpolation alone. The
+                    // finest period's, in full, for the message: played when candidates
+                    // were (interpolation at 1 ms is exact; what the player misses, a
+                    // ramp-in from 0 A say, shows only in playback), else interpolated.
+                    let finest = periods.last().map_or(1, |&p| p.max(1));
+                    let played = (tried > 0)
+                        .then(|| try_encoding(signal, fields, opts, finest, 0, None).ok())
+                        .flatten();
+                    if let Some(e) = played {
+                        closest = (e.rms_error_fs, e.max_error_fs);
+                    } else if let Some(e) =
+                        interpolation_error(signal, usize::from(finest), f64::INFINITY)
+                    {
                         closest = (e.0 / fs_a, e.1 / fs_a);
                     }
                 }
@@ -576,12 +590,16 @@ fn header<'a>(
     }
 }
 
+/// Keyframes rounded one by one at `period` and `2^shift`, encoded, played and measured
+/// against `signal` (giving up, with infinite figures, once `bounds` are sure to be
+/// missed).
 fn try_encoding(
     signal: &[[f64; CHANNELS]],
     fields: HeaderFields<'_>,
     opts: &KeyframeOptions,
     period: u16,
     shift: u8,
+    bounds: Option<(f64, f64)>,
 ) -> Result<Encoded, KeyframeError> {
     let fs_a = f64::from(opts.full_scale_ma) / 1000.0;
     let p = usize::from(period);
@@ -591,17 +609,7 @@ fn try_encoding(
         .collect();
     let bytes = stimulus::encode(header(fields, opts, period, shift), &keyframes)?;
     let stim = Stimulus::decode(&bytes)?;
-    let bounds = (
-        opts.encoding.max_rms_error_fs,
-        opts.encoding.max_abs_error_fs,
-    );
-    let (rms, max) = measure(
-        &stim,
-        signal,
-        opts.full_scale_ma,
-        fields.limits,
-        Some(bounds),
-    )?;
+    let (rms, max) = measure(&stim, signal, opts.full_scale_ma, fields.limits, bounds)?;
     Ok(Encoded {
         bytes,
         period_ms: period,
@@ -1283,6 +1291,24 @@ mod tests {
         let e = encode(&signal, fields(), &KeyframeOptions::default()).unwrap();
         assert_eq!(e.rms_error_fs, 0.0);
         assert!(e.bytes.len() < 60, "{}", e.bytes.len());
+    }
+
+    /// A signal that starts away from 0 A cannot be played faithfully (the player ramps
+    /// in from 0 A): the error names by how much the finest candidate misses, played in
+    /// full, not the interpolation error of the finest period (0 at 1 ms).
+    #[test]
+    fn a_signal_the_ramp_in_cannot_follow_reports_what_playback_misses_by() {
+        let signal: Vec<[f64; CHANNELS]> = (0..2_000)
+            .map(|_| std::array::from_fn(|c| if c == 0 { 0.04 } else { 0.0 }))
+            .collect();
+        match encode(&signal, fields(), &KeyframeOptions::default()) {
+            Err(KeyframeError::Unfaithful { rms, max }) => {
+                // 4% of full scale missing at the first tick, less as the ramp rises.
+                assert!(max > 0.02 && max <= 0.04 + 1e-3, "{rms} {max}");
+                assert!(rms > 0.0 && rms < max, "{rms} {max}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
