@@ -34,5 +34,8 @@ pub mod measure;
 
 mod wide;
 
+#[cfg(test)]
+mod test_rng;
+
 #[cfg(feature = "viz")]
 pub mod viz;

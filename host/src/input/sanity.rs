@@ -297,16 +297,11 @@ mod tests {
     #[test]
     fn raw_counts_fires_exactly_when_the_median_is_out_of_bounds() {
         let levels = [f64::NAN, -150.0, -100.0, -99.0, 0.0, 99.0, 100.0, 150.0];
-        let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut rng = crate::test_rng::Xorshift::new(0x9e37_79b9_7f4a_7c15);
         for n in 1..40usize {
             for _ in 0..20 {
                 let values: Vec<f64> = (0..n)
-                    .map(|_| {
-                        x ^= x << 13;
-                        x ^= x >> 7;
-                        x ^= x << 17;
-                        levels[(x % levels.len() as u64) as usize]
-                    })
+                    .map(|_| levels[(rng.next_u64() % levels.len() as u64) as usize])
                     .collect();
                 let mut finite: Vec<f64> =
                     values.iter().copied().filter(|v| v.is_finite()).collect();

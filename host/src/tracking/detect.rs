@@ -510,13 +510,8 @@ mod tests {
         if !crate::wide::avx2() {
             return;
         }
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::test_rng::Xorshift::new(0x9e37_79b9_7f4a_7c15);
+        let mut next = move || rng.uniform();
         for (i, dim) in [(56, 147), (3, 5), (1, 9), (7, 1), (17, 33)]
             .into_iter()
             .enumerate()

@@ -561,13 +561,8 @@ mod tests {
 
     /// Frames of random bumps over a few decades, some with exact plateaus.
     fn random_frames(seed: u64, count: usize, dim: (usize, usize)) -> Vec<Array2<f64>> {
-        let mut state = seed | 1;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::test_rng::Xorshift::new(seed);
+        let mut next = move || rng.uniform();
         (0..count)
             .map(|i| {
                 let scale = 10f64.powi(i as i32 % 7 - 3);

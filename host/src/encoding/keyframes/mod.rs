@@ -1140,13 +1140,8 @@ mod tests {
     /// Presses of 60-200 ms and 0.05-0.25 A at random on channels 0-5, busy on some
     /// channels and stretches, quiet on others; 6 and 7 still.
     fn busy(seconds: f64) -> Vec<[f64; CHANNELS]> {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::test_rng::Xorshift::new(0x2545_f491_4f6c_dd1d);
+        let mut next = move || rng.uniform();
         // (channel, centre s, width s, amplitude A)
         let mut presses = Vec::new();
         for c in 0..6 {

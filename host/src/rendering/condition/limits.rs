@@ -774,13 +774,8 @@ mod tests {
     /// sometimes with one odd sample: a jump, a NaN or an infinity.
     fn signals() -> impl Strategy<Value = Vec<[f64; CHANNELS]>> {
         (1usize..1200, any::<u64>(), 0usize..4, any::<usize>()).prop_map(|(n, seed, odd, at)| {
-            let mut state = seed | 1;
-            let mut next = move || {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                (state >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut rng = crate::test_rng::Xorshift::new(seed);
+            let mut next = move || rng.uniform();
             let mut level = [0.0_f64; CHANNELS];
             let mut signal: Vec<[f64; CHANNELS]> = (0..n)
                 .map(|t| {
