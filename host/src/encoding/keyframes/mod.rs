@@ -703,18 +703,16 @@ enum Played {
 /// [`measure`] with the player on a scoped thread, its codes passed over in chunks and
 /// summed here in tick order. A fault reaches this side after the codes before it, so
 /// the bounds are checked on those first, as the one-thread loop does; once the bounds
-/// are missed the player is told to stop (and stops at its next send, which fails).
+/// are missed this side stops listening, and the player stops at its next send, which
+/// fails.
 fn measure_pipelined(
     stim: &Stimulus<'_>,
     device: &DeviceConfig,
     mut errors: PlaybackErrors<'_>,
 ) -> Result<(f64, f64), KeyframeError> {
-    use std::sync::atomic::{AtomicBool, Ordering};
     let len = errors.signal.len();
-    let stop = AtomicBool::new(false);
     std::thread::scope(|scope| {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Played>(4);
-        let stop = &stop;
         scope.spawn(move || {
             let mut player = Player::new(stim, device);
             let (mut chunk, mut played) = (Vec::with_capacity(PIPELINE_CHUNK), 0usize);
@@ -731,7 +729,7 @@ fn measure_pipelined(
                 let end = tick.status == Status::Finished && played >= len;
                 if end || chunk.len() == PIPELINE_CHUNK {
                     let full = std::mem::replace(&mut chunk, Vec::with_capacity(PIPELINE_CHUNK));
-                    if tx.send(Played::Codes(full)).is_err() || stop.load(Ordering::Relaxed) {
+                    if tx.send(Played::Codes(full)).is_err() {
                         return;
                     }
                     if end {
@@ -745,7 +743,7 @@ fn measure_pipelined(
             match message {
                 Played::Codes(codes) => {
                     if !codes.iter().all(|c| errors.add(c)) {
-                        stop.store(true, Ordering::Relaxed);
+                        // Dropping the receiver on return stops the player.
                         return Ok((f64::INFINITY, f64::INFINITY));
                     }
                 }
