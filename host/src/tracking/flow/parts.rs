@@ -21,7 +21,9 @@ use super::{
 /// The parts share a budget of `budget` edges scanned (in node order; each part's two
 /// first passes always run, so the work is at most the budget plus two passes over the
 /// graph). Once it is spent the remaining parts send only their first path, and
-/// `budget_reached` is set: each part's flow is then a min-cost flow of its units.
+/// `budget_reached` is set: each part's flow is then a min-cost flow of its units. The
+/// parts are solved on the rayon pool with the result of that loop in part order, bit
+/// for bit ([`solve_in_order`]).
 pub fn min_cost_flow_by_parts(
     g: &FlowGraph,
     source: usize,
@@ -31,23 +33,12 @@ pub fn min_cost_flow_by_parts(
 ) -> Result<FlowSolution, FlowError> {
     check_nodes(g, source, sink)?;
     let parts = Parts::of(g, source, sink);
-    let mut work = 0u64;
-    let mut solved = Vec::with_capacity(parts.len());
-    for p in 0..parts.len() {
-        // One part's graph at a time: the parts' copies of the edges never all exist.
-        let sub = parts.graph(g, p);
-        // A part where no path can be negative sends nothing: most parts of a
-        // tracking graph are one noise detection with a positive cost.
-        let last = sub.n_nodes - 1;
-        let units = if lowest_path_bound(&sub, 0, last) < 0.0 {
-            max_units
-        } else {
-            0
-        };
-        let s = min_cost_flow_within(&sub, 0, last, units, budget.saturating_sub(work))?;
-        work = work.saturating_add(s.work);
-        solved.push(s);
-    }
+    let (mut solved, work) = solve_in_order(
+        parts.len(),
+        budget,
+        |p| parts.edges(p).len() as u64,
+        |p, left| solve_part(g, &parts, p, max_units, left),
+    )?;
     let budget_reached = solved.iter().any(|s| s.budget_reached);
     // Every augmentation of every part, in the order one solver would make them.
     let mut order: Vec<(f64, usize, usize)> = solved
@@ -98,6 +89,88 @@ pub fn min_cost_flow_by_parts(
         budget_reached,
     })
 }
+
+/// Part `p`'s min-cost flow of at most `max_units` within `budget`.
+fn solve_part(
+    g: &FlowGraph,
+    parts: &Parts,
+    p: usize,
+    max_units: usize,
+    budget: u64,
+) -> Result<FlowSolution, FlowError> {
+    // One part's graph at a time (per thread): the parts' copies of the edges never all
+    // exist.
+    let sub = parts.graph(g, p);
+    // A part where no path can be negative sends nothing: most parts of a tracking
+    // graph are one noise detection with a positive cost.
+    let last = sub.n_nodes - 1;
+    let units = if lowest_path_bound(&sub, 0, last) < 0.0 {
+        max_units
+    } else {
+        0
+    };
+    min_cost_flow_within(&sub, 0, last, units, budget)
+}
+
+/// What the loop `for p in 0..parts { solve(p, budget left) }` gives, part by part,
+/// with the work it took in all: each part is given the budget the parts before it
+/// left, and an error is the first part's in order.
+///
+/// The parts are tried on the rayon pool, [`WAVE_PARTS`] at a time, each with the budget
+/// left at the wave's start but at most [`TRY_WORK_PER_EDGE`] per edge of its own (so a
+/// dense wave wastes a bounded amount). A try is kept when it did not reach its budget
+/// and took no more than the loop would have left it: within that, a solve does not
+/// depend on its budget (it stops only once its work exceeds it), so the loop would
+/// have found the same flow. Any other part is solved again, in order, with what is
+/// left: on one thread, or once the budget is spent, that is the loop itself.
+fn solve_in_order(
+    parts: usize,
+    budget: u64,
+    edges: impl Fn(usize) -> u64 + Sync,
+    solve: impl Fn(usize, u64) -> Result<FlowSolution, FlowError> + Sync,
+) -> Result<(Vec<FlowSolution>, u64), FlowError> {
+    use rayon::prelude::*;
+    let pooled = rayon::current_num_threads() > 1;
+    let mut work = 0u64;
+    let mut solved = Vec::with_capacity(parts);
+    for wave in (0..parts).step_by(WAVE_PARTS) {
+        let range = wave..(wave + WAVE_PARTS).min(parts);
+        let left = budget.saturating_sub(work);
+        let tries: Vec<Option<FlowSolution>> = if pooled && left > 0 && range.len() > 1 {
+            range
+                .clone()
+                .into_par_iter()
+                .map(|p| {
+                    let cap = TRY_WORK_PER_EDGE
+                        .saturating_mul(edges(p))
+                        .saturating_add(TRY_WORK_BASE);
+                    solve(p, left.min(cap)).ok()
+                })
+                .collect()
+        } else {
+            vec![None; range.len()]
+        };
+        for (p, tried) in range.zip(tries) {
+            let left = budget.saturating_sub(work);
+            let s = match tried {
+                Some(s) if !s.budget_reached && s.work <= left => s,
+                _ => solve(p, left)?,
+            };
+            work = work.saturating_add(s.work);
+            solved.push(s);
+        }
+    }
+    Ok((solved, work))
+}
+
+/// Parts [`solve_in_order`] tries at a time.
+const WAVE_PARTS: usize = 256;
+
+/// The most work a pooled try of a part may take, per edge of the part and in all
+/// beyond that: well above the 20.5 per edge real touch needs, so only a part the
+/// budget would have stopped anyway is solved twice.
+const TRY_WORK_PER_EDGE: u64 = 64;
+const TRY_WORK_BASE: u64 = 1_024;
 
 /// A lower bound on the cost of any `source -> sink` path: its cheapest first and last
 /// edges plus every negative edge in between, or an edge straight to the sink.
@@ -254,5 +327,86 @@ impl Parts {
             })
             .collect();
         graph
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::Xorshift;
+
+    /// The loop [`solve_in_order`] stands for: the oracle.
+    fn in_order(
+        parts: usize,
+        budget: u64,
+        solve: impl Fn(usize, u64) -> Result<FlowSolution, FlowError>,
+    ) -> Result<(Vec<FlowSolution>, u64), FlowError> {
+        let mut work = 0u64;
+        let mut solved = Vec::new();
+        for p in 0..parts {
+            let s = solve(p, budget.saturating_sub(work))?;
+            work = work.saturating_add(s.work);
+            solved.push(s);
+        }
+        Ok((solved, work))
+    }
+
+    /// A tracking-like graph of `groups` separate groups of 1-8 detections: an entry
+    /// and an exit edge per detection, and links forward within its group, with costs
+    /// that make some paths worth taking and some not.
+    fn scattered(rng: &mut Xorshift, groups: usize) -> FlowGraph {
+        let sizes: Vec<usize> = (0..groups)
+            .map(|_| 1 + (rng.next_u64() % 8) as usize)
+            .collect();
+        let n = sizes.iter().sum::<usize>() + 2;
+        let (source, sink) = (0, n - 1);
+        let mut g = FlowGraph::new(n);
+        let mut first = 1;
+        for size in sizes {
+            for v in first..first + size {
+                for (from, to) in [(source, v), (v, sink)] {
+                    g.add_edge(from, to, 2.0 * rng.uniform() - 0.5).unwrap();
+                }
+                for w in v + 1..first + size {
+                    if rng.uniform() < 0.6 {
+                        g.add_edge(v, w, -3.0 * rng.uniform() + 0.5).unwrap();
+                    }
+                }
+            }
+            first += size;
+        }
+        g
+    }
+
+    /// On the pool, in waves, with tries kept or solved again: what the loop in part
+    /// order gives, flow for flow, at every budget from none to plenty, with waves that
+    /// run out of budget in their middle.
+    #[test]
+    fn parts_on_the_pool_are_the_loop_in_part_order() {
+        let mut rng = Xorshift::new(11);
+        for groups in [1, 3, 300, 700] {
+            let g = scattered(&mut rng, groups);
+            let (source, sink) = (0, g.n_nodes - 1);
+            let parts = Parts::of(&g, source, sink);
+            assert!(parts.len() >= groups);
+            for max_units in [1, usize::MAX] {
+                for budget in [0, 50, 2_000, 20_000, 200_000, u64::MAX] {
+                    let solve = |p, left| solve_part(&g, &parts, p, max_units, left);
+                    let pooled =
+                        solve_in_order(parts.len(), budget, |p| parts.edges(p).len() as u64, solve);
+                    let looped = in_order(parts.len(), budget, solve);
+                    if groups == 700 && max_units == usize::MAX && budget == 20_000 {
+                        // The budget runs out part-way through the parts: some solved in
+                        // full before it, the rest stopped.
+                        let flows = &looped.as_ref().unwrap().0;
+                        let first = flows.iter().position(|s| s.budget_reached);
+                        assert!(
+                            first.is_some_and(|i| i > 1 && flows[..i].iter().any(|s| s.units > 1))
+                        );
+                    }
+                    assert_eq!(pooled, looped, "{groups} groups, budget {budget}");
+                }
+            }
+        }
     }
 }
