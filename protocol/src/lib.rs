@@ -25,7 +25,7 @@ pub mod thermal;
 pub use bank::Bank;
 pub use error::Error;
 pub use limits::Limits;
-pub use player::{DeviceConfig, OutputSink, Player, Status, Tick};
+pub use player::{DeviceConfig, LiveParams, OutputSink, Player, Status, Tick};
 pub use stimulus::Stimulus;
 pub use thermal::Thermal;
 

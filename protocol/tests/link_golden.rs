@@ -70,7 +70,10 @@ fn requests_are_pinned() {
     pin_request(req(7, Command::BankCommit), &[0x07, 0x07]);
     pin_request(req(8, Command::BankAbort), &[0x08, 0x08]);
     // seq 300 = varint AC 02
-    pin_request(req(300, Command::Play { slot: 3 }), &[0xAC, 0x02, 0x09, 0x03]);
+    pin_request(
+        req(300, Command::Play { slot: 3 }),
+        &[0xAC, 0x02, 0x09, 0x03],
+    );
     pin_request(req(9, Command::Stop), &[0x09, 0x0A]);
     pin_request(
         req(
@@ -259,7 +262,10 @@ fn refusals_events_and_unreadable_frames_are_pinned() {
     let cases: [(LinkError, &[u8]); 17] = [
         (LinkError::Malformed, &[0x00]),
         (LinkError::UnsupportedVersion { device: 2 }, &[0x01, 0x02]),
-        (LinkError::NoSuchSlot { slot: 9, slots: 6 }, &[0x02, 0x09, 0x06]),
+        (
+            LinkError::NoSuchSlot { slot: 9, slots: 6 },
+            &[0x02, 0x09, 0x06],
+        ),
         (LinkError::BadSlot { slot: 1 }, &[0x03, 0x01]),
         (
             LinkError::TooHot {

@@ -87,20 +87,9 @@ pub enum Command<'a> {
     StreamEnd,
 }
 
-/// How a stream plays: the keyframe spacing and the limits it was made for (the
-/// device enforces the stricter of these and its own).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct StreamParams {
-    /// Time between keyframes, ms (1..=1000).
-    pub keyframe_period_ms: u16,
-    /// Ramp from 0 A in, and back to 0 A at the end, ms (>= 1).
-    pub ramp_ms: u16,
-    /// Current that the Q15 value 32768 stands for, mA (1..=10000).
-    pub full_scale_ma: u16,
-    /// The limits the stream was made for.
-    pub limits: Limits,
-}
+/// How a stream plays: the keyframe spacing, the ramp, the full scale and the
+/// limits it was made for (the device enforces the stricter of these and its own).
+pub use crate::player::LiveParams as StreamParams;
 
 /// A message from the device.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
