@@ -12,7 +12,7 @@
 //!
 //! The binary (`src/main.rs`, target only) wires these to TIM3/TIM4/DAC, TIM7,
 //! EXTI and the watchdog.
-#![cfg_attr(not(test), no_std)]
+#![cfg_attr(not(any(test, feature = "sim")), no_std)]
 #![warn(missing_docs)]
 
 pub mod boot;

@@ -131,7 +131,9 @@ impl BankWriter {
     ) -> Result<u32, LinkError> {
         let up = self.upload.as_mut().ok_or(LinkError::NoUpload)?;
         let offset = offset as usize;
-        let end = offset.checked_add(bytes.len()).ok_or(LinkError::OutOfRange)?;
+        let end = offset
+            .checked_add(bytes.len())
+            .ok_or(LinkError::OutOfRange)?;
         if end > up.len {
             return Err(LinkError::OutOfRange);
         }
@@ -199,16 +201,18 @@ impl BankWriter {
             });
         }
         for at in (0..HEAD_LEN).step_by(WORD) {
-            let word = [up.head[at], up.head[at + 1], up.head[at + 2], up.head[at + 3]];
+            let word = [
+                up.head[at],
+                up.head[at + 1],
+                up.head[at + 2],
+                up.head[at + 3],
+            ];
             flash
                 .program(at, u32::from_le_bytes(word))
                 .map_err(flash_error)?;
         }
         match check(flash.region()) {
-            Ok(slots) => Ok(Committed {
-                crc: up.crc,
-                slots,
-            }),
+            Ok(slots) => Ok(Committed { crc: up.crc, slots }),
             Err(e) => {
                 for sector in 0..up.len.div_ceil(SECTOR_LEN) {
                     flash.erase(sector).map_err(|_| LinkError::Flash)?;
@@ -249,9 +253,8 @@ fn image_crc(head: &[u8], body: &[u8]) -> u32 {
 /// The boot's check of a region, and the firmware's layout check of every slot:
 /// the number of slots, or why the image is refused.
 pub fn check(region: &[u8]) -> Result<u8, LinkError> {
-    let bank: Bank<'_> = check_bank(region).map_err(|e| LinkError::BadBank {
-        blinks: e.blinks(),
-    })?;
+    let bank: Bank<'_> =
+        check_bank(region).map_err(|e| LinkError::BadBank { blinks: e.blinks() })?;
     for (slot, s) in bank.stimuli().enumerate() {
         if s.check_layout(LAYOUT_ID).is_err() {
             return Err(LinkError::WrongLayout { slot: slot as u8 });
@@ -266,23 +269,26 @@ pub fn bank_crc(image: &[u8]) -> u32 {
     crc32(image)
 }
 
-#[cfg(test)]
-pub(crate) mod model {
+#[cfg(any(test, feature = "sim"))]
+pub mod model {
     //! A flash model for the tests: erase-before-write, word granularity, and a
     //! power cut after a chosen number of bytes erased or programmed.
 
     use super::{Flash, FlashError, SECTOR_LEN, WORD};
     use touch_protocol::bank::REGION_LEN;
 
-    /// The bank region in RAM, with the rules of the F405's flash.
+    /// The bank region in RAM, with the rules of the F405's flash. Programming a
+    /// word that is not erased panics: the writer must never do it.
     #[derive(Debug, Clone)]
     pub struct FlashModel {
+        /// The region's bytes.
         pub bytes: Vec<u8>,
         /// Bytes that may still be erased or programmed before the power goes
         /// (`usize::MAX`: never).
         pub budget: usize,
         /// Set once the power went.
         pub dead: bool,
+        /// Sector erases so far.
         pub erases: usize,
     }
 
@@ -327,7 +333,7 @@ pub(crate) mod model {
         }
 
         fn program(&mut self, offset: usize, word: u32) -> Result<(), FlashError> {
-            if offset % WORD != 0 || offset + WORD > self.bytes.len() {
+            if !offset.is_multiple_of(WORD) || offset + WORD > self.bytes.len() {
                 return Err(FlashError::NotErased);
             }
             if self.bytes[offset..offset + WORD].iter().any(|&b| b != 0xFF) {
@@ -413,10 +419,7 @@ mod tests {
         );
         // Commit before the last byte: refused, the upload goes on.
         assert_eq!(w.commit(&mut f), Err(LinkError::OutOfRange));
-        assert_eq!(
-            w.chunk(&mut f, 30, &new[30..]),
-            Ok(new.len() as u32)
-        );
+        assert_eq!(w.chunk(&mut f, 30, &new[30..]), Ok(new.len() as u32));
         assert!(w.commit(&mut f).is_ok());
         assert_eq!(w.commit(&mut f), Err(LinkError::NoUpload));
         assert_eq!(w.abort(), Err(LinkError::NoUpload));
@@ -429,7 +432,8 @@ mod tests {
         // The announced CRC is not the image's.
         let mut f = FlashModel::with(&old);
         let mut w = BankWriter::new();
-        w.begin(&mut f, new.len() as u32, bank_crc(&new) ^ 1).unwrap();
+        w.begin(&mut f, new.len() as u32, bank_crc(&new) ^ 1)
+            .unwrap();
         w.chunk(&mut f, 0, &new).unwrap();
         assert_eq!(
             w.commit(&mut f),
@@ -489,7 +493,10 @@ mod tests {
             Ok(b) if b.as_bytes() == old => Boot::Old,
             Ok(b) if b.as_bytes() == new => Boot::New,
             Ok(b) if b.as_bytes() == builtin => Boot::Builtin,
-            Ok(b) => panic!("boot accepted a bank that is none of the three: {} bytes", b.len()),
+            Ok(b) => panic!(
+                "boot accepted a bank that is none of the three: {} bytes",
+                b.len()
+            ),
             Err(e) => Boot::Refused(e.blinks()),
         }
     }
@@ -545,7 +552,11 @@ mod tests {
             for (i, c) in new.chunks(37).take(stop).enumerate() {
                 w.chunk(&mut f, (i * 37) as u32, c).unwrap();
             }
-            assert_eq!(boot(f.region(), &old, &new, &builtin), Boot::Builtin, "after chunk {stop}");
+            assert_eq!(
+                boot(f.region(), &old, &new, &builtin),
+                Boot::Builtin,
+                "after chunk {stop}"
+            );
         }
     }
 
