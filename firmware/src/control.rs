@@ -376,6 +376,7 @@ impl<'a> Controller<'a> {
 
     /// The stream's part of a tick: the deadline, the start once two keyframes are
     /// in, and the next keyframe for the player.
+    #[inline(never)]
     fn stream_tick(&mut self) -> Option<Report> {
         if self.stream == StreamState::Off {
             self.drain_keyframes();
@@ -457,6 +458,7 @@ impl<'a> Controller<'a> {
     }
 
     /// Takes at most one link command per tick and answers it.
+    #[inline(never)]
     fn serve_link(&mut self) -> Option<Report> {
         let control = self.link.as_mut()?.next_control()?;
         let first = self.now.wrapping_add(1);
@@ -600,6 +602,7 @@ impl<'a> Controller<'a> {
 
     /// Tells the host what a report says (the frames it describes go out at the next
     /// tick).
+    #[inline(never)]
     fn announce(&mut self, report: Report) {
         if self.link.is_none() {
             return;

@@ -14,7 +14,7 @@ use touch_protocol::Thermal;
 /// Commands in flight from the link to the tick (one fewer than this).
 pub const CONTROL_DEPTH: usize = 5;
 /// Answers and events in flight from the tick to the link (one fewer than this).
-pub const ANSWER_DEPTH: usize = 17;
+pub const ANSWER_DEPTH: usize = 9;
 /// Stream keyframes the device buffers (one fewer than this).
 pub const KEYFRAME_DEPTH: usize = 33;
 
