@@ -16,13 +16,13 @@
 //! [`Player::with_thermal`]. A slot for another layout is never played.
 
 use touch_protocol::bank::MAX_SLOTS;
-use touch_protocol::link::{self as wire, LinkError, Reply, Source, StreamStop};
+use touch_protocol::link::{self as wire, LinkError, Source, StreamStop};
 use touch_protocol::player::{Fault, Status};
 use touch_protocol::thermal::TooHot;
 use touch_protocol::{Bank, DeviceConfig, Error, LiveParams, Player, Stimulus, Thermal};
 
 use crate::button::Event;
-use crate::link::{Answer, Control, Snapshot, TickPort};
+use crate::link::{Answer, Control, Snapshot, TickPort, TickReply};
 use crate::output::{Frame, IDLE_FRAME, LAYOUT_ID};
 
 /// What happened, for the log (the tick interrupt never logs itself).
@@ -471,13 +471,27 @@ impl<'a> Controller<'a> {
                     StreamState::Armed(_) => self.stop_stream(StreamStop::Ended),
                     _ => self.stop(),
                 };
-                let reply = Reply::Stop {
+                let reply = TickReply::Stop {
                     source,
                     tick: if source.is_some() { first } else { self.now },
                 };
                 (Answer::Reply(seq, reply), report)
             }
-            Control::Status { seq } => (Answer::Status(seq, self.snapshot()), None),
+            Control::Status { seq } => {
+                let snapshot = self.snapshot();
+                let sent = self
+                    .link
+                    .as_mut()
+                    .is_some_and(|p| p.send_snapshot(snapshot));
+                if sent {
+                    (Answer::Status(seq), None)
+                } else {
+                    (
+                        Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)),
+                        None,
+                    )
+                }
+            }
             Control::StreamBegin { seq, params } => {
                 if let Some(e) = self.refuse_start() {
                     (Answer::Refused(seq, e), None)
@@ -491,7 +505,10 @@ impl<'a> Controller<'a> {
                         ended: false,
                     };
                     let capacity = self.link.as_ref().map_or(0, |p| p.keyframe_capacity());
-                    (Answer::Reply(seq, Reply::StreamBegin { capacity }), None)
+                    (
+                        Answer::Reply(seq, TickReply::StreamBegin { capacity }),
+                        None,
+                    )
                 }
             }
             Control::StreamEnd { seq } => {
@@ -499,7 +516,7 @@ impl<'a> Controller<'a> {
                     (Answer::Refused(seq, LinkError::NoStream), None)
                 } else {
                     self.clock.ended = true;
-                    (Answer::Reply(seq, Reply::StreamEnd), None)
+                    (Answer::Reply(seq, TickReply::StreamEnd), None)
                 }
             }
             Control::Lock { seq } => {
@@ -560,7 +577,7 @@ impl<'a> Controller<'a> {
             // As a press on another slot: the one playing ramps down first.
             let report = self.stop();
             self.queued = Some(slot);
-            let reply = Reply::Play {
+            let reply = TickReply::Play {
                 slot: wire_slot,
                 tick: first,
                 now: false,
@@ -578,7 +595,7 @@ impl<'a> Controller<'a> {
         }
         self.selected = slot;
         let report = self.start(slot);
-        let reply = Reply::Play {
+        let reply = TickReply::Play {
             slot: wire_slot,
             tick: first,
             now: true,

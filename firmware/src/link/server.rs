@@ -13,7 +13,7 @@ use touch_protocol::link::{
 use touch_protocol::Bank;
 
 use super::bank::{BankWriter, Flash};
-use super::port::{Answer, Control, LinkPort, Snapshot};
+use super::port::{Answer, Control, LinkPort, Snapshot, TickReply};
 use crate::output::{device_config, LAYOUT_ID};
 
 /// What the device says about itself in `Info`.
@@ -314,9 +314,10 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         while let Some(a) = self.port.receive() {
             match a {
                 Answer::Reply(seq, reply) => {
-                    if matches!(reply, Reply::StreamBegin { .. }) {
+                    if matches!(reply, TickReply::StreamBegin { .. }) {
                         self.stream_next = Some(0);
                     }
+                    let reply = reply.into();
                     self.emit(&Message::Reply { seq, reply }, out);
                 }
                 Answer::Refused(seq, error) => {
@@ -325,7 +326,10 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                     }
                     self.emit(&Message::Refused { seq, error }, out);
                 }
-                Answer::Status(seq, snap) => {
+                Answer::Status(seq) => {
+                    let Some(snap) = self.port.snapshot() else {
+                        continue;
+                    };
                     let status = self.status(&snap);
                     self.emit(
                         &Message::Reply {

@@ -748,3 +748,51 @@ fn stream_rules() {
     assert_eq!(*h.dev.outputs().last().unwrap(), IDLE_FRAME);
     assert!(h.call(Command::Play { slot: 0 }).is_ok());
 }
+
+/// The tick's side alone: a stream begun, then fed one keyframe per period, plays
+/// on without an underrun when the host keeps two keyframes ahead (the live player
+/// needs the keyframe after next at each boundary), and stops when only one.
+#[test]
+fn a_stream_fed_ahead_plays_on() {
+    use super::{Answer, Channels, Control};
+    use crate::control::Controller;
+    let image = two_slots();
+    let run = |ahead: usize| {
+        let bank = touch_protocol::Bank::decode(&image).unwrap();
+        let mut c = Controller::new(bank, device_config());
+        let channels: &'static mut Channels = Box::leak(Box::new(Channels::new()));
+        let (mut port, tick) = channels.split();
+        c.attach(tick);
+        let mut events = Vec::new();
+        port.send(Control::StreamBegin {
+            seq: 1,
+            params: stream_params(),
+        })
+        .unwrap();
+        c.next_frame();
+        for t in 1..2000u32 {
+            if t % 20 == 1 {
+                let v = (((t / 20) % 20) as i16).min(10) * 2000;
+                let n = if t == 1 { 1 + ahead } else { 1 };
+                for _ in 0..n {
+                    port.push_keyframe([v; 8]).unwrap();
+                }
+                port.fed();
+            }
+            c.next_frame();
+            while let Some(a) = port.receive() {
+                if let Answer::Event(_, e) = a {
+                    events.push(e);
+                }
+            }
+        }
+        (c.streaming(), events)
+    };
+    let (on, events) = run(2);
+    assert!(on, "{events:?}");
+    let (on, events) = run(1);
+    assert!(
+        !on && events.contains(&Event::StreamStopped(StreamStop::Underrun)),
+        "{events:?}"
+    );
+}
