@@ -14,7 +14,7 @@ use touch_protocol::Bank;
 
 use super::bank::{BankWriter, Flash};
 use super::port::{Answer, Control, LinkPort, Snapshot, TickReply};
-use crate::output::{device_config, LAYOUT_ID};
+use crate::output::{device_config, LAYOUT_HASH};
 
 /// What the device says about itself in `Info`.
 #[derive(Debug, Clone, Copy)]
@@ -303,7 +303,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             name: s.name(),
             duration_ms: s.duration_ms(),
             playback_ms: s.header().playback_ms(),
-            playable: s.check_layout(LAYOUT_ID).is_ok(),
+            playable: s.check_layout(LAYOUT_HASH).is_ok(),
         })
     }
 
@@ -421,7 +421,7 @@ fn budget_permille(heat_ma2ms: u64, limits: &touch_protocol::Limits) -> u16 {
 pub const FIRMWARE_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// The layout this firmware drives, by name.
-pub const LAYOUT_NAME: &str = "paper-2x4";
+pub const LAYOUT_NAME: &str = touch_protocol::layout::SLEEVE_NAME;
 
 /// The boot's view of the bank for `Info`: which bank plays (or why none), and the
 /// bank itself. `source` is what [`crate::boot::bank_source`] chose, `builtin` the
@@ -449,7 +449,7 @@ pub fn identity<'a>(
     Identity {
         firmware: FIRMWARE_VERSION,
         layout: LAYOUT_NAME,
-        layout_hash: u32::from(LAYOUT_ID),
+        layout_hash: LAYOUT_HASH,
         bank,
         slots: checked.ok(),
     }

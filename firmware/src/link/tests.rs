@@ -150,6 +150,13 @@ fn hello_info_and_slots() {
         })
     );
     assert_eq!(info.limits, device_config().limits);
+    assert_eq!(
+        (info.layout, info.layout_hash),
+        (
+            touch_protocol::layout::SLEEVE_NAME,
+            touch_protocol::layout::SLEEVE_HASH
+        )
+    );
     assert_eq!(info.max_chunk as usize, link::MAX_CHUNK);
     let f = h.call(Command::Slot { slot: 1 }).unwrap();
     let Reply::Slot(s) = reply(&f) else { panic!() };
@@ -487,6 +494,24 @@ fn uploads_wait_for_rest_and_lock_the_bank() {
 }
 
 #[test]
+fn a_bank_for_another_layout_is_refused_at_commit_and_never_boots() {
+    let s = constant_stimulus("mirrored", 200, 100);
+    let d = Stimulus::decode(&s).unwrap();
+    let mut h = *d.header();
+    h.layout_hash = touch_protocol::layout::SLEEVE_HASH.rotate_left(8);
+    let frames: Vec<_> = d.keyframes().collect();
+    let other = bank(&[touch_protocol::stimulus::encode(h, &frames).unwrap()]);
+    let mut h = host();
+    assert_eq!(
+        upload(&mut h, &other, 64),
+        Err(LinkError::WrongLayout { slot: 0 })
+    );
+    h.dev.restart();
+    let f = h.call(Command::Info).unwrap();
+    assert!(matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))));
+}
+
+#[test]
 fn a_bad_crc_commit_is_refused_and_a_new_upload_can_follow() {
     let mut h = host();
     let new = two_slots();
@@ -631,7 +656,8 @@ fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
         ramp_ms: 20,
         full_scale_ma: 1000,
         quant_shift: 0,
-        layout_id: 1,
+        layout_hash: 1,
+        layout: "test",
         limits: Limits::SLEEVE,
         name: "s",
     };
