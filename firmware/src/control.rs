@@ -174,6 +174,11 @@ impl<'a> Controller<'a> {
         self.now
     }
 
+    /// True when the tick queued answers the link has not looked at yet.
+    pub fn link_answered(&self) -> bool {
+        self.link.as_ref().is_some_and(|p| p.answered())
+    }
+
     /// True while the host's stream plays (or ramps down).
     pub fn streaming(&self) -> bool {
         matches!(self.playing, Some((Playing::Stream, _)))

@@ -1,9 +1,9 @@
 //! The link over USART2 (PA2 TX, PA3 RX, 460,800 baud 8N1): the server in a task.
 //!
 //! The USART's interrupt, below the tick's priority, moves bytes between the data
-//! register and two lock-free rings; the task wakes every half millisecond, hands the
-//! received bytes to the server, lets it forward the tick's answers, and queues the
-//! frames for the interrupt to send. Nothing here runs in the tick, which only takes
+//! register and two lock-free rings; the task wakes when a byte arrived or the tick
+//! queued an answer (each signals it), hands the received bytes to the server, lets
+//! it forward the tick's answers, and queues the frames for the interrupt to send. Nothing here runs in the tick, which only takes
 //! a command from a lock-free queue. The registers are driven directly: the USART's
 //! data register, its status flags and two interrupt enables are all the link uses.
 
@@ -13,7 +13,9 @@ use embassy_stm32::gpio::{AfType, Flex, OutputType, Speed};
 use embassy_stm32::interrupt::{InterruptExt, Priority};
 use embassy_stm32::peripherals::{PA2, PA3, USART2};
 use embassy_stm32::{interrupt, pac, Peri};
-use embassy_time::{Duration, Instant, Timer};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::signal::Signal;
+use embassy_time::{with_timeout, Duration, Instant, Timer};
 use heapless::spsc::{Consumer, Producer, Queue};
 use sleeve_firmware::link::LinkServer;
 
@@ -33,6 +35,14 @@ const UPLOAD_IDLE: Duration = Duration::from_secs(30);
 const RX_LEN: usize = 257;
 /// Bytes waiting to be sent: two frames of the largest size, and events.
 const TX_LEN: usize = 3 * touch_protocol::link::MAX_ENCODED;
+
+/// Wakes the link's task: a byte arrived, or the tick has answers.
+static WAKE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+
+/// Wakes the link's task (from the tick, when it queued answers).
+pub fn wake() {
+    WAKE.signal(());
+}
 
 static mut RX: Queue<u8, RX_LEN> = Queue::new();
 static mut TX: Queue<u8, TX_LEN> = Queue::new();
@@ -112,6 +122,7 @@ fn USART2() {
         // is dropped (the frame fails its CRC and the host retries).
         let byte = u.dr().read().dr() as u8;
         let _ = rx.enqueue(byte);
+        WAKE.signal(());
     }
     if sr.txe() && u.cr1().read().txeie() {
         match tx.dequeue() {
@@ -127,7 +138,8 @@ pub async fn serve(mut uart: Uart, mut server: LinkServer<'static, BankFlash>) {
     let mut heard = Instant::now();
     let mut batch = [0u8; RX_LEN];
     loop {
-        Timer::after(Duration::from_micros(500)).await;
+        // Woken by a byte or an answer; once a second anyway, for the upload timeout.
+        let _ = with_timeout(Duration::from_secs(1), WAKE.wait()).await;
         let mut n = 0;
         while n < batch.len() {
             match uart.rx.dequeue() {

@@ -5,7 +5,7 @@
 //! the tick takes at most one command per tick and never blocks on a full queue (an
 //! answer that does not fit is dropped; the link drains the queue continuously).
 
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use heapless::spsc::{Consumer, Producer, Queue};
 use touch_protocol::link::{FaultRecord, LinkError, Reply, Source, StreamParams};
@@ -142,6 +142,9 @@ pub struct Channels {
     keyframes: Queue<[i16; 8], KEYFRAME_DEPTH>,
     snapshots: Queue<Snapshot, SNAPSHOT_DEPTH>,
     fed: AtomicU32,
+    /// Set by the tick when it queued an answer, cleared by the link before it
+    /// drains them: the firmware wakes the link's task on it instead of polling.
+    answered: AtomicBool,
 }
 
 impl Default for Channels {
@@ -159,6 +162,7 @@ impl Channels {
             keyframes: Queue::new(),
             snapshots: Queue::new(),
             fed: AtomicU32::new(0),
+            answered: AtomicBool::new(false),
         }
     }
 
@@ -169,6 +173,7 @@ impl Channels {
         let (key_tx, key_rx) = self.keyframes.split();
         let (snap_tx, snap_rx) = self.snapshots.split();
         let fed = &self.fed;
+        let answered = &self.answered;
         (
             LinkPort {
                 control: control_tx,
@@ -176,6 +181,7 @@ impl Channels {
                 keyframes: key_tx,
                 snapshots: snap_rx,
                 fed,
+                answered,
             },
             TickPort {
                 control: control_rx,
@@ -183,6 +189,7 @@ impl Channels {
                 keyframes: key_rx,
                 snapshots: snap_tx,
                 fed,
+                answered,
             },
         )
     }
@@ -195,6 +202,7 @@ pub struct LinkPort<'a> {
     keyframes: Producer<'a, [i16; 8], KEYFRAME_DEPTH>,
     snapshots: Consumer<'a, Snapshot, SNAPSHOT_DEPTH>,
     fed: &'a AtomicU32,
+    answered: &'a AtomicBool,
 }
 
 impl LinkPort<'_> {
@@ -210,6 +218,8 @@ impl LinkPort<'_> {
 
     /// The next answer or event, if any.
     pub fn receive(&mut self) -> Option<Answer> {
+        // Cleared before the queue is read: an answer queued after this sets it again.
+        self.answered.store(false, Ordering::Release);
         self.answers.dequeue()
     }
 
@@ -236,6 +246,7 @@ pub struct TickPort<'a> {
     keyframes: Consumer<'a, [i16; 8], KEYFRAME_DEPTH>,
     snapshots: Producer<'a, Snapshot, SNAPSHOT_DEPTH>,
     fed: &'a AtomicU32,
+    answered: &'a AtomicBool,
 }
 
 impl core::fmt::Debug for TickPort<'_> {
@@ -253,6 +264,13 @@ impl TickPort<'_> {
     /// Sends an answer; dropped if the queue is full.
     pub fn send(&mut self, a: Answer) {
         let _ = self.answers.enqueue(a);
+        self.answered.store(true, Ordering::Release);
+    }
+
+    /// True once an answer was sent and the link has not looked since (the firmware
+    /// wakes the link's task on it).
+    pub fn answered(&self) -> bool {
+        self.answered.load(Ordering::Acquire)
     }
 
     /// Queues a snapshot for a `Status`; false if the link has not taken the last
