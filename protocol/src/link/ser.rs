@@ -48,9 +48,31 @@ impl Out<'_> {
         Ok(())
     }
 
-    /// An unsigned LEB128 varint (postcard's for u16, u32, u64 and lengths).
+    /// An unsigned LEB128 varint of a value that fits 32 bits (postcard's for u16,
+    /// u32 and lengths): the 32-bit path is what the firmware runs.
     #[inline(never)]
+    fn var32(&mut self, mut v: u32) -> Result<(), Full> {
+        let mut b = [0u8; 5];
+        let mut n = 0;
+        loop {
+            let low = (v & 0x7F) as u8;
+            v >>= 7;
+            if v == 0 {
+                b[n] = low;
+                n += 1;
+                break;
+            }
+            b[n] = low | 0x80;
+            n += 1;
+        }
+        self.put(&b[..n])
+    }
+
+    /// An unsigned LEB128 varint (postcard's for u64).
     fn var(&mut self, mut v: u64) -> Result<(), Full> {
+        if let Ok(small) = u32::try_from(v) {
+            return self.var32(small);
+        }
         let mut b = [0u8; 10];
         let mut n = 0;
         loop {
@@ -101,10 +123,10 @@ impl ser::Serializer for &mut Out<'_> {
         self.put(&[v as u8])
     }
     fn serialize_i16(self, v: i16) -> Result<(), Full> {
-        self.ivar(i64::from(v))
+        self.var32(((i32::from(v) << 1) ^ (i32::from(v) >> 15)) as u32)
     }
     fn serialize_i32(self, v: i32) -> Result<(), Full> {
-        self.ivar(i64::from(v))
+        self.var32(((v << 1) ^ (v >> 31)) as u32)
     }
     fn serialize_i64(self, v: i64) -> Result<(), Full> {
         self.ivar(v)
@@ -113,10 +135,10 @@ impl ser::Serializer for &mut Out<'_> {
         self.put(&[v])
     }
     fn serialize_u16(self, v: u16) -> Result<(), Full> {
-        self.var(u64::from(v))
+        self.var32(u32::from(v))
     }
     fn serialize_u32(self, v: u32) -> Result<(), Full> {
-        self.var(u64::from(v))
+        self.var32(v)
     }
     fn serialize_u64(self, v: u64) -> Result<(), Full> {
         self.var(v)
@@ -135,7 +157,7 @@ impl ser::Serializer for &mut Out<'_> {
         self.serialize_bytes(v.as_bytes())
     }
     fn serialize_bytes(self, v: &[u8]) -> Result<(), Full> {
-        self.var(v.len() as u64)?;
+        self.var32(u32::try_from(v.len()).map_err(|_| Full)?)?;
         self.put(v)
     }
     fn serialize_none(self) -> Result<(), Full> {
@@ -157,7 +179,7 @@ impl ser::Serializer for &mut Out<'_> {
         index: u32,
         _: &'static str,
     ) -> Result<(), Full> {
-        self.var(u64::from(index))
+        self.var32(index)
     }
     fn serialize_newtype_struct<T: Serialize + ?Sized>(
         self,
@@ -173,7 +195,7 @@ impl ser::Serializer for &mut Out<'_> {
         _: &'static str,
         value: &T,
     ) -> Result<(), Full> {
-        self.var(u64::from(index))?;
+        self.var32(index)?;
         value.serialize(self)
     }
     fn serialize_seq(self, len: Option<usize>) -> Result<Self, Full> {
@@ -193,7 +215,7 @@ impl ser::Serializer for &mut Out<'_> {
         _: &'static str,
         _: usize,
     ) -> Result<Self, Full> {
-        self.var(u64::from(index))?;
+        self.var32(index)?;
         Ok(self)
     }
     fn serialize_map(self, len: Option<usize>) -> Result<Self, Full> {
@@ -210,7 +232,7 @@ impl ser::Serializer for &mut Out<'_> {
         _: &'static str,
         _: usize,
     ) -> Result<Self, Full> {
-        self.var(u64::from(index))?;
+        self.var32(index)?;
         Ok(self)
     }
     fn collect_str<T: fmt::Display + ?Sized>(self, _: &T) -> Result<(), Full> {
