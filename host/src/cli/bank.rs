@@ -27,6 +27,16 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut inputs: Vec<_> = args
+            .stimuli
+            .iter()
+            .map(|p| named("the stimulus", p))
+            .collect();
+        inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
+        refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
+    }
     let layout = super::layout(args.layout.as_deref())?;
     let target = layout_id(layout.id());
     if args.stimuli.len() > usize::from(bank::MAX_SLOTS) {

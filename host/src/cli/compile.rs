@@ -14,7 +14,6 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use touchc::compile::{compile_owned, CompileOptions, Report};
-use touchc::input::recording::Recording;
 
 /// Arguments of `touchc compile`.
 #[derive(Debug, clap::Args)]
@@ -53,6 +52,7 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    check_outputs(args)?;
     let config = args.config.resolve()?;
     let layout = super::layout(args.layout.as_deref())?;
     let opts = CompileOptions {
@@ -65,15 +65,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     match (&args.out_dir, args.recordings.as_slice()) {
         (None, [one]) => {
-            let out = args
-                .output
-                .clone()
-                .unwrap_or_else(|| one.with_extension("touch"));
+            let out = default_output(args, one)?;
             let r = compile_one(one, &out, args.report.as_deref(), args, &opts)?;
             for w in &r.warnings {
                 super::warn(one, w);
             }
-            eprintln!("{}", super::escaped(&summary_line(one, &out, &r)));
+            // Named as in every message (`-` is standard input or output).
+            let (input, output) = (
+                PathBuf::from(super::input_name(one)),
+                PathBuf::from(crate::cli::output::shown(&out)),
+            );
+            eprintln!("{}", super::escaped(&summary_line(&input, &output, &r)));
             Ok(())
         }
         (None, _) => Err(super::usage(format!(
@@ -82,6 +84,82 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ))),
         (Some(dir), recordings) => batch(recordings, dir, args, &opts),
     }
+}
+
+/// The stimulus file of a single compile: `-o`, else the recording's name with `.touch`.
+fn default_output(args: &Args, recording: &Path) -> anyhow::Result<PathBuf> {
+    match &args.output {
+        Some(out) => Ok(out.clone()),
+        None if crate::cli::output::is_stdio(recording) => Err(super::usage(
+            "reading the recording from standard input: give -o FILE (or -o - for standard output)",
+        )),
+        None => Ok(recording.with_extension("touch")),
+    }
+}
+
+/// Refuses, before any work, outputs that would write over an input (the recordings,
+/// the config, the layout) or over each other: `-o`, `--report`, and in a batch every
+/// `DIR/<stem>.touch` and `DIR/<stem>.json`.
+fn check_outputs(args: &Args) -> anyhow::Result<()> {
+    use crate::cli::output::{named, refuse_overwrites};
+    let mut inputs: Vec<_> = args
+        .recordings
+        .iter()
+        .map(|r| named("the recording", r))
+        .collect();
+    inputs.extend(args.config.config.as_deref().map(|p| named("--config", p)));
+    inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
+    match (&args.out_dir, args.recordings.as_slice()) {
+        (None, [one]) => {
+            let out = default_output(args, one)?;
+            let label = if args.output.is_some() {
+                "-o"
+            } else {
+                "the default output"
+            };
+            let mut outputs = vec![named(label, &out)];
+            outputs.extend(args.report.as_deref().map(|p| named("--report", p)));
+            refuse_overwrites(&inputs, &outputs)
+        }
+        (None, _) => Ok(()),
+        (Some(dir), recordings) => {
+            if recordings.iter().any(|r| crate::cli::output::is_stdio(r)) {
+                return Err(super::usage(
+                    "standard input (-) cannot be part of a batch: compile it alone with -o",
+                ));
+            }
+            check_stems(recordings, dir)?;
+            let files: Vec<PathBuf> = recordings
+                .iter()
+                .flat_map(|r| {
+                    let name = stem(r);
+                    let report = args
+                        .report
+                        .as_ref()
+                        .map(|_| dir.join(format!("{name}.json")));
+                    std::iter::once(dir.join(format!("{name}.touch"))).chain(report)
+                })
+                .collect();
+            let outputs: Vec<_> = files.iter().map(|p| named("the batch output", p)).collect();
+            refuse_overwrites(&inputs, &outputs)
+        }
+    }
+}
+
+/// Two inputs with one stem would overwrite each other's output: a usage error.
+fn check_stems(recordings: &[PathBuf], dir: &Path) -> anyhow::Result<()> {
+    let mut stems: BTreeMap<String, &Path> = BTreeMap::new();
+    for r in recordings {
+        if let Some(first) = stems.insert(stem(r), r) {
+            return Err(super::usage(format!(
+                "{} and {} would both compile to {}",
+                first.display(),
+                r.display(),
+                dir.join(format!("{}.touch", stem(r))).display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Compiles `input` into `out` (and the report into `report`).
@@ -96,7 +174,7 @@ fn compile_one(
         name: args.name.clone().unwrap_or_else(|| stem(input)),
         ..opts.clone()
     };
-    let recording = Recording::load(input)?;
+    let recording = super::load_recording(input)?;
     let compiled = compile_owned(recording, &opts)
         .with_context(|| format!("{}: cannot compile", input.display()))?;
     // The report first: if it cannot be written, no stimulus appears either.
@@ -134,18 +212,6 @@ fn batch(
     args: &Args,
     opts: &CompileOptions,
 ) -> anyhow::Result<()> {
-    // Two inputs with one stem would overwrite each other's output: refuse up front.
-    let mut stems: BTreeMap<String, &Path> = BTreeMap::new();
-    for r in recordings {
-        if let Some(first) = stems.insert(stem(r), r) {
-            anyhow::bail!(
-                "{} and {} would both compile to {}",
-                first.display(),
-                r.display(),
-                dir.join(format!("{}.touch", stem(r))).display()
-            );
-        }
-    }
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
     let bar = ProgressBar::new(recordings.len() as u64);
@@ -228,8 +294,11 @@ fn write_summary(
     Ok(())
 }
 
-/// The file stem as a name ("love.npy" -> "love").
+/// The file stem as a name ("love.npy" -> "love"; standard input is "stdin").
 fn stem(path: &Path) -> String {
+    if crate::cli::output::is_stdio(path) {
+        return "stdin".into();
+    }
     path.file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "touch".into())

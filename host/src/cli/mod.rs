@@ -199,6 +199,16 @@ pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
 }
 
+/// Loads a recording, `-` being standard input (`touchc synth ... -o - | touchc compile -`).
+pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc::input::recording::Recording> {
+    use touchc::input::recording::Recording;
+    if crate::cli::output::is_stdio(path) {
+        let bytes = read_input(path)?;
+        return Ok(Recording::from_bytes(input_name(path), &bytes)?);
+    }
+    Ok(Recording::load(path)?)
+}
+
 /// The stimulus in `bytes`: the file itself, or slot `slot` when it is a bank.
 pub(crate) fn stimulus_in<'a>(
     bytes: &'a [u8],

@@ -34,6 +34,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.output.display()
         )));
     };
+    crate::cli::output::refuse_overwrites(
+        &[crate::cli::output::named("the stimulus", &args.file)],
+        &[crate::cli::output::named("-o", &args.output)],
+    )?;
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
     let size = Size {

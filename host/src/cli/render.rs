@@ -45,6 +45,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ));
         }
     }
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut outputs = Vec::new();
+        outputs.extend(csv_out.as_deref().map(|p| named("-o", p)));
+        outputs.extend(args.wav.as_deref().map(|p| named("--wav", p)));
+        refuse_overwrites(&[named("the stimulus", &args.file)], &outputs)?;
+    }
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
     let device = DeviceConfig::default();

@@ -64,6 +64,12 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut outputs = vec![named("-o", &args.output)];
+        outputs.extend(args.truth.as_deref().map(|p| named("--truth", p)));
+        refuse_overwrites(&[], &outputs)?;
+    }
     anyhow::ensure!(
         args.noise.is_finite() && args.noise >= 0.0,
         "--noise must be a finite, non-negative psi value"

@@ -2,7 +2,7 @@
 //! with `exact` (see [`touchc::measure::trade`]).
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::cli::output::write_atomic;
 use anyhow::Context;
@@ -63,6 +63,21 @@ const STAGES: [Stage; 8] = [
 ];
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut inputs: Vec<_> = args
+            .recordings
+            .iter()
+            .map(|p| named("the recording", p))
+            .collect();
+        inputs.extend(args.truth.iter().map(|p| named("--truth", p)));
+        inputs.extend(args.config.config.as_deref().map(|p| named("--config", p)));
+        let mut outputs = vec![named("the table", Path::new("-"))];
+        outputs.extend(args.csv.as_deref().map(|p| named("--csv", p)));
+        outputs.extend(args.json.as_deref().map(|p| named("--json", p)));
+        outputs.extend(args.svg.as_deref().map(|p| named("--svg", p)));
+        refuse_overwrites(&inputs, &outputs)?;
+    }
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
         anyhow::ensure!(n >= 1, "--threads must be at least 1");
