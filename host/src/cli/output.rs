@@ -155,11 +155,12 @@ impl Output {
         }
     }
 
-    /// Wraps an I/O error with this output's name.
+    /// Wraps an I/O error with this output's name (and without the temporary file's:
+    /// tempfile names it in every error of its writer, a full disk's included).
     pub fn error(&self, source: io::Error) -> WriteError {
         WriteError {
             path: self.path.clone(),
-            source,
+            source: without_path(source),
         }
     }
 
@@ -174,8 +175,12 @@ impl Output {
             Sink::Stdout(mut w) => w.flush().map_err(fail),
             Sink::Direct(mut w) => w.flush().map_err(fail),
             Sink::Atomic { tmp, target } => {
-                let tmp = tmp.into_inner().map_err(|e| fail(e.into_error()))?;
-                tmp.as_file().sync_all().map_err(fail)?;
+                let tmp = tmp
+                    .into_inner()
+                    .map_err(|e| fail(without_path(e.into_error())))?;
+                tmp.as_file()
+                    .sync_all()
+                    .map_err(|e| fail(without_path(e)))?;
                 tmp.persist(&target)
                     .map_err(|e| fail(without_path(e.error)))?;
                 Ok(())
