@@ -40,12 +40,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let layout = super::layout(args.layout.as_deref())?;
     let target = layout_id(layout.id());
     if args.stimuli.len() > usize::from(bank::MAX_SLOTS) {
-        bail!(
+        return Err(super::usage(format!(
             "{}: {} stimuli, but a bank holds at most {} slots",
             args.output.display(),
             args.stimuli.len(),
             bank::MAX_SLOTS
-        );
+        )));
     }
     let files = args
         .stimuli

@@ -14,6 +14,7 @@ use std::sync::OnceLock;
 use anyhow::Context;
 use clap::{Arg, ArgMatches, FromArgMatches};
 use touchc::config::{CoarseToFine, Config, MetadataOverrides, Preset};
+use touchc::display::Shortest;
 
 /// Parameter and sampling flags: the same set on every command that runs the pipeline.
 /// Every knob is physical (its unit in its name); a flag not given keeps the preset's
@@ -308,8 +309,33 @@ impl ConfigArgs {
     }
 
     /// The config these flags describe, laid over `preset` whatever `--preset` says.
+    /// Every error is a usage error (exit status 2): the parameters are how the command
+    /// was called, the `--config` file included. So are `--rate` and `--pitch-mm`
+    /// outside the ranges any recording may have.
     pub fn resolve_on(&self, preset: Preset) -> anyhow::Result<Config> {
-        layered(preset, self.config.as_deref(), &self.set, &self.knobs)
+        let config = layered(preset, self.config.as_deref(), &self.set, &self.knobs)
+            .map_err(|e| super::usage(super::message(&e)))?;
+        self.check_sampling()?;
+        Ok(config)
+    }
+
+    /// `--rate` and `--pitch-mm` against the ranges a recording's own values must meet.
+    fn check_sampling(&self) -> anyhow::Result<()> {
+        use touchc::input::recording::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+        for (flag, value, range, unit) in [
+            ("--rate", self.rate, RATE_HZ_RANGE, "Hz"),
+            ("--pitch-mm", self.pitch_mm, PITCH_MM_RANGE, "mm"),
+        ] {
+            if let Some(v) = value.filter(|v| !range.contains(v)) {
+                return Err(super::usage(format!(
+                    "{flag} {} is out of range: must be {} to {} {unit}",
+                    Shortest(v),
+                    Shortest(*range.start()),
+                    Shortest(*range.end()),
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// The recording's sampling these flags give: over the file's own values (`.npz`
@@ -347,14 +373,14 @@ fn layered(
     for set in sets {
         let (key, value) = set
             .split_once('=')
-            .with_context(|| format!("--set {set}: expected SECTION.KEY=VALUE"))?;
+            .with_context(|| format!("--set {}: expected SECTION.KEY=VALUE", super::clip(set)))?;
         let (section, field) = key
             .trim()
             .split_once('.')
-            .with_context(|| format!("--set {set}: expected SECTION.KEY=VALUE"))?;
+            .with_context(|| format!("--set {}: expected SECTION.KEY=VALUE", super::clip(set)))?;
         let doc = format!("[{section}]\n{field} = {value}\n");
-        let over: toml::Table =
-            toml::from_str(&doc).with_context(|| format!("--set {set}: not a TOML value"))?;
+        let over: toml::Table = toml::from_str(&doc)
+            .with_context(|| format!("--set {}: not a TOML value", super::clip(set)))?;
         merge(&mut table, over);
     }
     for (section, key, value) in &knobs.0 {
@@ -369,6 +395,7 @@ fn layered(
         if sets.is_empty() {
             "invalid parameter".to_string()
         } else {
+            let sets: Vec<String> = sets.iter().map(|s| super::clip(s)).collect();
             format!("--set {}: invalid parameter", sets.join(" --set "))
         }
     })?;

@@ -80,7 +80,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
-        anyhow::ensure!(n >= 1, "--threads must be at least 1");
+        if n == 0 {
+            return Err(super::usage("--threads must be at least 1"));
+        }
         builder = builder.num_threads(n);
     }
     let pool = builder.build().context("cannot start the worker threads")?;
