@@ -10,44 +10,62 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use crate::cli::output::write_atomic;
+use crate::cli::params::{OUTPUT, PRESET_AND_KNOBS};
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use touchc::compile::{compile_owned, CompileOptions, Report};
 
+/// What `touchc compile --help` adds after the options.
+const AFTER_HELP: &str = "\
+Examples:
+  touchc compile examples/stroke.npy               writes examples/stroke.touch
+  touchc compile rec.npz --report rec.json         the .npz's rate_hz and pitch_mm apply
+  touchc compile rec.npy --rate 54 --pitch-mm 25.4 a sensor other than the paper's sleeve
+  touchc compile rec.npy --preset paper -o paper.touch
+  touchc compile a.npy b.npy c.npz --out-dir stimuli/
+  touchc synth stroke -o - | touchc compile - -o stroke.touch
+
+A stimulus lasts longer than its recording (3.4 s longer at 20 Hz with the default
+preset): the 4 Hz low-pass filter rings out after the last frame (2.4 s of it) and the
+current ramps in and out over 0.5 s at each end.";
+
 /// Arguments of `touchc compile`.
 #[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Recordings, `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell).
-    /// Several need `--out-dir`.
+    /// Recordings: `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell),
+    /// or `.npz` holding such an array as `pressure` (with optional scalars `rate_hz`
+    /// and `pitch_mm`); `-` is standard input. Several need `--out-dir`.
     #[arg(required = true)]
     recordings: Vec<PathBuf>,
-    /// Stimulus file to write (default: the recording's name with `.touch`); one
-    /// recording only.
-    #[arg(short, long, conflicts_with = "out_dir")]
-    output: Option<PathBuf>,
-    /// Write `<stem>.touch` for every recording into this directory (created if needed),
-    /// compiling them in parallel.
-    #[arg(long)]
-    out_dir: Option<PathBuf>,
-    /// Also write the compile's figures as JSON (with `--out-dir`: `<stem>.json` in the
-    /// directory, whatever the name given).
-    #[arg(long)]
-    report: Option<PathBuf>,
     /// Algorithm parameters (preset, config file, knobs) and the recordings' sampling.
     #[command(flatten)]
     config: super::params::ConfigArgs,
-    /// Actuator layout TOML (default: the paper's 2 x 4 sleeve).
-    #[arg(long)]
+    /// Stimulus file to write (default: the recording's name with `.touch`; `-`:
+    /// standard output); one recording only.
+    #[arg(short, long, conflicts_with = "out_dir", help_heading = OUTPUT)]
+    output: Option<PathBuf>,
+    /// Write `<stem>.touch` for every recording into this directory (created if needed),
+    /// compiling them in parallel.
+    #[arg(long, help_heading = OUTPUT)]
+    out_dir: Option<PathBuf>,
+    /// Also write the compile's figures as JSON (with `--out-dir`: `<stem>.json` in the
+    /// directory, whatever the name given).
+    #[arg(long, help_heading = OUTPUT)]
+    report: Option<PathBuf>,
+    /// Actuator layout TOML of the sleeve the stimulus is for (default: the paper's
+    /// 2 x 4 sleeve).
+    #[arg(long, help_heading = OUTPUT)]
     layout: Option<PathBuf>,
     /// Name written into the stimulus (default: the recording's file stem).
-    #[arg(long)]
+    #[arg(long, help_heading = OUTPUT)]
     name: Option<String>,
     /// Scale the signal down to pass the safety limits instead of refusing it.
-    #[arg(long)]
+    #[arg(long, help_heading = OUTPUT)]
     fit: bool,
     /// Run the heavy stages on the whole recording instead of the active scene.
-    #[arg(long)]
+    #[arg(long, help_heading = PRESET_AND_KNOBS)]
     no_crop: bool,
 }
 

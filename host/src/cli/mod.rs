@@ -4,6 +4,7 @@
 
 mod bank;
 mod compile;
+mod help;
 mod inspect;
 mod output;
 mod params;
@@ -24,13 +25,15 @@ use touch_protocol::{Bank, Stimulus};
 
 /// What `--help` says about exit codes, `-` and errors.
 const AFTER_HELP: &str = "\
-Files: `-` is standard input for `inspect` and `render` (and `plot`), and standard
-output wherever an output can be a stream (`render`, `inspect -o`, `track -o`,
-`synth -o`). Outputs that are regular files appear whole or not at all; devices,
-pipes and symlinks are written through to their target.
+Files: `-` is standard input for `compile`, `inspect`, `render` and `plot`, and
+standard output wherever an output can be a stream (`compile -o`, `render`,
+`inspect -o`, `track -o`, `synth -o`). Outputs that are regular files appear whole or
+not at all; devices, pipes and symlinks are written through to their target. No output
+may be one of the command's inputs, or another of its outputs.
 
 Exit status: 0 success (also when a reader such as `head` closes the pipe early),
-1 bad input, a failed compile or an output that cannot be written, 2 usage error.";
+1 bad input, a failed compile or an output that cannot be written, 2 usage error
+(a flag or parameter file out of range, an output over an input).";
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
@@ -71,6 +74,18 @@ enum Command {
     },
 }
 
+/// The command line's definition, its help in plain words (see [`help`]).
+pub fn command() -> clap::Command {
+    help::plain_command(Cli::command())
+}
+
+/// Parses the process's arguments with [`command`].
+pub fn parse() -> Result<Cli, clap::Error> {
+    use clap::FromArgMatches;
+    let matches = command().try_get_matches()?;
+    Cli::from_arg_matches(&matches)
+}
+
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
@@ -86,7 +101,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Completions { shell } => {
             // Generated into memory: clap_complete panics on a write error.
             let mut script = Vec::new();
-            clap_complete::generate(shell, &mut Cli::command(), "touchc", &mut script);
+            clap_complete::generate(shell, &mut command(), "touchc", &mut script);
             Ok(crate::cli::output::write_atomic(Path::new("-"), &script)?)
         }
     }

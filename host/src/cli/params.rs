@@ -16,28 +16,51 @@ use clap::{Arg, ArgMatches, FromArgMatches};
 use touchc::config::{CoarseToFine, Config, MetadataOverrides, Preset};
 use touchc::display::Shortest;
 
+/// `--help` heading of the recording's sampling flags.
+pub const INPUT_AND_SENSOR: &str = "Input and sensor";
+/// `--help` heading of the parameter flags.
+pub const PRESET_AND_KNOBS: &str = "Preset and knobs";
+/// `--help` heading of what a command writes.
+pub const OUTPUT: &str = "Output";
+
 /// Parameter and sampling flags: the same set on every command that runs the pipeline.
 /// Every knob is physical (its unit in its name); a flag not given keeps the preset's
 /// value.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ConfigArgs {
-    #[arg(long, value_enum, value_name = "PRESET", help = preset_help())]
+    #[arg(
+        long,
+        value_name = "HZ",
+        help = sampling_help("The recording's frame rate, Hz, 1 to 1000", "rate_hz"),
+        help_heading = INPUT_AND_SENSOR
+    )]
+    pub rate: Option<f64>,
+    #[arg(
+        long,
+        value_name = "MM",
+        help = sampling_help("The sensor's cell pitch, mm, 0.1 to 100", "pitch_mm"),
+        help_heading = INPUT_AND_SENSOR
+    )]
+    pub pitch_mm: Option<f64>,
+    #[arg(
+        long,
+        value_parser = super::help::PlainEnum::<Preset>::new(),
+        value_name = "PRESET",
+        help = preset_help(),
+        help_heading = PRESET_AND_KNOBS
+    )]
     pub preset: Option<Preset>,
     /// TOML file overriding the preset's parameters (missing keys keep the preset's).
-    #[arg(long)]
+    #[arg(long, help_heading = PRESET_AND_KNOBS)]
     pub config: Option<PathBuf>,
     /// Any parameter, as `SECTION.KEY=VALUE` in TOML syntax (for example
     /// `detect.sigma_k=1.5` or `input.baseline="robust"`); may be repeated. Applied
     /// after the config file, before the knob flags.
-    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE", help_heading = PRESET_AND_KNOBS)]
     pub set: Vec<String>,
     /// The knob flags of [`KNOBS`].
     #[command(flatten)]
     pub knobs: Knobs,
-    #[arg(long, value_name = "HZ", help = sampling_help("The recording's frame rate, Hz", "rate_hz"))]
-    pub rate: Option<f64>,
-    #[arg(long, value_name = "MM", help = sampling_help("The sensor's cell pitch, mm", "pitch_mm"))]
-    pub pitch_mm: Option<f64>,
 }
 
 /// `--preset`'s help, naming the real default ([`Preset::default`], whose parameters
@@ -224,6 +247,7 @@ impl Knob {
         let arg = Arg::new(self.flag)
             .long(self.flag)
             .value_name(self.value_name)
+            .help_heading(PRESET_AND_KNOBS)
             .help(format!("{} [default: {}]", self.help, self.default_text()));
         match self.kind {
             Kind::Count => arg.value_parser(clap::value_parser!(usize)),

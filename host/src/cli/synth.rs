@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use super::help::PlainEnum;
 use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::display::Shortest;
@@ -17,17 +18,17 @@ const MAX_QUIET_FRAMES: usize = 100_000;
 pub struct Args {
     /// Gestures, played one after another (several make a combination; `rest` is two
     /// seconds of sensor noise alone).
-    #[arg(required = true, value_enum)]
+    #[arg(required = true, value_parser = PlainEnum::<Gesture>::new())]
     gestures: Vec<Gesture>,
     /// Seed of the random generator: the same arguments give the same file.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// The sensor imitated: `sleeve` (8 x 21 cells, 20 Hz) or `grid10` (10 x 10 cells,
     /// 54 Hz), one-inch cells both.
-    #[arg(long, value_enum, default_value = "sleeve")]
+    #[arg(long, value_parser = PlainEnum::<Sensor>::new(), default_value = "sleeve")]
     sensor: Sensor,
     /// Sleeve outline (NaN outside it; the sleeve only).
-    #[arg(long, value_enum, default_value = "cells142")]
+    #[arg(long, value_parser = PlainEnum::<Mask>::new(), default_value = "cells142")]
     mask: Mask,
     /// Sensor noise, psi (standard deviation).
     #[arg(long, default_value_t = 0.004)]

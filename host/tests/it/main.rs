@@ -19,6 +19,7 @@ mod blur;
 mod bnb_oracle;
 mod cli;
 mod cli_files;
+mod cli_help;
 mod cli_messages;
 mod cli_outputs;
 mod cli_sanity;
