@@ -62,7 +62,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     write_atomic(&args.output, &image)?;
     eprintln!(
         "touchc: wrote {} ({} slots, {} of {} bytes of the bank region)",
-        args.output.display(),
+        super::escaped(&crate::cli::output::shown(&args.output)),
         slices.len(),
         image.len(),
         bank::REGION_LEN

@@ -242,7 +242,7 @@ fn batch(
     let results: Vec<anyhow::Result<Report>> = recordings
         .par_iter()
         .map(|input| {
-            bar.set_message(input.display().to_string());
+            bar.set_message(super::escaped(&input.display().to_string()));
             let name = stem(input);
             let out = dir.join(format!("{name}.touch"));
             let report = args
@@ -290,7 +290,7 @@ fn write_summary(
         "recording", "status", "seconds", "bytes", "rms % fs", "tracks", "ms"
     )?;
     for (input, r) in recordings.iter().zip(results) {
-        let name = input.display().to_string();
+        let name = super::escaped(&input.display().to_string());
         match r {
             Ok(r) => writeln!(
                 w,

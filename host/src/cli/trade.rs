@@ -214,9 +214,17 @@ fn lines(rows: &[TradeRow], split: bool) -> impl Iterator<Item = Vec<String>> + 
     })
 }
 
+/// A line for a terminal: the recording's name (from its path) escaped.
+fn shown(mut line: Vec<String>) -> Vec<String> {
+    if let Some(name) = line.first_mut() {
+        *name = super::escaped(name);
+    }
+    line
+}
+
 fn text(rows: &[TradeRow]) -> String {
     let table: Vec<Vec<String>> = std::iter::once(headers(false))
-        .chain(lines(rows, false))
+        .chain(lines(rows, false).map(shown))
         .collect();
     let widths: Vec<usize> = (0..table[0].len())
         .map(|c| table.iter().map(|l| l[c].len()).max().unwrap_or(0))
@@ -246,7 +254,7 @@ fn markdown(rows: &[TradeRow]) -> String {
             .map(|(i, _)| if i < 2 { "---|" } else { "---:|" })
             .collect::<String>()
     );
-    for line in lines(rows, false) {
+    for line in lines(rows, false).map(shown) {
         s += &format!("| {} |\n", line.join(" | "));
     }
     s

@@ -279,3 +279,29 @@ fn a_wav_too_long_says_how_long_the_stimulus_is() {
     assert!(err.contains("26843"), "the limit: {err}");
     assert!(!wav.exists());
 }
+
+#[test]
+fn names_from_paths_are_escaped_in_tables_and_notes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rec = recording(d);
+    let evil = d.join("\u{202e}r.npy");
+    std::fs::copy(&rec, &evil).unwrap();
+    let out_dir = d.join("out");
+    let out = touchc(&["compile", s(&evil), "--out-dir", s(&out_dir)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let table = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        table.contains("\\u{202e}r.npy") && !table.contains('\u{202e}'),
+        "{table}"
+    );
+    let stim = stimulus(d, "s", 1);
+    let bank = d.join("\u{202e}b.bank");
+    let out = touchc(&["bank", s(&stim), "-o", s(&bank)]);
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("\\u{202e}b.bank") && !err.contains('\u{202e}'),
+        "{err}"
+    );
+}
