@@ -291,16 +291,21 @@ pub fn named<'a>(label: &'a str, path: &'a Path) -> Named<'a> {
 /// never clash; `-` outputs (standard output) clash with each other. The error is a
 /// usage error (exit status 2) naming both files.
 pub fn refuse_overwrites(inputs: &[Named<'_>], outputs: &[Named<'_>]) -> anyhow::Result<()> {
-    let inputs: Vec<(Named<'_>, Identity)> = inputs
-        .iter()
-        .filter_map(|n| Identity::of_input(n.path).map(|id| (*n, id)))
-        .collect();
-    let outputs: Vec<(Named<'_>, Identity)> = outputs
-        .iter()
-        .filter_map(|n| Identity::of_output(n.path).map(|id| (*n, id)))
-        .collect();
-    for (i, (out, out_id)) in outputs.iter().enumerate() {
-        if let Some((input, _)) = inputs.iter().find(|(_, id)| id.same(out_id)) {
+    use std::collections::HashMap;
+    // By identity, so that a batch of thousands is checked in linear time; the first
+    // input of an identity is the one named.
+    let mut by_id: HashMap<Identity, Named<'_>> = HashMap::new();
+    for n in inputs {
+        if let Some(id) = Identity::of_input(n.path) {
+            by_id.entry(id).or_insert(*n);
+        }
+    }
+    let mut written: HashMap<Identity, Named<'_>> = HashMap::new();
+    for out in outputs {
+        let Some(out_id) = Identity::of_output(out.path) else {
+            continue;
+        };
+        if let Some(input) = by_id.get(&out_id) {
             return Err(super::usage(format!(
                 "{} {} is the same file as {} {}: writing it would destroy that input; \
                  choose another output",
@@ -310,7 +315,7 @@ pub fn refuse_overwrites(inputs: &[Named<'_>], outputs: &[Named<'_>]) -> anyhow:
                 super::input_name(input.path),
             )));
         }
-        if let Some((other, _)) = outputs[..i].iter().find(|(_, id)| id.same(out_id)) {
+        if let Some(other) = written.get(&out_id) {
             return Err(super::usage(format!(
                 "{} {} and {} {} are the same file: one output would overwrite the other",
                 other.label,
@@ -319,12 +324,13 @@ pub fn refuse_overwrites(inputs: &[Named<'_>], outputs: &[Named<'_>]) -> anyhow:
                 shown(out.path),
             )));
         }
+        written.insert(out_id, *out);
     }
     Ok(())
 }
 
 /// What makes two paths one file, for [`refuse_overwrites`].
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug, PartialEq, Eq, Hash)]
 enum Identity {
     /// Standard output.
     Stdout,
@@ -338,10 +344,6 @@ enum Identity {
 }
 
 impl Identity {
-    fn same(&self, other: &Identity) -> bool {
-        self == other
-    }
-
     /// An input's identity; `None` for what cannot be written over: a stream, a
     /// device, standard input that is not a regular file, a path that does not exist.
     fn of_input(path: &Path) -> Option<Identity> {
