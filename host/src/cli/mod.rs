@@ -394,3 +394,41 @@ pub(crate) fn stimulus_in<'a>(
         Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_message_is_one_line_with_its_quoted_values_clipped() {
+        let long = "A".repeat(1000);
+        let text = format!("bad value `{long}`\nin `input.baseline`\n");
+        let shown = readable(&text);
+        assert_eq!(
+            shown,
+            format!("bad value `{}…`; in `input.baseline`", "A".repeat(MAX_ECHO))
+        );
+        // A lone quote does not stop the clipping of the pairs after it.
+        let text = format!("--set x=\"{}…: unknown `{long}`", "B".repeat(10));
+        assert!(!readable(&text).contains(&"A".repeat(MAX_ECHO + 1)));
+    }
+
+    #[test]
+    fn a_message_is_at_most_a_few_lines_long() {
+        let shown = readable(&"word ".repeat(1000));
+        assert!(shown.chars().count() < MAX_MESSAGE + 40, "{shown}");
+        assert!(shown.ends_with("more characters)"), "{shown}");
+    }
+
+    #[test]
+    fn control_and_format_characters_are_escaped() {
+        assert_eq!(escaped("a\u{1b}[31mb"), "a\\u{1b}[31mb");
+        assert_eq!(escaped("\u{202e}kcab"), "\\u{202e}kcab");
+        assert_eq!(
+            escaped("zero\u{200b}width\u{feff}"),
+            "zero\\u{200b}width\\u{feff}"
+        );
+        // Letters, emoji and their variation selectors are text.
+        assert_eq!(escaped("café ❤️ 触"), "café ❤️ 触");
+    }
+}
