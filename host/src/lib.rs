@@ -20,6 +20,7 @@
 #![warn(missing_docs)]
 
 pub mod config;
+pub mod display;
 pub mod geometry;
 
 pub mod input;

@@ -21,10 +21,11 @@ use crate::config::{Baseline, InputConfig, Sampling};
 mod npy;
 mod npz;
 
-/// Frame rates a file may declare, in Hz: from a slow pressure mat to a fast tactile
-/// array. Outside this the value is more likely a unit mistake (a period, kHz) than a
-/// sensor.
-pub const RATE_HZ_RANGE: RangeInclusive<f64> = 1.0..=10_000.0;
+/// Frame rates a recording may have, in Hz: from a slow pressure mat up to the sleeve's
+/// 1 kHz output rate, which a recording's frames are resampled to (the player has no
+/// faster ticks to play more frames on). Outside this the value is more likely a unit
+/// mistake (a period, kHz) than a sensor.
+pub const RATE_HZ_RANGE: RangeInclusive<f64> = 1.0..=1_000.0;
 
 /// Cell pitches a file may declare, in mm: from e-skin taxels to a coarse seat mat.
 pub const PITCH_MM_RANGE: RangeInclusive<f64> = 0.1..=100.0;
@@ -138,7 +139,7 @@ pub enum RecordingError {
         found: String,
     },
     /// A metadata value is not finite or outside its plausible range.
-    #[error("{name}: {field} = {value} is outside the plausible range {} to {} {unit}", .range.start(), .range.end())]
+    #[error("{name}: {field} = {} is outside the plausible range {} to {} {unit}", crate::display::Shortest(*.value), .range.start(), .range.end())]
     MetadataRange {
         /// The file the recording came from.
         name: String,
