@@ -249,8 +249,9 @@ fn a_bank_index_entry_inside_the_index_is_not_called_outside_the_bank() {
         .status
         .success());
     let mut bytes = std::fs::read(&bank).unwrap();
-    // Entry 0's offset: right after the prefix and the slot count, the first index byte.
-    let at = touch_protocol::container::PREFIX_LEN + 2;
+    // Entry 0's offset: right after the prefix, the slot count and the layout hash, the
+    // first index byte.
+    let at = touch_protocol::container::PREFIX_LEN + 2 + 4;
     let inside_index = u32::try_from(at).unwrap();
     bytes[at..at + 4].copy_from_slice(&inside_index.to_le_bytes());
     let body = bytes.len() - touch_protocol::container::CRC_LEN;
