@@ -35,4 +35,5 @@ mod poisoned;
 mod recording;
 mod reference;
 mod repository;
+mod tare;
 mod touch;
