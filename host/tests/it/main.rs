@@ -35,5 +35,6 @@ mod poisoned;
 mod recording;
 mod reference;
 mod repository;
+mod synth_files;
 mod tare;
 mod touch;
