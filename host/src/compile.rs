@@ -95,6 +95,8 @@ pub enum CompileError {
 pub struct Report {
     /// The recording's name (its file).
     pub input: String,
+    /// The recording's shape as read, `[frames, rows, cols]`.
+    pub shape: [usize; 3],
     /// The stimulus name.
     pub name: String,
     /// Chosen transform `[x_mm, y_mm, scale, rotation, split_mm]`; `None` without touch.
@@ -278,8 +280,12 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     cfg.validate_for(&sampling, (rows, cols))?;
 
     // Stage 0: tare and trim, and the paper's "no touch" filter.
+    let shape = rec.dim();
     let (tared, tare_note) = rec.tare_noting(&cfg.input, &sampling)?;
-    let mut notes: Vec<InputWarning> = tare_note.into_iter().collect();
+    let mut notes: Vec<InputWarning> = crate::input::sanity::transposed(shape)
+        .into_iter()
+        .chain(tare_note)
+        .collect();
     warnings.extend(crate::input::sanity::check(
         &rec,
         tared.view(),
@@ -306,7 +312,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         ));
         let signal = vec![[0.0; CHANNELS]];
         return finish(
-            &input_name,
+            (&input_name, shape),
             opts,
             &metadata,
             clock,
@@ -425,7 +431,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         covered,
     };
     finish(
-        &input_name,
+        (&input_name, shape),
         opts,
         &metadata,
         clock,
@@ -505,7 +511,7 @@ const MAX_REFITS: u32 = 20;
 /// Stage 7 and the report; `scene` is `None` for a recording without touch.
 #[allow(clippy::too_many_arguments)]
 fn finish(
-    input_name: &str,
+    (input_name, shape): (&str, (usize, usize, usize)),
     opts: &CompileOptions,
     metadata: &Metadata,
     mut clock: Clock,
@@ -564,6 +570,7 @@ fn finish(
     let bytes = encoded.bytes.len();
     let report = Report {
         input: input_name.to_string(),
+        shape: [shape.0, shape.1, shape.2],
         name: name.to_string(),
         transform: placement.as_ref().map(|p| {
             let t = &p.transform;

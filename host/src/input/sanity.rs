@@ -12,7 +12,7 @@ use ndarray::{ArrayView2, ArrayView3, Axis};
 
 use crate::config::{Baseline, Config, Sampling};
 use crate::input::recording::{map_cell_series, Recording};
-use crate::input::warning::{ErasedBy, InputWarning};
+use crate::input::warning::{ErasedBy, InputWarning, TransposedBy};
 
 /// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
 /// and looks like raw ADC counts.
@@ -272,6 +272,31 @@ pub fn erased_touch(rec: &Recording, cfg: &Config, sampling: &Sampling) -> Optio
         raw_touch_readings: kept.above,
         highest_psi: kept.highest,
         cause,
+    })
+}
+
+/// A last axis this many times as long as each of the others reads as time.
+pub const TIME_LAST_RATIO: usize = 4;
+
+/// The shape of a recording saved as `[rows, cols, frames]` instead of `[frames,
+/// rows, cols]`: a last axis far longer than the other two (a recording holds more
+/// frames than its grid has cells a side, a grid is rarely that elongated), or the
+/// sleeve's grid in the first two axes. A warning, not a
+/// refusal: a short recording on an unusual grid can look the same, and its summary
+/// line shows the frames and grid read.
+pub fn transposed(shape: (usize, usize, usize)) -> Option<InputWarning> {
+    let (a, b, c) = shape;
+    let sleeve = (crate::input::synth::ROWS, crate::input::synth::COLS);
+    let reason = if c >= TIME_LAST_RATIO * a.max(b) {
+        TransposedBy::LastAxisLongest
+    } else if (a, b) == sleeve {
+        TransposedBy::SleeveGridFirst
+    } else {
+        return None;
+    };
+    Some(InputWarning::LikelyTransposed {
+        shape: [a, b, c],
+        reason,
     })
 }
 

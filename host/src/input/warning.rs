@@ -45,6 +45,26 @@ pub enum InputWarning {
         /// Why: a recording too short for the baseline, or touch held through it.
         cause: ErasedBy,
     },
+    /// The array's shape reads better as `[rows, cols, frames]` than as the
+    /// `[frames, rows, cols]` it is taken for: a recording saved with time last.
+    LikelyTransposed {
+        /// The shape as read, `[frames, rows, cols]`.
+        shape: [usize; 3],
+        /// Why: the last axis is far longer than the others, or the first two axes
+        /// are the sleeve's grid.
+        reason: TransposedBy,
+    },
+}
+
+/// What makes a shape look like `[rows, cols, frames]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TransposedBy {
+    /// The last axis is at least [`crate::input::sanity::TIME_LAST_RATIO`] times as long
+    /// as either other one: recordings have many more frames than cells a side.
+    LastAxisLongest,
+    /// The first two axes are the sleeve's 8 x 21 cells.
+    SleeveGridFirst,
 }
 
 /// Why the tare could remove a recording's touch.
@@ -96,6 +116,26 @@ impl fmt::Display for InputWarning {
                     )?;
                 }
                 Ok(())
+            }
+            InputWarning::LikelyTransposed { shape, reason } => {
+                let [a, b, c] = *shape;
+                write!(
+                    f,
+                    "the array {a} x {b} x {c} is read as {} of {b} x {c} cells, but ",
+                    count(a, "frame")
+                )?;
+                match reason {
+                    TransposedBy::LastAxisLongest => {
+                        write!(f, "its last axis ({c}) is far longer than the others")?
+                    }
+                    TransposedBy::SleeveGridFirst => {
+                        write!(f, "its first two axes are the sleeve's {a} x {b} cells")?
+                    }
+                }
+                f.write_str(
+                    ": if it was saved as [rows, cols, frames], save it as [frames, rows, \
+                     cols] (numpy: np.moveaxis(a, -1, 0))",
+                )
             }
             InputWarning::TareErasedTouch {
                 baseline,

@@ -29,6 +29,7 @@ mod emoji_bank;
 mod extremes;
 mod flow;
 mod knobs;
+mod layout_guess;
 mod placement_oracle;
 mod placement_reference;
 mod poisoned;
