@@ -32,6 +32,7 @@ mod knobs;
 mod layout_guess;
 mod placement_oracle;
 mod placement_reference;
+mod plot_png;
 mod poisoned;
 mod recording;
 mod reference;
