@@ -31,6 +31,7 @@ mod flow;
 mod knobs;
 mod layout_guess;
 mod placement_oracle;
+mod pictures;
 mod placement_reference;
 mod plot_png;
 mod poisoned;
