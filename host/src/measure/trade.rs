@@ -229,6 +229,7 @@ pub fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
 
 /// A tick value in its shortest form (`0.2`, `50`, `1000`), without the binary
 /// representation's tail (`0.30000000000000004`).
+#[cfg(feature = "viz")]
 fn tick_label(v: f64) -> String {
     let rounded = format!("{v:.6}");
     rounded
@@ -238,6 +239,7 @@ fn tick_label(v: f64) -> String {
 }
 
 /// What the chart's title names: the recording, or how many there are.
+#[cfg(feature = "viz")]
 fn recordings_named(rows: &[TradeRow]) -> String {
     let mut names: Vec<&str> = rows.iter().map(|r| r.input.as_str()).collect();
     names.sort_unstable();
