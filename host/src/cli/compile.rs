@@ -206,9 +206,12 @@ fn compile_one(
 
 fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
     format!(
-        "touchc: {} -> {}: {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, {}, {:.1} ms",
+        "touchc: {} -> {}: {} frames of {} x {}, {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, {}, {:.1} ms",
         input.display(),
         out.display(),
+        r.shape[0],
+        r.shape[1],
+        r.shape[2],
         r.duration_s,
         r.bytes,
         r.bytes_per_second,

@@ -64,7 +64,8 @@ pub struct Args {
     /// Also write where each contact really was, frame by frame (JSON).
     #[arg(long)]
     truth: Option<PathBuf>,
-    /// The `.npy` file to write (`-`: standard output).
+    /// The file to write: a `.npz` (by its extension) carries the sensor's rate and
+    /// pitch beside the array; anything else is a `.npy` (`-`: standard output).
     #[arg(short, long)]
     output: PathBuf,
 }
@@ -149,8 +150,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         end_mid_touch: args.end_mid_touch,
     };
     let (recording, truth) = synth::generate_with_truth(&spec);
-    let bytes = synth::to_npy(&recording)
-        .with_context(|| format!("{}: cannot encode the recording", args.output.display()))?;
+    let (rate_hz, pitch_mm) = (spec.sensor.rate_hz(), spec.sensor.pitch_mm());
+    // A `.npz` carries the sensor's rate and pitch; a `.npy` holds the array alone.
+    let npz = args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npz"));
+    let bytes = if npz {
+        synth::to_npz(&recording, rate_hz, pitch_mm).map_err(anyhow::Error::from)
+    } else {
+        synth::to_npy(&recording).map_err(anyhow::Error::from)
+    }
+    .with_context(|| format!("{}: cannot encode the recording", args.output.display()))?;
     // The truth first: if it cannot be written, no recording appears either.
     if let Some(path) = &args.truth {
         let json = serde_json::to_vec_pretty(&truth)
@@ -160,10 +171,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     write_atomic(&args.output, &bytes)?;
     let (frames, rows, cols) = recording.dim();
     eprintln!(
-        "touchc: wrote {} ({frames} frames of {rows}x{cols} at {} Hz, {} contacts)",
+        "touchc: wrote {} ({frames} frames of {rows}x{cols} at {rate_hz} Hz, {} contacts)",
         super::escaped(&crate::cli::output::shown(&args.output)),
-        spec.sensor.rate_hz(),
         truth.contacts.len()
     );
+    // What `compile` assumes of a file that does not say (the published sleeve's).
+    let assumed = touchc::config::InputConfig::default();
+    if !npz && (rate_hz != assumed.rate_hz || pitch_mm != assumed.pitch_mm) {
+        eprintln!(
+            "touchc: note: a .npy holds no rate: compile it with --rate {rate_hz} \
+             --pitch-mm {pitch_mm} (or write a .npz, which carries both)"
+        );
+    }
     Ok(())
 }
