@@ -389,6 +389,107 @@ pub(crate) fn round_to(v: f64, digits: i32) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use touch_protocol::{stimulus, Limits};
+
+    /// A 2 s stimulus: each channel a different slow wave, signed.
+    fn waves(layout_hash: u32) -> Vec<u8> {
+        let header = stimulus::Header {
+            channels: 8,
+            output_rate_hz: 1000,
+            keyframe_period_ms: 20,
+            keyframe_count: 0,
+            duration_ms: 0,
+            ramp_ms: 10,
+            full_scale_ma: 1000,
+            quant_shift: 4,
+            layout_hash,
+            layout: "paper-2x4",
+            limits: Limits::SLEEVE,
+            name: "waves",
+        };
+        let kf: Vec<[i16; CHANNELS]> = (0..=100)
+            .map(|k| {
+                let x = k as f64 / 100.0;
+                std::array::from_fn(|c| {
+                    let a = 0.4 * (std::f64::consts::PI * x * (c + 1) as f64).sin() - 0.2 * x;
+                    (a * 32768.0).round() as i16
+                })
+            })
+            .collect();
+        stimulus::encode(header, &kf).unwrap()
+    }
+
+    #[test]
+    fn a_stimulus_for_another_layout_is_not_played() {
+        let bytes = waves(0x1234_5678);
+        let stim = Stimulus::decode(&bytes).unwrap();
+        let err = play(&stim, &Layout::paper()).unwrap_err();
+        assert!(matches!(
+            err,
+            ExportError::WrongLayout {
+                file_hash: 0x1234_5678,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn hjif_reads_back_what_it_wrote_within_its_tolerance() {
+        let bytes = waves(Layout::paper().geometry_hash());
+        let stim = Stimulus::decode(&bytes).unwrap();
+        let played = play(&stim, &Layout::paper()).unwrap();
+        let out = hjif::export(&played, "2026-01-01").unwrap();
+        assert!(
+            out.fidelity.max_fs <= CURVE_TOLERANCE_FS + 1e-6,
+            "{:?}",
+            out.fidelity
+        );
+        let back = hjif::import(&out.files[0].bytes, played.full_scale_a).unwrap();
+        assert_eq!(back.layout_hash, Layout::paper().geometry_hash());
+        assert_eq!(back.signal.len(), played.ticks());
+        for (t, row) in back.signal.iter().enumerate() {
+            for c in 0..CHANNELS {
+                let e = (row[c] - played.amps[c][t]).abs() / played.full_scale_a;
+                assert!(e <= CURVE_TOLERANCE_FS + 1e-5, "tick {t} channel {c}: {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn every_format_meets_its_tolerance_on_a_signed_signal() {
+        let bytes = waves(Layout::paper().geometry_hash());
+        let stim = Stimulus::decode(&bytes).unwrap();
+        let played = play(&stim, &Layout::paper()).unwrap();
+        for format in [Format::Hjif, Format::Haptic, Format::Ahap] {
+            let opts = ExportOptions {
+                pick: None,
+                date: "2026-01-01".into(),
+            };
+            let out = export(&played, format, &opts).unwrap();
+            let files = if format.single_signal() { CHANNELS } else { 1 };
+            assert_eq!(out.files.len(), files, "{format:?}");
+            assert!(
+                out.fidelity.max_fs <= CURVE_TOLERANCE_FS + 1e-5,
+                "{format:?}: {:?}",
+                out.fidelity
+            );
+        }
+        let tact = export(
+            &played,
+            Format::Tact,
+            &ExportOptions {
+                pick: None,
+                date: String::new(),
+            },
+        )
+        .unwrap();
+        // Eight places on six motors: a real loss, reported, and larger than the fit.
+        assert!(tact.fidelity.rms_fs > tact.fidelity.fit_rms_fs);
+        assert!(matches!(
+            played.signal(Pick::Channel(8)),
+            Err(ExportError::NoSuchChannel(8))
+        ));
+    }
 
     #[test]
     fn the_polyline_stays_within_its_tolerance_and_is_sparse_on_lines() {
