@@ -448,8 +448,8 @@ mod tests {
         assert_eq!(back.layout_hash, Layout::paper().geometry_hash());
         assert_eq!(back.signal.len(), played.ticks());
         for (t, row) in back.signal.iter().enumerate() {
-            for c in 0..CHANNELS {
-                let e = (row[c] - played.amps[c][t]).abs() / played.full_scale_a;
+            for (c, (v, amps)) in row.iter().zip(&played.amps).enumerate() {
+                let e = (v - amps[t]).abs() / played.full_scale_a;
                 assert!(e <= CURVE_TOLERANCE_FS + 1e-5, "tick {t} channel {c}: {e}");
             }
         }
