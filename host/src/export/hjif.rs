@@ -335,8 +335,9 @@ fn invalid(reason: impl Into<String>) -> ExportError {
 }
 
 /// Reads an HJIF document written for the sleeve: one perception of eight channels
-/// (ids 0 to 7) of linear curves at timescale 1000, naming the layout's geometry in
-/// its description. `full_scale_a` is the current of amplitude 1.
+/// (ids 0 to 7) of linear curves at timescale 1000, at most [`super::MAX_EXPORT_MS`]
+/// long, naming the layout's geometry in its description. `full_scale_a` is the
+/// current of amplitude 1.
 pub fn import(bytes: &[u8], full_scale_a: f64) -> Result<Imported, ExportError> {
     let doc: Document = serde_json::from_slice(bytes).map_err(|e| invalid(e.to_string()))?;
     if doc.timescale != TIMESCALE {
@@ -391,8 +392,15 @@ pub fn import(bytes: &[u8], full_scale_a: f64) -> Result<Imported, ExportError> 
                     let t = effect.position.checked_add(rel).filter(|t| *t >= 0);
                     let t = t
                         .and_then(|t| usize::try_from(t).ok())
-                        .filter(|&t| t <= touch_protocol::stimulus::MAX_DURATION_MS as usize)
-                        .ok_or_else(|| invalid(format!("channel {c}: a keyframe at {rel}")))?;
+                        .filter(|&t| t <= super::MAX_EXPORT_MS as usize)
+                        .ok_or_else(|| {
+                            invalid(format!(
+                                "channel {c}: a keyframe at {rel} ms (from {} ms), outside \
+                                 0 to {} ms",
+                                effect.position,
+                                super::MAX_EXPORT_MS
+                            ))
+                        })?;
                     if !a.is_finite() || a.abs() > 1.0 {
                         return Err(invalid(format!(
                             "channel {c}: amplitude {a} outside -1..=1"

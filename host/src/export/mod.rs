@@ -43,6 +43,15 @@ pub enum ExportError {
         /// The target layout's geometry hash.
         target_hash: u32,
     },
+    /// The stimulus plays longer than an export holds (the whole output is kept in
+    /// memory while it is fitted: 64 bytes per millisecond).
+    #[error("plays {seconds:.0} s, longer than the {max_s} s an export holds")]
+    TooLong {
+        /// How long the stimulus plays, seconds.
+        seconds: f64,
+        /// [`MAX_EXPORT_MS`] in seconds.
+        max_s: u32,
+    },
     /// A channel number outside the sleeve's eight.
     #[error("channel {0} does not exist: the sleeve has channels 0 to 7")]
     NoSuchChannel(usize),
@@ -144,10 +153,21 @@ impl Playback {
     }
 }
 
+/// The longest playback an export takes, ms: an hour, 230 MB of samples while it is
+/// fitted; haptic clips in these formats last seconds.
+pub const MAX_EXPORT_MS: u32 = 3_600_000;
+
 /// Plays `stimulus` on the sleeve (the device's full scale and limits, a cold coil)
-/// to the end, after checking that it was compiled for `layout`.
+/// to the end, after checking that it was compiled for `layout` and is not longer
+/// than [`MAX_EXPORT_MS`].
 pub fn play(stimulus: &Stimulus<'_>, layout: &Layout) -> Result<Playback, ExportError> {
     let header = stimulus.header();
+    if header.playback_ms() > MAX_EXPORT_MS {
+        return Err(ExportError::TooLong {
+            seconds: f64::from(header.playback_ms()) / 1000.0,
+            max_s: MAX_EXPORT_MS / 1000,
+        });
+    }
     if header.layout_hash != layout.geometry_hash() {
         return Err(ExportError::WrongLayout {
             file_layout: header.layout.to_string(),
@@ -158,7 +178,8 @@ pub fn play(stimulus: &Stimulus<'_>, layout: &Layout) -> Result<Playback, Export
     }
     let device = DeviceConfig::default();
     let mut player = Player::new(stimulus, &device);
-    let mut amps: [Vec<f64>; CHANNELS] = Default::default();
+    let ticks = header.playback_ms() as usize + 1;
+    let mut amps: [Vec<f64>; CHANNELS] = std::array::from_fn(|_| Vec::with_capacity(ticks));
     let mut fault = None;
     let mut t = 0usize;
     loop {

@@ -415,6 +415,21 @@ fn import_refuses_a_file_for_another_layout_and_what_is_not_hjif() {
     ]));
     assert!(err.contains("layout") && err.contains("love.hjif"), "{err}");
     assert!(!back.exists());
+    // A keyframe a day away: refused, not sampled into gigabytes.
+    let far = dir.path().join("far.hjif");
+    let text = std::fs::read_to_string(&hjif).unwrap();
+    let text = text.replacen(
+        "\"relative_position\":0,",
+        "\"relative_position\":86400000,",
+        1,
+    );
+    std::fs::write(&far, text).unwrap();
+    let err = refused(&touchc(&["import", s(&far), "-o", s(&back)]));
+    assert!(
+        err.contains("far.hjif") && err.contains("86400000"),
+        "{err}"
+    );
+    assert!(!back.exists());
     let junk = dir.path().join("junk.hjif");
     std::fs::write(&junk, b"{\"version\": \"2023\"}").unwrap();
     let err = refused(&touchc(&["import", s(&junk), "-o", s(&back)]));
@@ -944,6 +959,22 @@ fn a_missing_slot_or_another_layout_is_refused_with_no_output() {
         1,
         "only the layout"
     );
+}
+
+#[test]
+fn a_stimulus_longer_than_an_hour_is_refused_before_it_is_played() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = dir.path().join("long.touch");
+    std::fs::write(&long, crate::stimuli::long("long", 3601)).unwrap();
+    let out = dir.path().join("long.hjif");
+    let r = touchc(&["export", s(&long), "--to", "hjif", "-o", s(&out)]);
+    let err = refused(&r);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(
+        err.contains("long.touch") && err.contains("3601 s"),
+        "{err}"
+    );
+    assert!(!out.exists());
 }
 
 #[test]
