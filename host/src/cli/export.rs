@@ -51,8 +51,8 @@ pub struct Args {
     /// For .haptic and .ahap: only this actuator's channel (0 to 7), in one file.
     #[arg(long, conflicts_with = "mix")]
     channel: Option<usize>,
-    /// For .haptic and .ahap: one file of the eight channels mixed (the largest
-    /// magnitude at each moment).
+    /// For .haptic and .ahap: one file of the eight channels mixed (the most pressed
+    /// at each moment, the largest current).
     #[arg(long)]
     mix: bool,
     /// The layout TOML of the sleeve the stimulus is for (default: the paper's 2 x 4
