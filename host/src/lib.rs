@@ -28,6 +28,7 @@ pub mod tracking;
 pub mod placement;
 pub mod rendering;
 pub mod encoding;
+pub mod export;
 
 pub mod compile;
 pub mod stage;

@@ -4,7 +4,9 @@
 
 mod bank;
 mod compile;
+mod export;
 mod help;
+mod import;
 mod inspect;
 mod output;
 mod params;
@@ -59,6 +61,11 @@ enum Command {
     /// Animate a recording's blurred frames with trajectories, workspaces and actuator
     /// intensities (GIF), or show one frame (PNG).
     Preview(preview::Args),
+    /// Write a stimulus as the sleeve plays it in another haptics format: MPEG-I Haptics
+    /// (.hjif), Meta/Lofelt .haptic, Apple AHAP or bHaptics .tact.
+    Export(export::Args),
+    /// Read an MPEG-I Haptics file written by `export` back into a stimulus.
+    Import(import::Args),
     /// Pack stimuli into a bank image, one per button slot, for the sleeve's flash.
     Bank(bank::Args),
     /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
@@ -95,6 +102,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(&args),
         Command::Plot(args) => plot::run(&args),
         Command::Preview(args) => preview::run(&args),
+        Command::Export(args) => export::run(&args),
+        Command::Import(args) => import::run(&args),
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
         Command::Trade(args) => trade::run(&args),

@@ -29,6 +29,7 @@ mod cli_viz;
 mod compile;
 mod detect;
 mod emoji_bank;
+mod export;
 mod extremes;
 mod flow;
 mod knobs;
