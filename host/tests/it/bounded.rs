@@ -109,3 +109,143 @@ fn a_saturated_sensor_tracks_with_bounded_work() {
         }
     }
 }
+
+/// The edge limit of the tracking graph ends the build with an error naming it, before
+/// the graph takes the memory.
+#[test]
+fn the_tracking_graph_stops_at_its_edge_limit() {
+    use touchc::tracking::flow::FlowError;
+    use touchc::tracking::track::link_within;
+    let rec = Recording::from_array("patch", saturated(240, 20..220, 1..7, 5..15).view()).unwrap();
+    let cfg = Config::default();
+    let out = track(&rec, &cfg).unwrap();
+    let sampling = Sampling::new(
+        &Metadata::resolve(&MetadataOverrides::default(), &rec, &cfg),
+        &cfg,
+    );
+    assert!(link_within(&out.detections, &cfg.track, &sampling, 1 << 20).is_ok());
+    assert_eq!(
+        link_within(&out.detections, &cfg.track, &sampling, 10),
+        Err(FlowError::TooManyEdges { limit: 10 })
+    );
+}
+
+/// An archive entry whose header claims more than an entry may take is refused from
+/// its header, before a byte of it is inflated (a 1 MB file may inflate to gigabytes).
+#[test]
+fn an_npz_entry_beyond_the_budget_is_refused_from_its_header() {
+    use crate::poison::{npy, zip, Entry};
+    use touchc::input::recording::{RecordingError, MEMBER_BUDGET_BYTES};
+    // float64 frames of 8 x 21: one frame more than the budget holds.
+    let frames = MEMBER_BUDGET_BYTES / (8 * 21 * 8) + 1;
+    let header = npy("<f8", false, &format!("({frames}, 8, 21)"), &[]);
+    let needed = header.len() as u64 + frames * 8 * 21 * 8;
+    let bytes = zip(&[Entry {
+        declared: Some(u32::try_from(needed).unwrap()),
+        ..Entry::deflated("pressure.npy", header)
+    }]);
+    match Recording::from_bytes("bomb.npz", &bytes) {
+        Err(e @ RecordingError::MemberTooLarge { .. }) => {
+            let text = e.to_string();
+            assert!(
+                text.starts_with("bomb.npz: entry \"pressure.npy\""),
+                "{text}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+/// An archive holding both `pressure` and `pressure.npy`: numpy's `np.load(f)["pressure"]`
+/// reads the entry named exactly `pressure`, and so does touchc.
+#[test]
+fn an_npz_key_reads_the_entry_numpy_reads() {
+    use crate::poison::{small_npy, zip, Entry};
+    let bytes = zip(&[
+        Entry::stored("pressure.npy", small_npy(50, 1.0)),
+        Entry::stored("pressure", small_npy(50, 2.0)),
+    ]);
+    let rec = Recording::from_bytes("both.npz", &bytes).unwrap();
+    assert!(rec.data().iter().all(|&v| v == 2.0));
+    // Either order in the archive.
+    let bytes = zip(&[
+        Entry::stored("pressure", small_npy(50, 2.0)),
+        Entry::stored("pressure.npy", small_npy(50, 1.0)),
+    ]);
+    let rec = Recording::from_bytes("both.npz", &bytes).unwrap();
+    assert!(rec.data().iter().all(|&v| v == 2.0));
+}
+
+/// A batch holding a saturated sensor and an archive bomb (five megabytes of end
+/// records, and an entry claiming gigabytes): the good files and the plateau compile,
+/// the bombs are named, and the batch exits non-zero.
+#[test]
+fn a_batch_with_a_plateau_and_bombs_compiles_its_good_files() {
+    use crate::bin::{s, touchc};
+    use crate::poison::{f64s, npy, zip, Entry};
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, bytes: &[u8]| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    };
+    let npy_of = |a: &Array3<f64>| {
+        let (t, r, c) = a.dim();
+        npy(
+            "<f8",
+            false,
+            &format!("({t}, {r}, {c})"),
+            &f64s(a.iter().copied()),
+        )
+    };
+    let moving = crate::common::moving_blobs(120, 1, 3);
+    let good = write("good.npy", &npy_of(&moving));
+    let plateau = write("plateau.npy", &npy_of(&saturated(60, 20..40, 0..8, 0..21)));
+    // Five megabytes of end records, each claiming an entry where none is.
+    let mut records = b"PK\x03\x04".to_vec();
+    records.extend_from_slice(&[20, 0, 0, 0, 0, 0, 0, 0, 0x21, 0]);
+    records.extend_from_slice(&[0; 16]);
+    while records.len() < 5 << 20 {
+        records.extend_from_slice(b"PK\x05\x06");
+        records.extend_from_slice(&[0, 0, 0, 0, 1, 0, 1, 0, 46, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+    }
+    let records = write("records.npz", &records);
+    let frames = 2_000_000_000u64 / (8 * 21 * 4);
+    let header = npy("<f4", false, &format!("({frames}, 8, 21)"), &[]);
+    let needed = header.len() as u64 + frames * 8 * 21 * 4;
+    let claim = write(
+        "claim.npz",
+        &zip(&[Entry {
+            declared: Some(u32::try_from(needed).unwrap()),
+            ..Entry::deflated("pressure.npy", header)
+        }]),
+    );
+    let out_dir = dir.path().join("out");
+    let out = touchc(&[
+        "compile",
+        s(&good),
+        s(&records),
+        s(&plateau),
+        s(&claim),
+        "--out-dir",
+        s(&out_dir),
+    ]);
+    let err = crate::bin::refused(&out);
+    for (stem, compiled) in [
+        ("good", true),
+        ("plateau", true),
+        ("records", false),
+        ("claim", false),
+    ] {
+        assert_eq!(
+            out_dir.join(format!("{stem}.touch")).exists(),
+            compiled,
+            "{stem}: {err}"
+        );
+    }
+    assert!(
+        err.contains("records.npz") && err.contains("end-of-central-directory"),
+        "{err}"
+    );
+    assert!(err.contains("claim.npz") && err.contains("needs"), "{err}");
+}
