@@ -245,6 +245,7 @@ pub fn track_cropped(
         e => TrackError::Flow(e),
     })?;
     lap(&[(Stage::Track, 1.0)]);
+    let detection_count = detections.all.len();
     let detections = if keep_scene {
         detections
     } else {
@@ -259,6 +260,7 @@ pub fn track_cropped(
             pitch_mm: stats.pitch_mm,
         },
         detections,
+        detection_count,
         trajectories: linked.trajectories,
         flow_work: linked.work,
         flow_budget_reached: linked.budget_reached,

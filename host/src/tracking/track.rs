@@ -58,8 +58,11 @@ pub struct TrackOutput {
     /// Blurred frames (f64, `[T, R k, C k]`), global mean/std and pixel pitch; the signal
     /// stage reads actuator-circle pressures from these frames.
     pub blurred: Blurred,
-    /// Every detection with its cost.
+    /// Every detection with its cost (empty when the tracking streamed, see
+    /// [`track_streaming`]; `detection_count` counts them either way).
     pub detections: Detections,
+    /// Detections scored in the tracked frames and cells.
+    pub detection_count: usize,
     /// The trajectories, in the solver's report order (see the module docs).
     pub trajectories: Vec<Trajectory>,
     /// The min-cost flow's work, in edges scanned.
@@ -147,13 +150,42 @@ pub fn track_with(
     cfg: &Config,
     overrides: &MetadataOverrides,
 ) -> Result<TrackOutput, TrackError> {
+    // The compile's driver on the whole recording, keeping the blurred movie.
+    track_whole(rec, cfg, overrides, true)
+}
+
+/// [`track_with`] streaming through the frames as the compile does: the same
+/// statistics and trajectories, bit for bit, but neither the blurred movie (`blurred`
+/// has no frames) nor the detections are kept, so memory follows the touch, not the
+/// recording's length (an hour's movie is 4.7 GB).
+pub fn track_streaming(
+    rec: &Recording,
+    cfg: &Config,
+    overrides: &MetadataOverrides,
+) -> Result<TrackOutput, TrackError> {
+    track_whole(rec, cfg, overrides, false)
+}
+
+/// Stages 0-3 on the whole recording (no crop), keeping the scene or not.
+fn track_whole(
+    rec: &Recording,
+    cfg: &Config,
+    overrides: &MetadataOverrides,
+    keep_scene: bool,
+) -> Result<TrackOutput, TrackError> {
     let sampling = Sampling::new(&Metadata::resolve(overrides, rec, cfg), cfg);
     let (_, rows, cols) = rec.dim();
     cfg.validate_for(&sampling, (rows, cols))?;
     let tared = rec.tare(&cfg.input, &sampling)?;
-    // The compile's driver on the whole recording, keeping the blurred movie.
     let whole = Crop::whole(tared.dim());
-    let (tracked, _) = track_cropped(tared.view(), &whole, cfg, &sampling, true, &mut |_| {})?;
+    let (tracked, _) = track_cropped(
+        tared.view(),
+        &whole,
+        cfg,
+        &sampling,
+        keep_scene,
+        &mut |_| {},
+    )?;
     Ok(tracked)
 }
 

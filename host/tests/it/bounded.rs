@@ -249,3 +249,29 @@ fn a_batch_with_a_plateau_and_bombs_compiles_its_good_files() {
     );
     assert!(err.contains("claim.npz") && err.contains("needs"), "{err}");
 }
+
+/// `track` streams as the compile does: the same statistics, detections counted and
+/// trajectories as the run that keeps the blurred movie, bit for bit, without the movie
+/// (an hour's is 4.7 GB) or the detections.
+#[test]
+fn tracking_streams_like_the_compile() {
+    use touchc::tracking::track::{track_streaming, track_with};
+    let rec =
+        Recording::from_array("blobs", crate::common::moving_blobs(400, 3, 5).view()).unwrap();
+    for preset in [Preset::Touch, Preset::Paper] {
+        let cfg = Config::preset(preset);
+        let none = MetadataOverrides::default();
+        let kept = track_with(&rec, &cfg, &none).unwrap();
+        let streamed = track_streaming(&rec, &cfg, &none).unwrap();
+        assert_eq!(streamed.blurred.frames.dim().0, 0);
+        assert!(streamed.detections.all.is_empty());
+        assert!(kept.blurred.frames.dim().0 >= 360);
+        assert_eq!(streamed.detection_count, kept.detections.all.len());
+        assert!(streamed.detection_count > 0);
+        assert_eq!(streamed.trajectories, kept.trajectories);
+        assert_eq!(
+            (streamed.mean().to_bits(), streamed.std().to_bits()),
+            (kept.mean().to_bits(), kept.std().to_bits())
+        );
+    }
+}
