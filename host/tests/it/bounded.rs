@@ -275,3 +275,43 @@ fn tracking_streams_like_the_compile() {
         );
     }
 }
+
+/// A preview of a compile that streamed (no blurred movie kept) is the preview of the
+/// compile that kept it, byte for byte: each frame is blurred again as it is drawn.
+#[test]
+fn a_preview_draws_a_streamed_compile_as_the_kept_one() {
+    use touchc::compile::{compile, CompileOptions};
+    use touchc::viz::preview;
+    let rec =
+        Recording::from_array("blobs", crate::common::moving_blobs(160, 2, 9).view()).unwrap();
+    let run = |keep_scene| {
+        compile(
+            &rec,
+            &CompileOptions {
+                fit: true,
+                crop: false,
+                keep_scene,
+                ..CompileOptions::default()
+            },
+        )
+        .unwrap()
+    };
+    let (kept, streamed) = (run(true), run(false));
+    let movie = |c: &touchc::compile::Compiled| c.tracked.as_ref().unwrap().blurred.frames.dim().0;
+    assert_eq!((movie(&kept) > 0, movie(&streamed)), (true, 0));
+    let rate = kept.report.metadata.rate_hz.value;
+    assert_eq!(
+        preview::png_frame(&streamed, &rec, 60, rate).unwrap(),
+        preview::png_frame(&kept, &rec, 60, rate).unwrap()
+    );
+    assert_eq!(
+        preview::gif(&streamed, &rec, 10, rate).unwrap(),
+        preview::gif(&kept, &rec, 10, rate).unwrap()
+    );
+    // A cropped compile cannot be previewed, movie or not.
+    let cropped = compile(&rec, &CompileOptions::default()).unwrap();
+    assert!(matches!(
+        preview::png_frame(&cropped, &rec, 0, rate),
+        Err(preview::PreviewError::Cropped)
+    ));
+}
