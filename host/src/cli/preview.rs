@@ -59,14 +59,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let config = args.config.resolve()?;
     let layout = super::layout(args.layout.as_deref())?;
-    // Whole frames (no crop) so every frame has its blurred map; scaled to the limits
-    // rather than refused, since a preview shows the scene, not the stimulus.
+    // Whole frames (no crop) so every frame has its blurred map, streamed as the
+    // compile does (the preview blurs each frame again as it draws it: an hour's movie
+    // is 4.7 GB); scaled to the limits rather than refused, since a preview shows the
+    // scene, not the stimulus.
     let opts = CompileOptions {
         config,
         layout,
         fit: true,
         crop: false,
-        keep_scene: true,
+        keep_scene: false,
         metadata: args.config.overrides(),
         ..CompileOptions::default()
     };

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 use touchc::input::recording::Recording;
-use touchc::tracking::track::{track_with, TrackOutput};
+use touchc::tracking::track::{track_streaming, TrackOutput};
 use touchc::tracking::trajectory::Columns;
 
 /// Arguments of `touchc track`.
@@ -52,7 +52,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     }
     let cfg = args.config.resolve()?;
     let rec = Recording::load(&args.recording)?;
-    let out = track_with(&rec, &cfg, &args.config.overrides())?;
+    // Streaming, as the compile does: neither the blurred movie nor the detections are
+    // printed, so neither is kept.
+    let out = track_streaming(&rec, &cfg, &args.config.overrides())?;
     let mut w = crate::cli::output::Output::create(&args.output)?;
     if args.json {
         serde_json::to_writer(&mut w, &report(&out))?;
@@ -97,7 +99,7 @@ fn write_table(w: &mut impl Write, rec: &Recording, out: &TrackOutput) -> std::i
         "blurred mean {:.6} psi, std {:.6} psi, {} detections, {} trajectories",
         out.mean(),
         out.std(),
-        out.detections.all.len(),
+        out.detection_count,
         out.trajectories.len()
     )?;
     writeln!(

@@ -28,6 +28,14 @@ mod npz;
 /// mistake (a period, kHz) than a sensor.
 pub const RATE_HZ_RANGE: RangeInclusive<f64> = 1.0..=1_000.0;
 
+/// The most bytes one `.npz` entry may need decompressed: 512 MiB, eleven hours of an
+/// 8 x 21 float32 recording at 20 Hz. An archive's declared sizes cost nothing to
+/// write (1 MB of deflate inflates to 1 GB), so unlike a `.npy` file, whose size is on
+/// the disk, an entry is checked against this before it is inflated; and its data is
+/// read in pieces whose memory is asked for fallibly, so a process that cannot get it
+/// reports [`RecordingError::OutOfMemory`] instead of aborting.
+pub const MEMBER_BUDGET_BYTES: u64 = 1 << 29;
+
 /// Cell pitches a file may declare, in mm: from e-skin taxels to a coarse seat mat.
 pub const PITCH_MM_RANGE: RangeInclusive<f64> = 0.1..=100.0;
 
@@ -126,6 +134,39 @@ pub enum RecordingError {
         entry: String,
         /// The size the entry's `.npy` header and shape need.
         needed: u64,
+    },
+    /// An archive entry needs more memory, decompressed, than an entry may take
+    /// ([`MEMBER_BUDGET_BYTES`]); refused before it is inflated.
+    #[error("{name}: entry {entry:?} needs {needed} bytes decompressed, more than the {budget} bytes an archive entry may take (an archive's sizes can claim far more than its file holds); save the array as a .npy file instead")]
+    MemberTooLarge {
+        /// The file the recording came from.
+        name: String,
+        /// The entry's name in the archive.
+        entry: String,
+        /// The size the entry's `.npy` header and shape need.
+        needed: u64,
+        /// The budget ([`MEMBER_BUDGET_BYTES`]).
+        budget: u64,
+    },
+    /// The memory for an archive entry's data could not be had.
+    #[error("{name}: entry {entry:?}: out of memory after {read} of the {needed} bytes it needs decompressed")]
+    OutOfMemory {
+        /// The file the recording came from.
+        name: String,
+        /// The entry's name in the archive.
+        entry: String,
+        /// Bytes read when the allocation failed.
+        read: u64,
+        /// The size the entry's `.npy` header and shape need.
+        needed: u64,
+    },
+    /// The archive holds many end-of-directory records, which only a crafted file does.
+    #[error("{name}: not a readable .npz archive: it holds {found} zip end-of-central-directory records (numpy writes one); refused rather than tried one by one")]
+    EndRecords {
+        /// The file the recording came from.
+        name: String,
+        /// End records found.
+        found: usize,
     },
     /// A metadata entry is not a single number.
     #[error(

@@ -1,4 +1,5 @@
-//! Stage 2: detections (3 x 3 local maxima of the blurred frames) and their log-odds cost.
+//! Stage 2: detections (local maxima of the blurred frames, a plateau counting once) and
+//! their log-odds cost.
 //!
 //! Detections are enumerated frame by frame, each frame in row-major order (numpy's
 //! `np.where` order in the published code). That order numbers the flow graph's nodes and
@@ -62,20 +63,171 @@ impl Detections {
     }
 }
 
+/// Two blurred values that differ by at most this share of the larger one are level:
+/// the same height, as far as the data can tell.
+///
+/// The blur's rounding leaves a flat input (a saturated sensor, a palm pressed evenly)
+/// flat to about 1e-14 relative, in a pattern of ulps that would otherwise make a
+/// maximum of every pixel on one level of the pattern; a float32 reading resolves 6e-8
+/// relative, so no two readings the sensor told apart are this close. Real peaks fall
+/// off by percents per pixel.
+pub const LEVEL_TOLERANCE: f64 = 1e-9;
+
+/// Whether `a` and `b` are level ([`LEVEL_TOLERANCE`]).
+#[inline]
+fn level(a: f64, b: f64) -> bool {
+    (a - b).abs() <= LEVEL_TOLERANCE * a.abs().max(b.abs())
+}
+
+/// The local maxima of one frame, as `(row, col, value)` in row-major order, above
+/// `min_value`.
+///
+/// A local maximum is a plateau: a connected group (8-neighbours) of pixels, each at
+/// least level with the largest pixel of its 3 x 3 neighbourhood (outside the frame
+/// counts as 0), above `min_value`, and not level with the frame's minimum (a constant
+/// frame has none). A plateau is one maximum, reported at its pixel nearest to its
+/// centroid (ties: the higher value, then the first in row-major order) with that
+/// pixel's value. A single-pixel peak is that pixel, so detections on real touch are
+/// the strict 3 x 3 maxima; a flat contact gives one detection, not one per pixel
+/// (which made a saturated sensor a detection at every pixel of every frame).
+/// NaN-free input is assumed (the tare turned NaN into 0).
+pub fn local_maxima(frame: ArrayView2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
+    plateaus(frame, near_maxima(frame, min_value))
+}
+
+/// Groups the candidates of [`near_maxima`] (row-major) into plateaus and keeps one
+/// pixel of each that is above the frame minimum ([`local_maxima`]).
+fn plateaus(
+    frame: ArrayView2<f64>,
+    candidates: Vec<(usize, usize, f64)>,
+) -> Vec<(usize, usize, f64)> {
+    let n = candidates.len();
+    if n == 0 {
+        return candidates;
+    }
+    let (h, w) = frame.dim();
+    // Union-find over the candidates; the neighbours already seen are the three above
+    // and the one to the left, found through the index of the previous and current
+    // rows' candidates by column.
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut v: usize) -> usize {
+        while parent[v] != v {
+            parent[v] = parent[parent[v]];
+            v = parent[v];
+        }
+        v
+    }
+    let mut above = vec![usize::MAX; w];
+    let mut here = vec![usize::MAX; w];
+    let mut touched_above: Vec<usize> = Vec::new();
+    let mut touched_here: Vec<usize> = Vec::new();
+    let mut row = usize::MAX;
+    let mut merged = false;
+    for (i, &(r, c, _)) in candidates.iter().enumerate() {
+        if r != row {
+            for &col in &touched_above {
+                above[col] = usize::MAX;
+            }
+            touched_above.clear();
+            if row != usize::MAX && r == row + 1 {
+                std::mem::swap(&mut above, &mut here);
+                std::mem::swap(&mut touched_above, &mut touched_here);
+            } else {
+                for &col in &touched_here {
+                    here[col] = usize::MAX;
+                }
+                touched_here.clear();
+            }
+            row = r;
+        }
+        let mut link = |j: usize| {
+            if j != usize::MAX {
+                let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                    merged = true;
+                }
+            }
+        };
+        if c > 0 {
+            link(here[c - 1]);
+        }
+        for &j in &above[c.saturating_sub(1)..(c + 2).min(w)] {
+            link(j);
+        }
+        here[c] = i;
+        touched_here.push(c);
+    }
+    let value = |r: usize, c: usize| frame[[r, c]];
+    // Whether some in-frame neighbour of (r, c) is lower than it beyond level: then
+    // the pixel, and its plateau, is above the frame minimum.
+    let has_lower = |r: usize, c: usize, v: f64| {
+        (r.saturating_sub(1)..(r + 2).min(h)).any(|rr| {
+            (c.saturating_sub(1)..(c + 2).min(w)).any(|cc| {
+                let n = value(rr, cc);
+                n < v && !level(n, v)
+            })
+        })
+    };
+    let mut fmin: Option<f64> = None;
+    let mut above_min = |lower: bool, top: f64| {
+        lower || {
+            let m = *fmin.get_or_insert_with(|| frame_min_of(frame));
+            top > m && !level(top, m)
+        }
+    };
+    if !merged {
+        // Every plateau one pixel: the common case, no grouping to do.
+        let mut out = candidates;
+        out.retain(|&(r, c, v)| above_min(has_lower(r, c, v), v));
+        return out;
+    }
+    // Members of each plateau, by root, in row-major order.
+    let roots: Vec<usize> = (0..n).map(|i| root(&mut parent, i)).collect();
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (i, &g) in roots.iter().enumerate() {
+        members[g].push(i);
+    }
+    let mut out = Vec::new();
+    for group in members.iter().filter(|g| !g.is_empty()) {
+        let pts = || group.iter().map(|&i| candidates[i]);
+        let top = pts().fold(f64::NEG_INFINITY, |m, p| m.max(p.2));
+        if !above_min(pts().any(|(r, c, v)| has_lower(r, c, v)), top) {
+            continue;
+        }
+        let count = group.len() as f64;
+        let (sr, sc) = pts().fold((0.0, 0.0), |(a, b), p| (a + p.0 as f64, b + p.1 as f64));
+        let (cr, cc) = (sr / count, sc / count);
+        let d2 = |p: &(usize, usize, f64)| (p.0 as f64 - cr).powi(2) + (p.1 as f64 - cc).powi(2);
+        // Nearest the centroid, then higher, then first (`min_by` keeps the first of
+        // equals, and the group is in row-major order).
+        let best = pts().min_by(|a, b| d2(a).total_cmp(&d2(b)).then(b.2.total_cmp(&a.2)));
+        out.extend(best);
+    }
+    out.sort_by_key(|&(r, c, _)| (r, c));
+    out
+}
+
+/// Minimum of a frame (NaN-free), whatever its layout.
+fn frame_min_of(frame: ArrayView2<f64>) -> f64 {
+    match frame.as_slice() {
+        Some(s) => frame_min(s),
+        None => frame_min(&frame.iter().copied().collect::<Vec<_>>()),
+    }
+}
+
 crate::wide::kernel! {
-    /// Pixels `(row, col, value)` equal to the maximum of their 3 x 3 neighbourhood (outside
-    /// the frame counts as 0, plateaus count), strictly above the frame minimum and above
-    /// `min_value`, in row-major order.
+    /// The candidates of [`local_maxima`]: pixels `(row, col, value)` at least level
+    /// with the maximum of their 3 x 3 neighbourhood (outside the frame counts as 0) and
+    /// above `min_value`, in row-major order.
     ///
-    /// Separable, and branch-free where the work is: each row's maxima of three neighbours
-    /// (0 outside), then per pixel the larger of those of the rows above, at and below, so
-    /// a pixel is a maximum of its 3 x 3 neighbourhood when it is at least that. Only the
-    /// few pixels that pass are looked at one by one, for the plateau rule: the frame
-    /// minimum matters only for a maximum whose in-frame neighbours all equal it, so it is
-    /// computed lazily. NaN-free input is assumed (the tare turned NaN into 0).
+    /// Separable, and branch-free where the work is: each row's maxima of three
+    /// neighbours (0 outside), then per pixel the larger of those of the rows above, at
+    /// and below, so a pixel is a candidate when it is at least that, less the level
+    /// tolerance. Only the few pixels that pass are looked at one by one.
     ///
     /// Compiled for AVX2 too, picked at run time: the same numbers either way.
-    pub fn local_maxima / local_maxima_baseline / local_maxima_avx2 (
+    pub fn near_maxima / near_maxima_baseline / near_maxima_avx2 (
         frame: ArrayView2<f64>,
         min_value: f64,
     ) -> Vec<(usize, usize, f64)> {
@@ -101,7 +253,6 @@ crate::wide::kernel! {
             max_of_three(row(1), &mut below);
         }
         let mut is_max = vec![0u8; w];
-        let mut fmin: Option<f64> = None;
         let mut out = Vec::new();
         for r in 0..h {
             if r + 1 >= h {
@@ -114,7 +265,8 @@ crate::wide::kernel! {
                 .zip(&at)
                 .zip(&below)
             {
-                *m = ((v >= larger(larger(a, t), b)) & (v > min_value)) as u8;
+                let top = larger(larger(a, t), b);
+                *m = ((v >= top - LEVEL_TOLERANCE * top.abs()) & (v > min_value)) as u8;
             }
             // Maxima are rare: skip eight flags at a time (one 64-bit word).
             for (k, chunk) in is_max.chunks(8).enumerate() {
@@ -126,21 +278,7 @@ crate::wide::kernel! {
                     continue;
                 }
                 for c in (k * 8..k * 8 + chunk.len()).filter(|&c| is_max[c] != 0) {
-                    let v = row(r)[c];
-                    // A plateau (every in-frame neighbour equal) counts only above the
-                    // frame minimum; any lower neighbour already puts it above.
-                    let rows = r.saturating_sub(1)..(r + 2).min(h);
-                    let cols = c.saturating_sub(1)..(c + 2).min(w);
-                    let flat = rows
-                        .into_iter()
-                        .all(|rr| row(rr)[cols.clone()].iter().all(|&n| n == v));
-                    if flat {
-                        let m = *fmin.get_or_insert_with(|| frame_min(f));
-                        if v <= m {
-                            continue;
-                        }
-                    }
-                    out.push((r, c, v));
+                    out.push((r, c, row(r)[c]));
                 }
             }
             // Roll the row maxima down by one row.
@@ -526,9 +664,9 @@ mod tests {
                 }
             });
             for min_value in [-1.0, 0.0, 3.0] {
-                let base = local_maxima_baseline(frame.view(), min_value);
+                let base = near_maxima_baseline(frame.view(), min_value);
                 // SAFETY: the CPU runs AVX2 (checked above).
-                let wide = unsafe { local_maxima_avx2(frame.view(), min_value) };
+                let wide = unsafe { near_maxima_avx2(frame.view(), min_value) };
                 assert_eq!(base, wide, "frame {i}, above {min_value}");
                 assert!(i > 0 || min_value > 0.0 || !base.is_empty());
             }
@@ -618,8 +756,9 @@ mod tests {
             [0.0, 0.0, 0.0, 1.0]
         ];
         let m = local_maxima(f.view(), 1e-5);
-        // The plateau counts twice; (2, 3) touches a higher pixel diagonally.
-        assert_eq!(m, vec![(1, 1, 2.0), (1, 2, 2.0)]);
+        // The plateau is one maximum (its two pixels are equally near its centroid: the
+        // first); (2, 3) touches a higher pixel diagonally.
+        assert_eq!(m, vec![(1, 1, 2.0)]);
         let constant = ndarray::Array2::<f64>::from_elem((3, 3), 5.0);
         assert!(local_maxima(constant.view(), 1e-5).is_empty());
     }

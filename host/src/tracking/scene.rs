@@ -30,6 +30,7 @@ use crate::stage::{Shares, Stage};
 use crate::tracking::detect::{
     detection_cost, frame_points, score_candidates, Candidates, Detections,
 };
+use crate::tracking::flow::FlowError;
 use crate::tracking::preprocess::{blur_chunks, Blur, BlurOperator, Blurred};
 use crate::tracking::track::{link, TrackError, TrackOutput};
 
@@ -236,8 +237,15 @@ pub fn track_cropped(
     let detections = score_candidates(&candidates, stats.mean, stats.std, &cfg.detect);
     drop(candidates);
     lap(&[(Stage::Detect, 1.0)]);
-    let linked = link(&detections, &cfg.track, sampling)?;
+    let linked = link(&detections, &cfg.track, sampling).map_err(|e| match e {
+        FlowError::TooManyEdges { limit } => TrackError::TooDense {
+            detections: detections.all.len(),
+            limit,
+        },
+        e => TrackError::Flow(e),
+    })?;
     lap(&[(Stage::Track, 1.0)]);
+    let detection_count = detections.all.len();
     let detections = if keep_scene {
         detections
     } else {
@@ -252,6 +260,7 @@ pub fn track_cropped(
             pitch_mm: stats.pitch_mm,
         },
         detections,
+        detection_count,
         trajectories: linked.trajectories,
         flow_work: linked.work,
         flow_budget_reached: linked.budget_reached,

@@ -39,6 +39,17 @@ pub enum TrackError {
     /// A knob is out of its range (names the knob, the value and the range).
     #[error("config: {0}")]
     Config(#[from] crate::config::ConfigError),
+    /// The detections link into a flow graph above [`MAX_FLOW_EDGES`].
+    #[error(
+        "the scene is too dense to track: {detections} detections would link into more \
+         than {limit} edges; check the tare, or narrow the link gate with --max-speed-mm-s"
+    )]
+    TooDense {
+        /// Detections in the graph.
+        detections: usize,
+        /// The edge limit reached.
+        limit: usize,
+    },
 }
 
 /// Everything later stages need from tracking.
@@ -47,8 +58,11 @@ pub struct TrackOutput {
     /// Blurred frames (f64, `[T, R k, C k]`), global mean/std and pixel pitch; the signal
     /// stage reads actuator-circle pressures from these frames.
     pub blurred: Blurred,
-    /// Every detection with its cost.
+    /// Every detection with its cost (empty when the tracking streamed, see
+    /// [`track_streaming`]; `detection_count` counts them either way).
     pub detections: Detections,
+    /// Detections scored in the tracked frames and cells.
+    pub detection_count: usize,
     /// The trajectories, in the solver's report order (see the module docs).
     pub trajectories: Vec<Trajectory>,
     /// The min-cost flow's work, in edges scanned.
@@ -75,15 +89,23 @@ pub struct Linked {
 /// Each unit of flow scans at most the edges of its part of the graph, so real touch,
 /// a few contacts per part, scans a few times the graph: at most 20.5 per edge on the
 /// shipped examples, the 698-frame recording and an hour of repeated dense touch (24.6 M
-/// scans of a 1.44 M-edge graph, 0.4 s). Dense noise on a small sensor under a gate
-/// wider than the sensor links every detection to every other and sends hundreds of
-/// units through one part: 600-860 scans per edge (up to 7 s for 60 frames of 6 x 6
-/// cells), which the budget stops at about a second with a warning.
+/// scans of a 1.44 M-edge graph, 0.4 s). A scene that links every detection to every
+/// other and sends hundreds of units through one part (dense noise on a small sensor
+/// under a gate wider than the sensor, when tied pixels counted as a detection each,
+/// took 600-860 scans per edge) is stopped at about a second with a warning.
 pub fn flow_work_budget(edges: usize) -> u64 {
     FLOW_WORK_PER_EDGE
         .saturating_mul(edges as u64)
         .saturating_add(FLOW_WORK_BASE)
 }
+
+/// The most edges a tracking graph may have: 2^24, about 0.4 GB for the edge list and
+/// at most 1.5 GB for the solve's indexes, twelve times the graph of an hour of dense
+/// touch (1.44 M edges). Beyond it [`link`] stops building and returns
+/// [`FlowError::TooManyEdges`] (the tracking reports [`TrackError::TooDense`]) instead
+/// of asking for memory the scene does not justify; with the work budget
+/// ([`flow_work_budget`]) it bounds both the memory and the time of every part's solve.
+pub const MAX_FLOW_EDGES: usize = 1 << 24;
 
 /// Edges scanned per graph edge the flow may spend ([`flow_work_budget`]): six times
 /// what real touch needs.
@@ -128,13 +150,42 @@ pub fn track_with(
     cfg: &Config,
     overrides: &MetadataOverrides,
 ) -> Result<TrackOutput, TrackError> {
+    // The compile's driver on the whole recording, keeping the blurred movie.
+    track_whole(rec, cfg, overrides, true)
+}
+
+/// [`track_with`] streaming through the frames as the compile does: the same
+/// statistics and trajectories, bit for bit, but neither the blurred movie (`blurred`
+/// has no frames) nor the detections are kept, so memory follows the touch, not the
+/// recording's length (an hour's movie is 4.7 GB).
+pub fn track_streaming(
+    rec: &Recording,
+    cfg: &Config,
+    overrides: &MetadataOverrides,
+) -> Result<TrackOutput, TrackError> {
+    track_whole(rec, cfg, overrides, false)
+}
+
+/// Stages 0-3 on the whole recording (no crop), keeping the scene or not.
+fn track_whole(
+    rec: &Recording,
+    cfg: &Config,
+    overrides: &MetadataOverrides,
+    keep_scene: bool,
+) -> Result<TrackOutput, TrackError> {
     let sampling = Sampling::new(&Metadata::resolve(overrides, rec, cfg), cfg);
     let (_, rows, cols) = rec.dim();
     cfg.validate_for(&sampling, (rows, cols))?;
     let tared = rec.tare(&cfg.input, &sampling)?;
-    // The compile's driver on the whole recording, keeping the blurred movie.
     let whole = Crop::whole(tared.dim());
-    let (tracked, _) = track_cropped(tared.view(), &whole, cfg, &sampling, true, &mut |_| {})?;
+    let (tracked, _) = track_cropped(
+        tared.view(),
+        &whole,
+        cfg,
+        &sampling,
+        keep_scene,
+        &mut |_| {},
+    )?;
     Ok(tracked)
 }
 
@@ -195,6 +246,17 @@ pub fn link(
     cfg: &TrackConfig,
     sampling: &Sampling,
 ) -> Result<Linked, FlowError> {
+    link_within(detections, cfg, sampling, MAX_FLOW_EDGES)
+}
+
+/// [`link`] with a graph of at most `max_edges` edges ([`FlowError::TooManyEdges`]
+/// beyond).
+pub fn link_within(
+    detections: &Detections,
+    cfg: &TrackConfig,
+    sampling: &Sampling,
+    max_edges: usize,
+) -> Result<Linked, FlowError> {
     let gate_px2 = sampling.gate_px2(cfg.max_speed_mm_s);
     let (missing, cost_per_missing) = cfg.bridge.map_or((0, 0.0), |b| {
         (b.missing_frames(sampling.rate_hz), b.cost_per_missing)
@@ -213,7 +275,7 @@ pub fn link(
     }
     let n = kept.len();
     let (source, sink) = (0, 2 * n + 1);
-    let mut g = FlowGraph::new(2 * n + 2);
+    let mut g = FlowGraph::with_edge_limit(2 * n + 2, max_edges);
     for &k in &kept {
         let d = &detections.all[k];
         let t = d.frame;

@@ -377,25 +377,20 @@ fn a_fitted_long_touch_still_encodes() {
     }
 }
 
-/// Dense noise on a 6 x 6 sensor under the default preset's wide gate (a compile fuzz
-/// seed that once took seconds): the flow stops at its work budget and says so. The
-/// shipped examples, real touch, stay far below it.
+/// Dense noise of four levels on a 6 x 6 sensor under the default preset's wide gate
+/// (a compile fuzz seed that once took seconds and stopped at the flow's work budget):
+/// its ties, pixels level with a neighbour at the sensor's edge where the blur reflects,
+/// are one detection each, not two linking to everything, and the flow stays far below
+/// its budget. The shipped examples, real touch, too.
 #[test]
-fn dense_noise_stops_the_flow_at_its_work_budget_with_a_warning() {
+fn dense_noise_tracks_well_within_the_flow_budget() {
     let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let bytes = std::fs::read(manifest.join("fuzz/seeds/compile/placement-timeout")).unwrap();
     let noise = crate::fuzz_input::recording(&bytes).unwrap();
     let rec = Recording::from_array("noise", noise.view()).unwrap();
     let c = compile(&rec, &CompileOptions::default()).unwrap();
-    assert!(c.report.flow_budget_reached);
-    assert!(
-        c.report
-            .warnings
-            .iter()
-            .any(|w| w.contains("work budget") && w.contains("trajectories")),
-        "{:?}",
-        c.report.warnings
-    );
+    assert!(!c.report.flow_budget_reached);
+    assert!(c.report.flow_work < 1_000_000, "{}", c.report.flow_work);
     for name in ["combination.npy", "squeeze.npy", "tap_pat.npy"] {
         let rec = Recording::load(manifest.join("../examples").join(name)).unwrap();
         let c = compile(&rec, &CompileOptions::default()).unwrap();

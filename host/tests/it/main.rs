@@ -17,6 +17,7 @@ mod stimuli;
 
 mod blur;
 mod bnb_oracle;
+mod bounded;
 mod cli;
 mod cli_files;
 mod cli_help;

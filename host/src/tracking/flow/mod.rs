@@ -45,6 +45,12 @@ pub enum FlowError {
         /// Nodes in the graph.
         n_nodes: usize,
     },
+    /// The graph would hold more edges than its limit ([`FlowGraph::with_edge_limit`]).
+    #[error("the graph would exceed its limit of {limit} edges")]
+    TooManyEdges {
+        /// The most edges the graph may hold.
+        limit: usize,
+    },
     /// An edge cost is NaN or infinite.
     #[error("edge {from} -> {to} has a non-finite cost {cost}")]
     NonFiniteCost {
@@ -69,18 +75,34 @@ pub struct FlowEdge {
 }
 
 /// A DAG whose edges all point to higher node indices.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct FlowGraph {
     n_nodes: usize,
     edges: Vec<FlowEdge>,
+    max_edges: usize,
+}
+
+impl Default for FlowGraph {
+    fn default() -> Self {
+        Self::new(0)
+    }
 }
 
 impl FlowGraph {
-    /// An empty graph with `n_nodes` nodes.
+    /// An empty graph with `n_nodes` nodes and no limit on its edges.
     pub fn new(n_nodes: usize) -> Self {
+        Self::with_edge_limit(n_nodes, usize::MAX)
+    }
+
+    /// An empty graph with `n_nodes` nodes that refuses its `max_edges + 1`-th edge
+    /// ([`FlowError::TooManyEdges`]) before allocating for it: a caller that builds a
+    /// graph from data bounds its memory with this (the edge list grows by doubling, so
+    /// a power of two is never overshot).
+    pub fn with_edge_limit(n_nodes: usize, max_edges: usize) -> Self {
         Self {
             n_nodes,
             edges: Vec::new(),
+            max_edges,
         }
     }
 
@@ -99,6 +121,11 @@ impl FlowGraph {
         }
         if !cost.is_finite() {
             return Err(FlowError::NonFiniteCost { from, to, cost });
+        }
+        if self.edges.len() >= self.max_edges {
+            return Err(FlowError::TooManyEdges {
+                limit: self.max_edges,
+            });
         }
         let idx = self.edges.len();
         self.edges.push(FlowEdge { from, to, cost });
@@ -493,6 +520,19 @@ mod tests {
         assert_eq!(s.units, 2);
         assert_eq!(s.total_cost, -10.0);
         assert!(!s.used[1]);
+    }
+
+    #[test]
+    fn a_limited_graph_refuses_the_edge_past_its_limit() {
+        let mut g = FlowGraph::with_edge_limit(4, 2);
+        g.add_edge(0, 1, -1.0).unwrap();
+        g.add_edge(1, 3, -1.0).unwrap();
+        assert_eq!(
+            g.add_edge(0, 2, 0.0),
+            Err(FlowError::TooManyEdges { limit: 2 })
+        );
+        assert_eq!(g.edges().len(), 2);
+        assert_eq!(min_cost_flow(&g, 0, 3, 5).unwrap().units, 1);
     }
 
     #[test]

@@ -18,7 +18,10 @@
 //!   comes from a trajectory or from neighbour fill.
 //!
 //! The input is a [`Compiled`] run without the crop, so the frames are the recording's
-//! frames after the tare and trim, one GIF frame each (or every `every`-th).
+//! frames after the tare and trim, one GIF frame each (or every `every`-th). The compile
+//! may keep its blurred movie (`keep_scene`) or not: without it each frame is blurred
+//! again as it is drawn (bit for bit the compile's: the same operator on the same
+//! frame), so a preview's memory follows one frame, not the recording's length.
 //! GIF frames are palette images on one fixed 256-colour palette shared by every frame,
 //! so colours do not flicker from frame to frame; after the first, each frame holds only
 //! the rectangle that changed, with the pixels that stayed the same transparent.
@@ -38,6 +41,7 @@ use crate::geometry::Circle;
 use crate::input::recording::{Recording, RecordingError};
 use crate::measure::coverage::{self, Cell, Coverage, DEFAULT_RADIUS_CELLS};
 use crate::rendering::signals::Source;
+use crate::tracking::preprocess::{Blur, BlurOperator, PreprocessError};
 use touch_protocol::CHANNELS;
 
 mod draw;
@@ -147,6 +151,10 @@ pub enum PreviewError {
     /// The recording could not be tared.
     #[error(transparent)]
     Recording(#[from] RecordingError),
+    /// The compile's blur cannot be built again (its parameters were checked by the
+    /// compile, so this means the compile given is not of this recording).
+    #[error(transparent)]
+    Blur(#[from] PreprocessError),
     /// Drawing or encoding failed.
     #[error(transparent)]
     Viz(#[from] VizError),
@@ -259,7 +267,7 @@ impl FrameLayout {
 /// What one preview needs from a compile, checked once.
 struct Scene<'a> {
     compiled: &'a Compiled,
-    frames: &'a ndarray::Array3<f64>,
+    frames: Movie<'a>,
     pitch_mm: f64,
     layout: FrameLayout,
     vmax: f64,
@@ -274,7 +282,7 @@ struct Scene<'a> {
 
 impl<'a> Scene<'a> {
     fn new(compiled: &'a Compiled, recording: &Recording) -> Result<Self, PreviewError> {
-        let (frames, layout) = checked(compiled)?;
+        let (kept, layout) = checked(compiled)?;
         let tracked = compiled.tracked.as_ref().ok_or(PreviewError::NoTouch)?;
         let signals = compiled.signals.as_ref().ok_or(PreviewError::NoTouch)?;
         let input = &compiled.report.config.input;
@@ -283,10 +291,11 @@ impl<'a> Scene<'a> {
         let tared = recording.tare(input, &sampling)?;
         let (t, r, c) = tared.dim();
         let k = layout.upsample;
-        if frames.dim() != (t, r * k, c * k) {
+        let blurred = (signals.frames(), layout.map_px.0, layout.map_px.1);
+        if blurred != (t, r * k, c * k) {
             return Err(PreviewError::Mismatch {
                 tared: tared.dim(),
-                blurred: frames.dim(),
+                blurred,
                 upsample: k,
             });
         }
@@ -296,7 +305,24 @@ impl<'a> Scene<'a> {
         let coverage = coverage::measure(tared.view(), threshold, &points, DEFAULT_RADIUS_CELLS);
         let finite_max =
             |it: &mut dyn Iterator<Item = f64>| it.filter(|v| v.is_finite()).fold(0.0f64, f64::max);
-        let vmax = finite_max(&mut frames.iter().copied());
+        let frames = match kept {
+            Some(movie) => Movie::Kept(movie),
+            None => Movie::Streamed {
+                op: Box::new(BlurOperator::new(
+                    r,
+                    c,
+                    &Blur::new(&compiled.report.config.preprocess, &sampling),
+                )?),
+                tared,
+            },
+        };
+        let vmax = match &frames {
+            Movie::Kept(movie) => finite_max(&mut movie.iter().copied()),
+            // One frame at a time: the colour scale's top without the movie.
+            Movie::Streamed { .. } => (0..t)
+                .map(|f| finite_max(&mut frames.frame(f).iter().copied()))
+                .fold(0.0, f64::max),
+        };
         let psi_max = finite_max(&mut signals.psi.iter().flatten().copied());
         let psi_max = if psi_max > 0.0 { psi_max } else { 1.0 };
         Ok(Scene {
@@ -313,27 +339,69 @@ impl<'a> Scene<'a> {
     }
 
     fn count(&self) -> usize {
-        self.frames.dim().0
+        self.frames.count()
     }
 }
 
-/// The blurred movie of an uncropped compile with touch, and its frames' layout.
-fn checked(compiled: &Compiled) -> Result<(&ndarray::Array3<f64>, FrameLayout), PreviewError> {
+/// The blurred frames a preview draws: the compile's movie, or each frame blurred again
+/// from the tared recording when it is drawn.
+enum Movie<'a> {
+    Kept(&'a ndarray::Array3<f64>),
+    Streamed {
+        tared: ndarray::Array3<f64>,
+        op: Box<BlurOperator>,
+    },
+}
+
+impl Movie<'_> {
+    fn count(&self) -> usize {
+        match self {
+            Movie::Kept(movie) => movie.dim().0,
+            Movie::Streamed { tared, .. } => tared.dim().0,
+        }
+    }
+
+    /// Blurred frame `t` (in range).
+    fn frame(&self, t: usize) -> ndarray::CowArray<'_, f64, ndarray::Ix2> {
+        match self {
+            Movie::Kept(movie) => movie.index_axis(Axis(0), t).into(),
+            Movie::Streamed { tared, op } => op.apply(tared.index_axis(Axis(0), t)).into(),
+        }
+    }
+}
+
+/// The blurred movie of an uncropped compile with touch (`None` when the compile
+/// streamed and kept none), and its frames' layout.
+fn checked(
+    compiled: &Compiled,
+) -> Result<(Option<&ndarray::Array3<f64>>, FrameLayout), PreviewError> {
     let (Some(tracked), Some(signals)) = (&compiled.tracked, &compiled.signals) else {
         return Err(PreviewError::NoTouch);
     };
     let frames = &tracked.blurred.frames;
-    if frames.dim().0 != signals.frames() {
+    let (kept, rows, cols) = frames.dim();
+    let upsample = compiled.report.config.preprocess.upsample;
+    // Without the movie, the compile's crop says whether it saw the whole recording.
+    let whole = compiled.report.crop.as_ref().is_some_and(|crop| {
+        crop.frames == (0..signals.frames())
+            && crop.rows.start == 0
+            && crop.rows.len() * upsample == rows
+            && crop.cols.start == 0
+            && crop.cols.len() * upsample == cols
+    });
+    let movie = if kept == signals.frames() {
+        Some(frames)
+    } else if kept == 0 && whole {
+        None
+    } else {
         return Err(PreviewError::Cropped);
-    }
-    let (_, rows, cols) = frames.dim();
+    };
     let circles = compiled
         .placement
         .as_ref()
         .map_or(&[][..], |p| &p.circles[..]);
-    let upsample = compiled.report.config.preprocess.upsample;
     let layout = FrameLayout::new(rows, cols, upsample, tracked.pitch_mm(), circles);
-    Ok((frames, layout))
+    Ok((movie, layout))
 }
 
 /// The layout of `compiled`'s preview frames (for tests and scripts).
@@ -391,7 +459,7 @@ fn draw_frame(scene: &Scene<'_>, t: usize, rate_hz: f64, rgb: &mut [u8]) -> Resu
     );
     // The heat map straight into the buffer: per-pixel drawing calls would cost more
     // than everything else in the frame.
-    let frame = scene.frames.index_axis(Axis(0), t);
+    let frame = scene.frames.frame(t);
     let s = l.scale as usize;
     for ((r, c), &v) in frame.indexed_iter() {
         let (x, y) = (ox + c * s, oy + r * s);
