@@ -562,5 +562,220 @@ class Heat(unittest.TestCase):
         self.assertEqual(self.board.resets, [])
 
 
+# ------------------------------------------------------------- the link's models
+#
+# The USART and FLASH models on their own, with a few hand-assembled Thumb
+# instructions instead of the firmware: what RM0090 says each register does.
+
+RCC_APB1ENR, USART2, FLASH_R = 0x4002_3840, 0x4000_4400, 0x4002_3C00
+SR, DR, BRR, CR1 = 0x00, 0x04, 0x08, 0x0C
+MAIN, LOOP, HANDLER, STORE = 0x0800_0200, 0x0800_0210, 0x0800_0300, 0x0800_0400
+THUMB = {
+    MAIN: [0xBF30, 0xE7FD],  # wfi; b back to it
+    LOOP: [0x3501, 0xE7FD],  # adds r5, #1; b back to it
+    HANDLER: [0x6826, 0x3501, 0x4770],  # ldr r6, [r4]; adds r5, #1; bx lr
+    STORE: [0x6001, 0x7001, 0x8001, 0x6802, 0xE7FE],  # str, strb, strh r1 -> [r0]; ldr r2, [r0]; b .
+}
+
+
+def bare_board(start=MAIN, **kw):
+    """A board whose flash holds only the vectors and the snippets above, running `start`."""
+    image = bytearray(b"\xff" * 0x500)
+    image[0:8] = (0x2000_8000).to_bytes(4, "little") + (start | 1).to_bytes(4, "little")
+    vector = 4 * (16 + twin.IRQ["USART2"])
+    image[vector:vector + 4] = (HANDLER | 1).to_bytes(4, "little")
+    for addr, code in THUMB.items():
+        at = addr - twin.FLASH_BASE
+        image[at:at + 2 * len(code)] = b"".join(hw.to_bytes(2, "little") for hw in code)
+    return twin.Board([(twin.FLASH_BASE, bytes(image))], **kw)
+
+
+class UsartModel(unittest.TestCase):
+    def board(self, brr=139, cr1=0x200C):
+        """USART2 clocked, 16 MHz PCLK1 (the reset clocks), UE + TE + RE."""
+        b = bare_board()
+        b.poke(RCC_APB1ENR, 1 << 17)
+        b.poke(USART2 + BRR, brr)
+        b.poke(USART2 + CR1, cr1)
+        return b, b.usart2
+
+    def test_frame_time_follows_brr_and_the_bus_clock(self):
+        b, u = self.board()
+        self.assertEqual(u.frame_units(), 10 * 139 * twin.T_HZ // 16_000_000)
+        self.assertAlmostEqual(u.baud(), 115_108, delta=1)
+        b.poke(USART2 + CR1, 0x200C | 0x8000)  # OVER8: BRR 0x45 is USARTDIV 4.625
+        b.poke(USART2 + BRR, 0x45)
+        self.assertAlmostEqual(u.baud(), 16_000_000 / (8 * 4.625), delta=1)
+
+    def test_a_received_byte_sets_rxne_and_a_second_unread_one_overruns(self):
+        b, u = self.board()
+        done = u.send(b"\x41\x42")
+        frame = u.frame_units()
+        self.assertEqual(done, 2 * frame)
+        b.run(1.5 * frame / twin.T_HZ)
+        sr = b.peek(USART2 + SR)
+        self.assertTrue(sr & u.RXNE and not sr & u.ORE)
+        b.run(frame / twin.T_HZ)
+        sr = b.peek(USART2 + SR)
+        self.assertTrue(sr & u.ORE, "the second byte found RXNE set")
+        self.assertEqual(b.peek(USART2 + DR), 0x41, "the overrun byte is lost, the first kept")
+        self.assertFalse(b.peek(USART2 + SR) & (u.RXNE | u.ORE), "SR then DR clears RXNE and ORE")
+        self.assertEqual(u.overruns, 1)
+
+    def test_idle_after_a_burst_cleared_by_sr_then_dr(self):
+        b, u = self.board()
+        u.send(b"abc")
+        frame = u.frame_units()
+        b.run(3.5 * frame / twin.T_HZ)
+        self.assertFalse(u.sr & u.IDLE, "no idle line between back-to-back bytes")
+        b.run(1.0 * frame / twin.T_HZ)
+        self.assertTrue(b.peek(USART2 + SR) & u.IDLE)
+        b.peek(USART2 + DR)
+        self.assertFalse(u.sr & u.IDLE)
+
+    def test_transmit_through_the_data_and_shift_registers(self):
+        b, u = self.board()
+        frame = u.frame_units()
+        b.poke(USART2 + DR, 0x31)
+        self.assertTrue(u.sr & u.TXE, "the first byte went straight to the shift register")
+        b.poke(USART2 + DR, 0x32)
+        self.assertFalse(u.sr & (u.TXE | u.TC))
+        b.run(1.2 * frame / twin.T_HZ)
+        self.assertEqual(u.take(), b"1")
+        self.assertTrue(u.sr & u.TXE and not u.sr & u.TC)
+        b.run(1.0 * frame / twin.T_HZ)
+        self.assertEqual(u.take(), b"2")
+        self.assertTrue(u.sr & u.TC, "transmission complete once the shift register is empty")
+        b.poke(USART2 + SR, ~u.TC & 0xFFFF)
+        self.assertFalse(u.sr & u.TC, "TC is rc_w0")
+
+    def test_a_disabled_receiver_loses_the_bytes(self):
+        b, u = self.board(cr1=0x2008)  # TE only
+        u.send(b"xy")
+        b.run(0.001)
+        self.assertEqual(u.lost, 2)
+        self.assertFalse(u.sr & u.RXNE)
+
+    def test_the_rxne_interrupt_takes_every_byte_even_at_2_mbaud(self):
+        b, u = self.board(brr=8)  # 2 Mbaud: 80 core cycles a byte
+        b.poke(0xE000_E104, 1 << (twin.IRQ["USART2"] - 32))  # NVIC_ISER1
+        b.poke(USART2 + CR1, 0x200C | u.IE_RXNE)
+        b.uc.reg_write(twin.A.UC_ARM_REG_R4, USART2 + DR)
+        data = bytes(range(1, 41))
+        u.send(data)
+        b.run(0.001)
+        self.assertEqual(b.uc.reg_read(twin.A.UC_ARM_REG_R5), len(data), "one interrupt per byte")
+        self.assertEqual(b.uc.reg_read(twin.A.UC_ARM_REG_R6), data[-1])
+        self.assertEqual(u.overruns, 0)
+
+    def test_dma_is_not_modelled(self):
+        b, _ = self.board()
+        with self.assertRaises(twin.NotModelled):
+            b.poke(USART2 + 0x14, 1 << 6)
+
+
+class FlashModel(unittest.TestCase):
+    KEYR, FSR, FCR = FLASH_R + 0x04, FLASH_R + 0x0C, FLASH_R + 0x10
+    SECTOR11 = 0x080E_0000
+    X32 = 2 << 8
+
+    def unlocked(self, **kw):
+        b = bare_board(LOOP, **kw)
+        b.poke(self.KEYR, twin.Flash.KEY1)
+        b.poke(self.KEYR, twin.Flash.KEY2)
+        self.assertFalse(b.flash.cr & twin.Flash.LOCK)
+        b.uc.mem_write(self.SECTOR11, b"\x12\x34\x56\x78" * 16)
+        return b
+
+    def erase(self, b, sector=11):
+        b.poke(self.FCR, self.X32 | twin.Flash.SER | sector << 3)
+        b.poke(self.FCR, self.X32 | twin.Flash.SER | sector << 3 | twin.Flash.STRT)
+
+    def test_a_wrong_key_locks_until_reset(self):
+        b = bare_board(LOOP)
+        b.poke(self.KEYR, twin.Flash.KEY1)
+        b.poke(self.KEYR, 0x1234)
+        b.poke(self.KEYR, twin.Flash.KEY1)
+        b.poke(self.KEYR, twin.Flash.KEY2)
+        self.assertTrue(b.flash.cr & twin.Flash.LOCK)
+        b.poke(self.FCR, self.X32 | twin.Flash.SER | 11 << 3 | twin.Flash.STRT)
+        self.assertEqual(b.erases, [], "a locked CR ignores writes")
+
+    def test_an_erase_sets_the_sector_to_ff_and_stalls_the_cpu_for_its_time(self):
+        b = self.unlocked()
+        b.run(0.001)
+        before = b.uc.reg_read(twin.A.UC_ARM_REG_R5)
+        self.assertGreater(before, 1000, "the loop runs from flash")
+        self.erase(b)
+        self.assertTrue(b.peek(self.FSR) & twin.Flash.BSY)
+        b.run(0.999)
+        self.assertEqual(b.uc.reg_read(twin.A.UC_ARM_REG_R5), before, "no instruction fetched from flash while busy")
+        b.run(0.002)
+        self.assertFalse(b.peek(self.FSR) & twin.Flash.BSY, "1 s typical for 128 KB at x32")
+        self.assertGreater(b.uc.reg_read(twin.A.UC_ARM_REG_R5), before)
+        self.assertEqual(bytes(b.uc.mem_read(self.SECTOR11, 0x2_0000)), b"\xff" * 0x2_0000)
+        self.assertEqual(len(b.erases), 1)
+        self.assertEqual(b.erases[0][1] - b.erases[0][0], twin.T_HZ)
+
+    def test_the_watchdog_keeps_counting_through_an_erase(self):
+        b = self.unlocked(flash_timing="max")
+        b.poke(0x4000_3000, 0xCCCC)  # IWDG start, reset prescaler and reload: 512 ms
+        self.erase(b)
+        b.run(1.0)
+        self.assertEqual([c for _, c in b.resets], ["IWDG"])
+        self.assertAlmostEqual(b.resets[0][0] / twin.T_HZ, 0.512, delta=0.001)
+        got = bytes(b.uc.mem_read(self.SECTOR11, 64))
+        self.assertNotEqual(got, b"\x12\x34\x56\x78" * 16, "reset a quarter through the erase")
+
+    def test_code_in_ram_runs_during_an_erase_until_it_reads_flash(self):
+        b = self.unlocked()
+        b.uc.mem_write(0x2000_1000, bytes([0x01, 0x35, 0xFD, 0xE7]))  # the loop, in RAM
+        b.pc = 0x2000_1000
+        self.erase(b)
+        b.run(0.5)
+        self.assertGreater(b.uc.reg_read(twin.A.UC_ARM_REG_R5), 1_000_000, "RAM code is not stalled")
+        self.assertTrue(b.flash.busy())
+
+    def test_programming_only_clears_bits_a_word_at_a_time(self):
+        b = self.unlocked()
+        self.erase(b)
+        b.run(1.01)
+        b.poke(self.FCR, self.X32 | twin.Flash.PG)
+        uc = b.uc
+        for r, v in ((twin.A.UC_ARM_REG_R0, self.SECTOR11), (twin.A.UC_ARM_REG_R1, 0x0F0F_A5A5)):
+            uc.reg_write(r, v)
+        b.pc = STORE  # str r1, [r0]
+        b.run(0.00001)
+        self.assertEqual(b.read32(self.SECTOR11), 0x0F0F_A5A5)
+        self.assertEqual(b.programs, 1)
+        self.assertFalse(b.flash.sr & 0xF2, "no error flag")
+        # Again over the same word: bits only go from 1 to 0, and it is counted.
+        uc.reg_write(twin.A.UC_ARM_REG_R1, 0xFFFF_0000)
+        b.pc = STORE
+        b.run(0.00001)
+        self.assertEqual(b.read32(self.SECTOR11), 0x0F0F_0000)
+        self.assertEqual(len(b.dirty_writes), 1)
+
+    def test_a_write_of_the_wrong_width_or_without_pg_changes_nothing(self):
+        b = self.unlocked()
+        self.erase(b)
+        b.run(1.01)
+        uc = b.uc
+        uc.reg_write(twin.A.UC_ARM_REG_R0, self.SECTOR11 + 8)
+        uc.reg_write(twin.A.UC_ARM_REG_R1, 0)
+        b.poke(self.FCR, self.X32 | twin.Flash.PG)
+        b.pc = STORE + 2  # strb: a byte at x32 parallelism
+        b.run(0.00001)
+        self.assertTrue(b.peek(self.FSR) & twin.Flash.PGPERR)
+        self.assertEqual(b.read32(self.SECTOR11 + 8), 0xFFFF_FFFF)
+        b.poke(self.FSR, 0xF3)
+        b.poke(self.FCR, self.X32)
+        b.pc = STORE  # str without PG
+        b.run(0.00001)
+        self.assertTrue(b.peek(self.FSR) & twin.Flash.PGSERR)
+        self.assertEqual(b.read32(self.SECTOR11 + 8), 0xFFFF_FFFF)
+        self.assertEqual(b.programs, 0)
+
+
 if __name__ == "__main__":
     unittest.main()
