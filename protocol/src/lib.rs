@@ -5,6 +5,7 @@
 //! - [`bank`]: several stimuli, one per button slot, as one flash image.
 //! - [`player`]: turns a stimulus into eight 12-bit output codes per 1 kHz tick.
 //! - [`thermal`]: the coils' heat, which the device keeps across plays.
+//! - [`link`]: the messages between the sleeve and a computer, and their framing.
 //!
 //! Both files are framed the same way (magic, version, length, CRC-32; see
 //! [`container`]) and `SPEC.md` describes every byte. The crate is `no_std` and
@@ -16,6 +17,7 @@ pub mod bank;
 pub mod container;
 mod error;
 mod limits;
+pub mod link;
 pub mod player;
 pub mod stimulus;
 pub mod thermal;
@@ -23,7 +25,7 @@ pub mod thermal;
 pub use bank::Bank;
 pub use error::Error;
 pub use limits::Limits;
-pub use player::{DeviceConfig, OutputSink, Player, Status, Tick};
+pub use player::{DeviceConfig, LiveParams, OutputSink, Player, Status, Tick};
 pub use stimulus::Stimulus;
 pub use thermal::Thermal;
 

@@ -101,6 +101,32 @@ pub trait OutputSink {
     fn write(&mut self, codes: &[u16; CHANNELS]);
 }
 
+/// Where the keyframes come from.
+#[derive(Debug, Clone)]
+enum Source<'a> {
+    /// A stimulus file.
+    Stored(Keyframes<'a>),
+    /// Handed in one by one while playing ([`Player::live`]): the keyframe after `b`,
+    /// once it arrived.
+    Live(Option<[i16; CHANNELS]>),
+}
+
+/// How a live player ([`Player::live`]) plays the keyframes it is handed: the
+/// fields of a stimulus header that a stream has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LiveParams {
+    /// Time between keyframes, ms (1..=1000).
+    pub keyframe_period_ms: u16,
+    /// Ramp from 0 A in, and back to 0 A at the end, ms.
+    pub ramp_ms: u16,
+    /// Current that the Q15 value 32768 stands for, mA.
+    pub full_scale_ma: u16,
+    /// The limits the keyframes were made for (the stricter of these and the
+    /// device's apply).
+    pub limits: Limits,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Mode {
     Signal,
@@ -116,7 +142,9 @@ enum Mode {
 /// [`Player::with_thermal`] from the device's, and [`Player::thermal`] hands it back.
 #[derive(Debug, Clone)]
 pub struct Player<'a> {
-    keyframes: Keyframes<'a>,
+    source: Source<'a>,
+    /// A live player reached a keyframe boundary without the next keyframe.
+    underrun: bool,
     /// Keyframe values around the current tick, Q15.
     a: [i32; CHANNELS],
     b: [i32; CHANNELS],
@@ -163,10 +191,78 @@ impl<'a> Player<'a> {
     /// whatever the heat, the player itself never lets it pass the budget.
     pub fn with_thermal(stimulus: &Stimulus<'a>, device: &DeviceConfig, thermal: Thermal) -> Self {
         let h = stimulus.header();
-        let limits = h.limits.min(device.limits);
         let mut keyframes = stimulus.keyframes();
         let first = widen(keyframes.next().unwrap_or([0; CHANNELS]));
         let second = keyframes.next().map(widen).unwrap_or(first);
+        let params = LiveParams {
+            keyframe_period_ms: h.keyframe_period_ms,
+            ramp_ms: h.ramp_ms,
+            full_scale_ma: h.full_scale_ma,
+            limits: h.limits,
+        };
+        let source = Source::Stored(keyframes);
+        Player::build(
+            source,
+            &params,
+            h.duration_ms,
+            [first, second],
+            device,
+            thermal,
+        )
+    }
+
+    /// A player whose keyframes are handed in while it plays ([`Player::push_keyframe`]),
+    /// starting between `first` and `second`: a stream. It plays until stopped; at a
+    /// keyframe boundary without the next keyframe it holds the last one and reports
+    /// [`Player::underrun`] (the caller ramps it down).
+    pub fn live(
+        params: &LiveParams,
+        first: [i16; CHANNELS],
+        second: [i16; CHANNELS],
+        device: &DeviceConfig,
+        thermal: Thermal,
+    ) -> Player<'static> {
+        Player::build(
+            Source::Live(None),
+            params,
+            u32::MAX,
+            [widen(first), widen(second)],
+            device,
+            thermal,
+        )
+    }
+
+    /// True while a live player has room for the next keyframe.
+    pub fn wants_keyframe(&self) -> bool {
+        matches!(self.source, Source::Live(None))
+    }
+
+    /// Hands a live player its next keyframe; returns it back if the player holds one
+    /// already (or plays a stimulus).
+    pub fn push_keyframe(&mut self, k: [i16; CHANNELS]) -> Result<(), [i16; CHANNELS]> {
+        match &mut self.source {
+            Source::Live(next @ None) => {
+                *next = Some(k);
+                Ok(())
+            }
+            _ => Err(k),
+        }
+    }
+
+    /// True once a live player met a keyframe boundary without its next keyframe.
+    pub fn underrun(&self) -> bool {
+        self.underrun
+    }
+
+    fn build(
+        source: Source<'a>,
+        h: &LiveParams,
+        duration_ms: u32,
+        [first, second]: [[i32; CHANNELS]; 2],
+        device: &DeviceConfig,
+        thermal: Thermal,
+    ) -> Self {
+        let limits = h.limits.min(device.limits);
         let device_ua = i64::from(device.full_scale_ma.max(1)) * 1000;
         // One output step, rounded up: device full scale / 2048.
         let step_ua = ((device_ua + 2047) / 2048) as u32;
@@ -175,14 +271,15 @@ impl<'a> Player<'a> {
         let slew_ua = slew_bound_ua(limits.slew_ma_per_ms, step_ua);
         let half_step_ua = step_ua / 2 + 1;
         let mut player = Player {
-            keyframes,
+            source,
+            underrun: false,
             a: first,
             b: second,
             period: u32::from(h.keyframe_period_ms.max(1)),
             phase: 0,
             ramp_ms,
             t: 0,
-            duration_ms: h.duration_ms,
+            duration_ms,
             full_scale_ua: i64::from(h.full_scale_ma) * 1000,
             peak_ua,
             slew_ua,
@@ -323,7 +420,15 @@ impl<'a> Player<'a> {
         if self.phase == self.period {
             self.phase = 0;
             self.a = self.b;
-            match self.keyframes.next() {
+            let next = match &mut self.source {
+                Source::Stored(keyframes) => keyframes.next(),
+                Source::Live(next) => {
+                    let k = next.take();
+                    self.underrun |= k.is_none();
+                    k
+                }
+            };
+            match next {
                 Some(k) => self.b = widen(k),
                 None => self.b = self.a,
             }
