@@ -177,6 +177,9 @@ pub struct Client<T: Transport> {
     damaged: u64,
 }
 
+/// Events kept for [`Client::next_event`]; older ones are dropped past this.
+const MAX_QUEUED_EVENTS: usize = 4096;
+
 /// Retries of a command that is safe to send twice.
 const RETRIES: u32 = 2;
 
@@ -656,6 +659,10 @@ impl<T: Transport> Client<T> {
                 match self.decoder.feed(byte) {
                     Feed::Frame(frame) => match link::decode::<Message>(frame) {
                         Ok(Message::Event { tick, event }) => {
+                            // A caller that never reads events keeps the newest.
+                            if self.events.len() >= MAX_QUEUED_EVENTS {
+                                self.events.pop_front();
+                            }
                             self.events.push_back(Stamped {
                                 tick,
                                 event,

@@ -20,6 +20,7 @@ mod bnb_oracle;
 mod cli;
 mod cli_files;
 mod cli_sanity;
+mod cli_sleeve;
 mod cli_trade;
 mod cli_unix;
 mod cli_viz;
