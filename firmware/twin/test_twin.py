@@ -8,8 +8,10 @@ never from this harness.
 import os
 import subprocess
 import unittest
+import zlib
 from pathlib import Path
 
+import link
 import twin
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -597,6 +599,7 @@ class UsartModel(unittest.TestCase):
         b.poke(RCC_APB1ENR, 1 << 17)
         b.poke(USART2 + BRR, brr)
         b.poke(USART2 + CR1, cr1)
+        b.usart2.host_baud = round(b.usart2.baud())
         return b, b.usart2
 
     def test_frame_time_follows_brr_and_the_bus_clock(self):
@@ -648,6 +651,14 @@ class UsartModel(unittest.TestCase):
         self.assertTrue(u.sr & u.TC, "transmission complete once the shift register is empty")
         b.poke(USART2 + SR, ~u.TC & 0xFFFF)
         self.assertFalse(u.sr & u.TC, "TC is rc_w0")
+
+    def test_a_host_at_another_baud_rate_gives_framing_errors(self):
+        b, u = self.board()
+        u.host_baud = 9600
+        u.send(b"x")
+        b.run(0.002)
+        self.assertTrue(b.peek(USART2 + SR) & u.FE)
+        self.assertEqual(u.garbled, 1)
 
     def test_a_disabled_receiver_loses_the_bytes(self):
         b, u = self.board(cr1=0x2008)  # TE only
@@ -775,6 +786,246 @@ class FlashModel(unittest.TestCase):
         self.assertTrue(b.peek(self.FSR) & twin.Flash.PGSERR)
         self.assertEqual(b.read32(self.SECTOR11 + 8), 0xFFFF_FFFF)
         self.assertEqual(b.programs, 0)
+
+
+# ------------------------------------------------------------ the link on the twin
+#
+# The release ELF with its USART link: the host's side is `link.py` (written from
+# SPEC.md), bytes at 460,800 baud into the USART model, in emulated time.
+
+USART_VECTOR = 4 * (16 + twin.IRQ["USART2"])
+TICK_BUDGET = 1700  # instructions per TIM7 handler
+BANK_SECTORS = (10, 11)
+
+
+def has_link():
+    """The ELF handles USART2's interrupt (the link), not the default handler."""
+    segments, symbols = twin.load_elf(ELF)
+    for addr, data in segments:
+        if addr == twin.FLASH_BASE:
+            vector = int.from_bytes(data[USART_VECTOR:USART_VECTOR + 4], "little") & ~1
+            return vector != symbols.get("DefaultHandler", -1) & ~1
+    return False
+
+
+class Host:
+    """The computer's end of the link on a board: requests with sequence numbers,
+    the device's messages with the time each arrived."""
+
+    def __init__(self, board):
+        self.b, self.u = board, board.usart2
+        self.rx = link.Stream()
+        self.seq = 0
+        self.messages = []  # (t, message)
+
+    def pump(self, seconds, step=0.0005):
+        end = self.b.t + round(seconds * twin.T_HZ)
+        while self.b.t < end:
+            self.b.run(min(step, (end - self.b.t) / twin.T_HZ))
+            self.collect()
+
+    def collect(self):
+        got = [(self.b.t, m) for m in self.rx.feed(self.u.take())]
+        self.messages += got
+        return got
+
+    def call(self, make, *args, timeout=1.0):
+        """Sends a request; returns (its answer, the time its last byte arrived)."""
+        self.seq += 1
+        end = self.u.send(make(self.seq, *args))
+        deadline = self.b.t + round(timeout * twin.T_HZ)
+        while self.b.t < deadline:
+            self.b.run(0.0005)
+            for _, m in self.collect():
+                if m["kind"] in ("reply", "refused") and m["seq"] == self.seq:
+                    return m, end
+        raise AssertionError(f"no answer to {make.__name__}{args} in {timeout} s")
+
+    def ok(self, make, *args, timeout=1.0):
+        m, end = self.call(make, *args, timeout=timeout)
+        if m["kind"] != "reply":
+            raise AssertionError(f"{make.__name__}{args}: refused {m['error']}")
+        return m, end
+
+    def events(self, name):
+        return [(t, m) for t, m in self.messages if m["kind"] == "event" and m["event"] == name]
+
+
+def upload(host, image, chunk=link.MAX_CHUNK):
+    """BankBegin, every chunk, BankCommit; returns the commit's reply."""
+    crc = zlib.crc32(image)
+    host.ok(link.bank_begin, len(image), crc, timeout=6.0)
+    for off in range(0, len(image), chunk):
+        m, _ = host.ok(link.bank_chunk, off, image[off:off + chunk])
+        assert m["next"] == min(off + chunk, len(image)), m
+    m, _ = host.ok(link.bank_commit, timeout=2.0)
+    return m
+
+
+class LinkCodec(unittest.TestCase):
+    """`link.py` against the SPEC's example bytes and the protocol's golden ones."""
+
+    def test_requests_are_the_specs_bytes(self):
+        self.assertEqual(link.play(300, 3), bytes.fromhex("09 AC 02 09 03 3C 47 B6 6D 00"))
+        self.assertEqual(link.request(7, "Info"), bytes.fromhex("07 07 01 ae b4 9f 79 00"))
+        body = bytes.fromhex("06 05 E8 07 EF FD B6 F5 0D")  # BankBegin { len 1000, crc 0xDEADBEEF }
+        self.assertEqual(link.bank_begin(6, 1000, 0xDEAD_BEEF), link.frame(body))
+        body = bytes([0x05, 0x0B, 40, 20, 0xE8, 0x07, 0xE8, 0x07, 50, 0xD8, 0x04, 0x80, 0x87, 0xA7, 0x0E])
+        self.assertEqual(link.stream_begin(5, 40, 20, 1000, (1000, 50, 600, 30_000_000)), link.frame(body))
+        body = bytes([0x0A, 0x0C, 0x02, 0x10, 0x01, 0x00, 0xFF, 0xFF] + [0] * 10 + [0x34, 0x12])
+        self.assertEqual(link.stream_data(10, 2, [[1, -1, 0, 0, 0, 0, 0, 0x1234]]), link.frame(body))
+
+    def test_replies_decode(self):
+        hello = bytes([0x00, 0x01, 0x00, 0x01, 0x05]) + b"0.1.0"
+        m = link.Stream().feed(link.frame(hello))
+        self.assertEqual(m, [{"kind": "reply", "seq": 1, "reply": "Hello", "version": 1, "firmware": "0.1.0"}])
+        with self.assertRaises(ValueError):
+            link.parse(link.frame(hello)[:-2] + b"\x01")  # CRC damaged
+
+    def test_cobs_round_trips_long_and_zero_runs(self):
+        for data in (b"", b"\0", b"\0\0", bytes(range(1, 255)), bytes(range(256)) * 3, b"\x11" * 600):
+            self.assertEqual(link.uncobs(link.cobs(data)), data)
+            self.assertNotIn(0, link.cobs(data))
+
+
+class LinkTwin(unittest.TestCase):
+    """Upload a bank over the USART, play a slot by command, stream, stop."""
+
+    @classmethod
+    def setUpClass(cls):
+        if not has_link():
+            raise unittest.SkipTest("this ELF has no USART link (no USART2 handler)")
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        cls.bank = SCRATCH / "link-hot.bank"
+        subprocess.run([str(CODES), "hot", "1000000", str(cls.bank)], check=True)
+        cls.image = cls.bank.read_bytes()
+        # Boot on the built-in emoji bank (region erased), then upload another.
+        b = cls.board = boot(erase=True)
+        h = cls.host = Host(b)
+        b.run(0.3)
+        m, _ = h.ok(link.hello)
+        cls.firmware = m["firmware"]
+        b.count_tick_instructions()
+        cls.upload_from = b.t
+        cls.commit = upload(h, cls.image)
+        cls.upload_until = b.t
+        b.count_tick_instructions(False)
+        h.pump(0.3)  # the restart into the new bank
+        cls.restarted = b.t
+        # Play slot 1 by command, with the tick counted while the link is busy.
+        b.count_tick_instructions()
+        cls.play, cls.play_end = h.ok(link.play, 1)
+        for _ in range(40):  # status requests back to back while it plays
+            h.ok(link.status)
+        h.pump(0.6)
+        b.count_tick_instructions(False)
+
+    def test_the_commit_restarts_into_the_uploaded_bank(self):
+        b = self.board
+        self.assertEqual(self.commit["crc"], zlib.crc32(self.image))
+        self.assertEqual(self.commit["slots"], 2)
+        region = bytes(b.uc.mem_read(twin.BANK_BASE, len(self.image)))
+        self.assertEqual(region, self.image, "the bank region holds the image")
+        self.assertEqual([c for _, c in b.resets], ["SYSRESETREQ"], "one restart, no watchdog reset")
+        self.assertEqual(b.dirty_writes, [], "every word programmed after its erase")
+        self.assertEqual(sorted(s for _, _, s in b.erases), list(BANK_SECTORS), "only the bank's sectors erased")
+
+    def test_the_watchdog_is_fed_and_the_outputs_rest_through_the_erase(self):
+        b = self.board
+        for start, end, sector in b.erases:
+            during = [f for f in b.frames if start <= f[0] <= end + MS]
+            self.assertTrue(all(f[1] == IDLE and f[2] == IDLE for f in during), f"sector {sector}: not at rest")
+            for c in ("TIM3", "TIM4"):
+                self.assertEqual(tuple(b.timers[c].ccr_a), (2048,) * 4)
+        self.assertNotIn("IWDG", [c for _, c in b.resets])
+
+    def test_play_by_command_is_the_host_players_codes(self):
+        want, status = expected(self.bank, 1)
+        frames = codes(self.board)
+        i = first_frame_after(self.board, self.play_end / twin.T_HZ)
+        o = find(frames, want, i, i + 5)
+        self.assertIsNotNone(o, "slot 1 of the uploaded bank, tick for tick")
+        self.assertEqual(status[-1], "E")
+        self.assertTrue(self.play["now"])
+
+    def test_a_play_frame_reaches_the_outputs_within_2_ms(self):
+        want, _ = expected(self.bank, 1)
+        frames = codes(self.board)
+        i = first_frame_after(self.board, self.play_end / twin.T_HZ)
+        o = find(frames, want, i, i + 5)
+        self.assertIsNotNone(o)
+        # The first frame's compare values are written in that TIM7 handler and
+        # take effect at the next carrier period (4096 / 84 MHz).
+        carrier = 4096 * twin.T_HZ // 84_000_000
+        latency = (self.board.frames[o][0] + carrier - self.play_end) / MS
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nplay: last byte to outputs {latency:.3f} ms")
+        self.assertLessEqual(latency, 2.0)
+
+    def test_the_tick_stays_within_its_budget_with_the_link_busy(self):
+        counts = [n for _, n in self.board.tick_instructions]
+        self.assertGreater(len(counts), 500)
+        worst = max(counts)
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nworst tick with the link busy: {worst} instructions over {len(counts)} ticks")
+        self.assertLessEqual(worst, TICK_BUDGET)
+
+    def test_nothing_was_lost_on_the_wire(self):
+        u = self.board.usart2
+        self.assertEqual((u.overruns, u.garbled), (0, 0))
+        self.assertFalse([m for _, m in self.host.messages if m["kind"] == "unreadable"])
+
+
+class LinkStream(unittest.TestCase):
+    """A stream that the host abandons ramps to 0 A; one that it stops, too."""
+
+    LIMITS = (1000, 50, 600, 30_000_000)
+    LEVEL = 9830  # 0.3 A of 1 A full scale
+    RAMP_MS = 20
+
+    def stream(self, host, ms):
+        """Starts a stream of a constant 0.3 A on channel 0, 10 ms keyframes, fed
+        ahead for `ms`; returns the time the last data byte arrived."""
+        cap = host.ok(link.stream_begin, 10, self.RAMP_MS, 1000, self.LIMITS)[0]["capacity"]
+        self.assertGreater(cap, 2)
+        index, last = 0, None
+        t_end = host.b.t + round(ms / 1000 * twin.T_HZ)
+        while host.b.t < t_end:
+            n = 2
+            m, last = host.ok(link.stream_data, index, [[self.LEVEL] + [0] * 7] * n)
+            index = m["next"]
+            host.pump(0.02)
+        return last
+
+    def setUp(self):
+        if not has_link():
+            self.skipTest("this ELF has no USART link (no USART2 handler)")
+
+    def test_a_vanished_host_leaves_the_outputs_at_0a(self):
+        b = boot(EMOJI)
+        h = Host(b)
+        b.run(0.3)
+        last = self.stream(h, 400)
+        self.assertTrue(any(f[1][0] > 2048 for f in b.frames if f[0] > last - 100 * MS), "the stream played")
+        h.pump(0.2)
+        rest = next(f[0] for f in b.frames if f[0] > last and f[1] == IDLE)
+        after = (rest - last) / MS
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nstream abandoned: at 0 A {after:.1f} ms after the last byte")
+        self.assertLessEqual(after, link.STREAM_DEADLINE_MS + self.RAMP_MS + 2)
+        self.assertTrue(all(f[1] == IDLE for f in b.frames if f[0] >= rest))
+        self.assertTrue(h.events("StreamStopped"), "the device said why")
+
+    def test_stop_ramps_a_stream_to_0a(self):
+        b = boot(EMOJI)
+        h = Host(b)
+        b.run(0.3)
+        self.stream(h, 300)
+        m, end = h.ok(link.stop)
+        self.assertEqual(m["source"], ("stream",))
+        h.pump(0.1)
+        rest = next(f[0] for f in b.frames if f[0] > end and f[1] == IDLE)
+        self.assertLessEqual((rest - end) / MS, self.RAMP_MS + 2)
 
 
 if __name__ == "__main__":

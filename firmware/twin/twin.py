@@ -402,9 +402,14 @@ class Usart:
     UE, M, PCE, TE, RE = 1 << 13, 1 << 12, 1 << 10, 1 << 3, 1 << 2
     IE_PE, IE_TXE, IE_TC, IE_RXNE, IE_IDLE = 1 << 8, 1 << 7, 1 << 6, 1 << 5, 1 << 4
 
+    HOST_BAUD = 460_800
+    """The host's line rate (8N1) unless a test sets `host_baud`."""
+
     def __init__(self, board, name, irq, enr, en_bit, apb):
         self.board, self.name, self.irq = board, name, irq
         self.enr, self.en_bit, self.apb = enr, en_bit, apb
+        self.host_baud = self.HOST_BAUD
+        self.garbled = 0  # host bytes received at a baud rate 3 % or more off
         self.sent = []  # (t, byte) the host received from the device, in order
         self.lost = 0  # host bytes that arrived while the receiver was off
         self.overruns = 0  # host bytes lost to ORE
@@ -445,13 +450,14 @@ class Usart:
 
     # -- the host's side
     def send(self, data, at_s=None):
-        """The host sends `data` from `at_s` seconds (default now), back to back
-        after anything still on the line. Returns the time (units) the last byte's
-        stop bit ends."""
+        """The host sends `data` (8N1 at `host_baud`) from `at_s` seconds (default
+        now), back to back after anything still on the line. Returns the time
+        (units) the last byte's stop bit ends."""
         t = self.board.t if at_s is None else round(at_s * T_HZ)
+        frame = round(10 * T_HZ / self.host_baud)
         for byte in bytes(data):
             start = max(t, self.line_free)
-            self.line_free = start + self.frame_units()
+            self.line_free = start + frame
             self.rx.append((self.line_free, byte))
         return self.line_free
 
@@ -492,16 +498,20 @@ class Usart:
                 if not (self.enabled() and self.cr1 & self.RE):
                     self.lost += 1
                     continue
+                if abs(self.baud() / self.host_baud - 1) >= 0.03:
+                    self.sr |= self.FE  # the receiver samples the wrong bits
+                    self.garbled += 1
+                    byte = 0xFF
                 if self.sr & self.RXNE:
                     self.sr |= self.ORE
                     self.overruns += 1
                 else:
                     self.dr_in = byte
                     self.sr |= self.RXNE
-                self.idle_at = nxt + self.frame_units()
+                self.idle_at = nxt + round(10 * T_HZ / self.host_baud)
             else:
                 self.idle_at = None
-                if not self.rx or self.rx[0][0] - self.frame_units() >= nxt:
+                if not self.rx or self.rx[0][0] - round(10 * T_HZ / self.host_baud) >= nxt:
                     self.sr |= self.IDLE
 
     def _load_shift(self, t):
@@ -1481,3 +1491,68 @@ class Board:
         pin = int(name[2:])
         pupd = port.r.get(Gpio.PUPDR, 0) >> (2 * pin) & 3
         return port.mode(pin), port.af(pin), pupd
+
+
+# ------------------------------------------------------------------ serving
+
+
+def serve(elf, link_path, bank=None, usart="USART2", seconds=None, speed=1.0):
+    """Runs the firmware in step with the wall clock (`speed` emulated seconds per
+    second, at most) with a USART's wire on a pseudo-terminal, whose path is linked
+    at `link_path`: `touchc sleeve --port LINK_PATH ...` then talks to the twin as
+    to a sleeve on a USB-serial adapter. Stops after `seconds` (emulated), or when
+    interrupted."""
+    import os
+    import select
+    import time
+    import tty
+
+    board = Board(elf)
+    if bank is not None:
+        with open(bank, "rb") as f:
+            board.set_bank(f.read())
+    port = board.usarts[usart]
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    if os.path.lexists(link_path):
+        os.unlink(link_path)
+    os.symlink(os.ttyname(slave), link_path)
+    step = 0.001
+    try:
+        start, t0 = time.monotonic(), board.t
+        while seconds is None or board.t - t0 < seconds * T_HZ:
+            ready, _, _ = select.select([master], [], [], 0)
+            if ready:
+                try:
+                    port.send(os.read(master, 4096))
+                except OSError:
+                    pass  # no process has the port open
+            board.run(step)
+            out = port.take()
+            if out:
+                os.write(master, out)
+            ahead = (board.t - t0) / T_HZ / speed - (time.monotonic() - start)
+            if ahead > 0:
+                select.select([master], [], [], ahead)
+    finally:
+        os.unlink(link_path)
+        os.close(master)
+        os.close(slave)
+    return board
+
+
+if __name__ == "__main__":
+    import argparse
+
+    ap = argparse.ArgumentParser(description="The sleeve firmware on the twin, its USART on a pseudo-terminal.")
+    ap.add_argument("elf")
+    ap.add_argument("--link", required=True, help="path of a symlink to the pseudo-terminal (the --port for touchc)")
+    ap.add_argument("--bank", help="a bank image in the bank region (default: erased)")
+    ap.add_argument("--usart", default="USART2")
+    ap.add_argument("--seconds", type=float, help="stop after this many emulated seconds")
+    ap.add_argument("--speed", type=float, default=1.0, help="emulated seconds per wall-clock second, at most")
+    a = ap.parse_args()
+    try:
+        serve(a.elf, a.link, a.bank, a.usart, a.seconds, a.speed)
+    except KeyboardInterrupt:
+        pass
