@@ -5,8 +5,11 @@ from the host player (`twin_codes`, the protocol crate's player compiled for x86
 never from this harness.
 """
 
+import json
 import os
 import subprocess
+import threading
+import time
 import unittest
 import zlib
 from pathlib import Path
@@ -1026,6 +1029,62 @@ class LinkStream(unittest.TestCase):
         h.pump(0.1)
         rest = next(f[0] for f in b.frames if f[0] > end and f[1] == IDLE)
         self.assertLessEqual((rest - end) / MS, self.RAMP_MS + 2)
+
+
+# ------------------------------------------------------------- the study script
+
+README = ROOT / "firmware/README.md"
+TOUCHC = Path(os.environ.get("TWIN_TOUCHC", ROOT / "target/debug/touchc"))
+
+
+def study_script():
+    """The study script as the firmware README gives it."""
+    text = README.read_text()
+    marker = text.index("<!-- study.sh:")
+    start = text.index("```bash\n", marker) + len("```bash\n")
+    return text[start:text.index("```", start)]
+
+
+class StudyScript(unittest.TestCase):
+    """The README's study script, run with the real `touchc` against the twin served
+    on a pseudo-terminal (in step with the wall clock)."""
+
+    def test_the_script_is_valid_bash(self):
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        script = SCRATCH / "study.sh"
+        script.write_text(study_script())
+        subprocess.run(["bash", "-n", str(script)], check=True)
+        self.assertLessEqual(len(study_script().splitlines()), 12, "a short script")
+
+    def test_a_randomised_list_plays_and_logs_every_trial(self):
+        if not has_link():
+            self.skipTest("this ELF has no USART link (no USART2 handler)")
+        if not TOUCHC.exists():
+            self.skipTest(f"{TOUCHC} not built (run.sh builds it)")
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        script, log, port = SCRATCH / "study.sh", SCRATCH / "study.jsonl", SCRATCH / "sleeve-pty"
+        script.write_text(study_script())
+        log.unlink(missing_ok=True)
+        b = boot(EMOJI)
+        stop = threading.Event()
+        server = threading.Thread(target=twin.serve, args=(b, str(port)), kwargs={"stop": stop})
+        server.start()
+        try:
+            deadline = time.monotonic() + 10
+            while not port.exists() and time.monotonic() < deadline:
+                time.sleep(0.01)
+            env = dict(os.environ, PATH=f"{TOUCHC.parent}:{os.environ['PATH']}", REPS="1", GAP="0.3")
+            subprocess.run(["bash", str(script), str(port), str(log)], check=True, env=env, timeout=120)
+        finally:
+            stop.set()
+            server.join()
+        trials = [json.loads(line) for line in log.read_text().splitlines()]
+        self.assertEqual(sorted(t["slot"] for t in trials), list(range(6)), trials)
+        ticks = [t["tick"] for t in trials]
+        self.assertEqual(ticks, sorted(ticks), "in the order played")
+        for a, z in zip(ticks, ticks[1:]):
+            self.assertGreaterEqual(z - a, 300, "GAP apart, at least")
+        self.assertEqual(b.resets, [])
 
 
 if __name__ == "__main__":

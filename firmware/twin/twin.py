@@ -1496,21 +1496,17 @@ class Board:
 # ------------------------------------------------------------------ serving
 
 
-def serve(elf, link_path, bank=None, usart="USART2", seconds=None, speed=1.0):
-    """Runs the firmware in step with the wall clock (`speed` emulated seconds per
+def serve(board, link_path, usart="USART2", seconds=None, speed=1.0, stop=None):
+    """Runs `board` in step with the wall clock (`speed` emulated seconds per
     second, at most) with a USART's wire on a pseudo-terminal, whose path is linked
     at `link_path`: `touchc sleeve --port LINK_PATH ...` then talks to the twin as
-    to a sleeve on a USB-serial adapter. Stops after `seconds` (emulated), or when
-    interrupted."""
+    to a sleeve on a USB-serial adapter. Stops after `seconds` (emulated), when
+    `stop` (a threading.Event) is set, or when interrupted."""
     import os
     import select
     import time
     import tty
 
-    board = Board(elf)
-    if bank is not None:
-        with open(bank, "rb") as f:
-            board.set_bank(f.read())
     port = board.usarts[usart]
     master, slave = os.openpty()
     tty.setraw(slave)
@@ -1520,7 +1516,7 @@ def serve(elf, link_path, bank=None, usart="USART2", seconds=None, speed=1.0):
     step = 0.001
     try:
         start, t0 = time.monotonic(), board.t
-        while seconds is None or board.t - t0 < seconds * T_HZ:
+        while (seconds is None or board.t - t0 < seconds * T_HZ) and not (stop and stop.is_set()):
             ready, _, _ = select.select([master], [], [], 0)
             if ready:
                 try:
@@ -1552,7 +1548,11 @@ if __name__ == "__main__":
     ap.add_argument("--seconds", type=float, help="stop after this many emulated seconds")
     ap.add_argument("--speed", type=float, default=1.0, help="emulated seconds per wall-clock second, at most")
     a = ap.parse_args()
+    b = Board(a.elf)
+    if a.bank:
+        with open(a.bank, "rb") as f:
+            b.set_bank(f.read())
     try:
-        serve(a.elf, a.link, a.bank, a.usart, a.seconds, a.speed)
+        serve(b, a.link, a.usart, a.seconds, a.speed)
     except KeyboardInterrupt:
         pass
