@@ -16,11 +16,13 @@
 //! [`Player::with_thermal`]. A slot for another layout is never played.
 
 use touch_protocol::bank::MAX_SLOTS;
+use touch_protocol::link::{self as wire, LinkError, Reply, Source, StreamStop};
 use touch_protocol::player::{Fault, Status};
 use touch_protocol::thermal::TooHot;
-use touch_protocol::{Bank, DeviceConfig, Error, Player, Stimulus, Thermal};
+use touch_protocol::{Bank, DeviceConfig, Error, LiveParams, Player, Stimulus, Thermal};
 
 use crate::button::Event;
+use crate::link::{Answer, Control, Snapshot, TickPort};
 use crate::output::{Frame, IDLE_FRAME, LAYOUT_ID};
 
 /// What happened, for the log (the tick interrupt never logs itself).
@@ -42,6 +44,52 @@ pub enum Report {
     BadSlot(usize, Error),
     /// The slot was not started: a coil is still too hot. Nothing plays.
     TooHot(usize, TooHot),
+    /// The host's stream (see [`StreamReport`]).
+    Stream(StreamReport),
+}
+
+/// What the host's stream did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(all(target_os = "none", feature = "hw"), derive(defmt::Format))]
+pub enum StreamReport {
+    /// Its first frame goes out at the next tick.
+    Started,
+    /// It stopped (deadline, underrun, ended, or a stop); the outputs ramp down.
+    Stopping(StreamStop),
+    /// Every output is at 0 A again.
+    Finished,
+    /// A limit was hit; the outputs ramp down.
+    Fault(Fault),
+    /// It was not started: a coil is too hot.
+    TooHot(TooHot),
+}
+
+/// What plays: a bank slot or the host's stream.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Playing {
+    Slot(usize),
+    Stream,
+}
+
+/// The host's stream, as the tick sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StreamState {
+    Off,
+    /// Begun: waiting for its first two keyframes.
+    Armed(LiveParams),
+    /// Playing.
+    On,
+}
+
+/// Per-stream bookkeeping: the deadline and whether the host ended it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct StreamClock {
+    /// The host's data counter when last seen.
+    fed: u32,
+    /// The tick it last changed.
+    fed_at: u32,
+    /// The host sent `StreamEnd`: play out what is buffered, then stop.
+    ended: bool,
 }
 
 /// The playback state machine, stepped once per 1 kHz tick.
@@ -51,14 +99,24 @@ pub struct Controller<'a> {
     stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
     device: DeviceConfig,
     selected: usize,
-    /// The slot playing (or ramping down) and its player.
-    playing: Option<(usize, Player<'a>)>,
+    /// What plays (or ramps down) and its player.
+    playing: Option<(Playing, Player<'a>)>,
     /// True once the playing slot was asked to stop or ended: it ramps down.
     stopping: bool,
     /// Slot to start as soon as the current one reached 0 A.
     queued: Option<usize>,
     /// The coils' heat while nothing plays (while a player plays, it holds it).
     thermal: Thermal,
+    /// Ticks since power-up (the tick being computed): the link's clock.
+    now: u32,
+    /// The link's end in the tick, if a link runs.
+    link: Option<TickPort<'a>>,
+    stream: StreamState,
+    clock: StreamClock,
+    /// An upload owns the bank region: nothing from the bank may start.
+    locked: bool,
+    faults: u16,
+    last_fault: Option<wire::FaultRecord>,
 }
 
 impl<'a> Controller<'a> {
@@ -71,6 +129,18 @@ impl<'a> Controller<'a> {
                 s.check_layout(LAYOUT_ID).map(|()| s)
             })
             .collect();
+        Controller::with_slots(stimuli, device)
+    }
+
+    /// No bank (the boot refused it): nothing plays, the link still answers.
+    pub fn empty(device: DeviceConfig) -> Self {
+        Controller::with_slots(heapless::Vec::new(), device)
+    }
+
+    fn with_slots(
+        stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
+        device: DeviceConfig,
+    ) -> Self {
         Controller {
             stimuli,
             device,
@@ -79,7 +149,34 @@ impl<'a> Controller<'a> {
             stopping: false,
             queued: None,
             thermal: Thermal::COLD,
+            now: 0,
+            link: None,
+            stream: StreamState::Off,
+            clock: StreamClock {
+                fed: 0,
+                fed_at: 0,
+                ended: false,
+            },
+            locked: false,
+            faults: 0,
+            last_fault: None,
         }
+    }
+
+    /// Connects the link: the controller takes its commands and stream keyframes on
+    /// every tick and answers through it.
+    pub fn attach(&mut self, port: TickPort<'a>) {
+        self.link = Some(port);
+    }
+
+    /// The tick being computed (ticks since power-up, wrapping).
+    pub fn now(&self) -> u32 {
+        self.now
+    }
+
+    /// True while the host's stream plays (or ramps down).
+    pub fn streaming(&self) -> bool {
+        matches!(self.playing, Some((Playing::Stream, _)))
     }
 
     /// The coils' heat now.
@@ -111,11 +208,23 @@ impl<'a> Controller<'a> {
 
     /// The slot playing or ramping down, if any.
     pub fn playing(&self) -> Option<usize> {
-        self.playing.as_ref().map(|(slot, _)| *slot)
+        match self.playing {
+            Some((Playing::Slot(slot), _)) => Some(slot),
+            _ => None,
+        }
     }
 
     /// Applies one button event; returns what to log.
     pub fn handle(&mut self, event: Event) -> Option<Report> {
+        self.send(Answer::Event(self.now, wire::Event::Button(gesture(event))));
+        let report = self.press(event);
+        if let Some(r) = report {
+            self.announce(r);
+        }
+        report
+    }
+
+    fn press(&mut self, event: Event) -> Option<Report> {
         match event {
             Event::Toggle => self.toggle(self.selected),
             Event::Slot(slot) if slot < self.slots() => {
@@ -136,7 +245,7 @@ impl<'a> Controller<'a> {
     /// ramped down, if another plays).
     fn toggle(&mut self, slot: usize) -> Option<Report> {
         match self.playing {
-            Some((current, _)) if current == slot && !self.stopping => {
+            Some((Playing::Slot(current), _)) if current == slot && !self.stopping => {
                 self.queued = None;
                 self.stop()
             }
@@ -150,16 +259,26 @@ impl<'a> Controller<'a> {
     }
 
     fn stop(&mut self) -> Option<Report> {
-        let (slot, player) = self.playing.as_mut()?;
+        let (what, player) = self.playing.as_mut()?;
         if self.stopping {
             return None;
         }
         player.stop();
         self.stopping = true;
-        Some(Report::Stopping(*slot))
+        Some(match *what {
+            Playing::Slot(slot) => Report::Stopping(slot),
+            Playing::Stream => {
+                self.stream = StreamState::Off;
+                Report::Stream(StreamReport::Stopping(StreamStop::Ended))
+            }
+        })
     }
 
     fn start(&mut self, slot: usize) -> Option<Report> {
+        if self.locked {
+            // An upload erased (or is erasing) the region the stimuli live in.
+            return Some(Report::BadSlot(slot, Error::NoSuchSlot(slot as u16)));
+        }
         match self.slot(slot) {
             Ok(stimulus) => {
                 let limits = stimulus.limits().min(self.device.limits);
@@ -167,7 +286,7 @@ impl<'a> Controller<'a> {
                     return Some(Report::TooHot(slot, hot));
                 }
                 let player = Player::with_thermal(&stimulus, &self.device, self.thermal);
-                self.playing = Some((slot, player));
+                self.playing = Some((Playing::Slot(slot), player));
                 self.stopping = false;
                 Some(Report::Started(slot))
             }
@@ -177,6 +296,19 @@ impl<'a> Controller<'a> {
 
     /// Computes the next frame; returns it and what to log.
     pub fn next_frame(&mut self) -> (Frame, Option<Report>) {
+        let mut early = self.serve_link();
+        let (frame, report) = self.step();
+        if let Some(r) = report {
+            self.announce(r);
+        }
+        // A link command's report and the tick's rarely coincide; the tick's wins the
+        // log, both went to the host.
+        early = report.or(early);
+        self.now = self.now.wrapping_add(1);
+        (frame, early)
+    }
+
+    fn step(&mut self) -> (Frame, Option<Report>) {
         if self.playing.is_none() {
             if let Some(slot) = self.queued.take() {
                 let report = self.start(slot);
@@ -184,14 +316,19 @@ impl<'a> Controller<'a> {
                     self.thermal.idle_tick(&self.device.limits);
                     return (IDLE_FRAME, report);
                 }
+                if let Some(r) = report {
+                    self.announce(r);
+                }
             }
         }
-        let Some((slot, player)) = self.playing.as_mut() else {
+        let stream_report = self.stream_tick();
+        let Some((what, player)) = self.playing.as_mut() else {
             self.thermal.idle_tick(&self.device.limits);
-            return (IDLE_FRAME, None);
+            return (IDLE_FRAME, stream_report);
         };
-        let slot = *slot;
+        let what = *what;
         let tick = player.tick();
+        let underrun = what == Playing::Stream && player.underrun() && !self.stopping;
         let report = match tick.status {
             Status::Playing => None,
             Status::RampingDown => {
@@ -200,16 +337,330 @@ impl<'a> Controller<'a> {
             }
             Status::Fault(fault) => {
                 self.stopping = true;
-                Some(Report::Fault(slot, fault))
+                self.faults = self.faults.saturating_add(1);
+                self.last_fault = Some(wire::FaultRecord {
+                    tick: self.now.wrapping_add(1),
+                    source: source(what),
+                    kind: fault.kind.into(),
+                    channel: fault.channel,
+                });
+                Some(match what {
+                    Playing::Slot(slot) => Report::Fault(slot, fault),
+                    Playing::Stream => Report::Stream(StreamReport::Fault(fault)),
+                })
             }
             Status::Finished => {
                 self.thermal = player.thermal();
                 self.playing = None;
                 self.stopping = false;
-                Some(Report::Finished(slot))
+                Some(match what {
+                    Playing::Slot(slot) => Report::Finished(slot),
+                    Playing::Stream => {
+                        self.stream = StreamState::Off;
+                        Report::Stream(StreamReport::Finished)
+                    }
+                })
             }
         };
-        (tick.codes, report)
+        if underrun {
+            // A keyframe was due and had not come: ramp down from where it is.
+            let why = if self.clock.ended {
+                StreamStop::Ended
+            } else {
+                StreamStop::Underrun
+            };
+            return (tick.codes, report.or(self.stop_stream(why)));
+        }
+        (tick.codes, report.or(stream_report))
+    }
+
+    /// The stream's part of a tick: the deadline, the start once two keyframes are
+    /// in, and the next keyframe for the player.
+    fn stream_tick(&mut self) -> Option<Report> {
+        if self.stream == StreamState::Off {
+            self.drain_keyframes();
+            return None;
+        }
+        let port = self.link.as_mut()?;
+        let fed = port.fed();
+        if fed != self.clock.fed {
+            self.clock.fed = fed;
+            self.clock.fed_at = self.now;
+        }
+        let quiet = self.now.wrapping_sub(self.clock.fed_at);
+        if !self.clock.ended && quiet >= wire::STREAM_DEADLINE_MS {
+            return self.stop_stream(StreamStop::Deadline);
+        }
+        match self.stream {
+            StreamState::Armed(params) => {
+                let ready = port.keyframes_ready();
+                if ready < 2 && !(self.clock.ended && ready == 1) {
+                    if self.clock.ended && ready == 0 {
+                        self.stream = StreamState::Off;
+                        return Some(Report::Stream(StreamReport::Stopping(StreamStop::Ended)));
+                    }
+                    return None;
+                }
+                if self.playing.is_some() {
+                    // A slot still ramps down (it was playing at the stream's begin).
+                    return None;
+                }
+                let limits = params.limits.min(self.device.limits);
+                if let Err(hot) = self.thermal.check_start(&limits) {
+                    self.stream = StreamState::Off;
+                    return Some(Report::Stream(StreamReport::TooHot(hot)));
+                }
+                let first = port.next_keyframe().unwrap_or([0; 8]);
+                let second = port.next_keyframe().unwrap_or(first);
+                let player = Player::live(&params, first, second, &self.device, self.thermal);
+                self.playing = Some((Playing::Stream, player));
+                self.stopping = false;
+                self.stream = StreamState::On;
+                Some(Report::Stream(StreamReport::Started))
+            }
+            StreamState::On => {
+                if let Some((Playing::Stream, player)) = self.playing.as_mut() {
+                    if player.wants_keyframe() {
+                        if let Some(k) = port.next_keyframe() {
+                            let _ = player.push_keyframe(k);
+                        }
+                    }
+                }
+                None
+            }
+            StreamState::Off => None,
+        }
+    }
+
+    /// Ramps the stream down (or forgets an armed one) for `why`.
+    fn stop_stream(&mut self, why: StreamStop) -> Option<Report> {
+        let was = self.stream;
+        self.stream = StreamState::Off;
+        self.drain_keyframes();
+        match self.playing.as_mut() {
+            Some((Playing::Stream, player)) if !self.stopping => {
+                player.stop();
+                self.stopping = true;
+                Some(Report::Stream(StreamReport::Stopping(why)))
+            }
+            _ if matches!(was, StreamState::Armed(_)) => {
+                Some(Report::Stream(StreamReport::Stopping(why)))
+            }
+            _ => None,
+        }
+    }
+
+    fn drain_keyframes(&mut self) {
+        if let Some(port) = self.link.as_mut() {
+            while port.next_keyframe().is_some() {}
+        }
+    }
+
+    /// Takes at most one link command per tick and answers it.
+    fn serve_link(&mut self) -> Option<Report> {
+        let control = self.link.as_mut()?.next_control()?;
+        let first = self.now.wrapping_add(1);
+        let (answer, report) = match control {
+            Control::Play { seq, slot } => self.link_play(seq, usize::from(slot)),
+            Control::Stop { seq } => {
+                self.queued = None;
+                let source = self.playing.as_ref().map(|(what, _)| source(*what));
+                let report = match self.stream {
+                    StreamState::Armed(_) => self.stop_stream(StreamStop::Ended),
+                    _ => self.stop(),
+                };
+                let reply = Reply::Stop {
+                    source,
+                    tick: if source.is_some() { first } else { self.now },
+                };
+                (Answer::Reply(seq, reply), report)
+            }
+            Control::Status { seq } => (Answer::Status(seq, self.snapshot()), None),
+            Control::StreamBegin { seq, params } => {
+                if let Some(e) = self.refuse_start() {
+                    (Answer::Refused(seq, e), None)
+                } else {
+                    self.drain_keyframes();
+                    self.stream = StreamState::Armed(params);
+                    let fed = self.link.as_ref().map_or(0, |p| p.fed());
+                    self.clock = StreamClock {
+                        fed,
+                        fed_at: self.now,
+                        ended: false,
+                    };
+                    let capacity = self.link.as_ref().map_or(0, |p| p.keyframe_capacity());
+                    (Answer::Reply(seq, Reply::StreamBegin { capacity }), None)
+                }
+            }
+            Control::StreamEnd { seq } => {
+                if self.stream == StreamState::Off {
+                    (Answer::Refused(seq, LinkError::NoStream), None)
+                } else {
+                    self.clock.ended = true;
+                    (Answer::Reply(seq, Reply::StreamEnd), None)
+                }
+            }
+            Control::Lock { seq } => {
+                if self.playing.is_some() || self.stream != StreamState::Off {
+                    (
+                        Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)),
+                        None,
+                    )
+                } else {
+                    self.locked = true;
+                    self.queued = None;
+                    (Answer::Locked(seq), None)
+                }
+            }
+        };
+        self.send(answer);
+        if let Some(r) = report {
+            self.announce(r);
+        }
+        report
+    }
+
+    /// Why nothing may start now, if so: an upload owns the bank, a stream is on.
+    fn refuse_start(&self) -> Option<LinkError> {
+        if self.locked {
+            Some(LinkError::Busy(wire::Busy::Uploading))
+        } else if self.stream != StreamState::Off || self.streaming() {
+            Some(LinkError::Busy(wire::Busy::Streaming))
+        } else if self.playing.is_some() {
+            Some(LinkError::Busy(wire::Busy::Playing))
+        } else {
+            None
+        }
+    }
+
+    fn link_play(&mut self, seq: u16, slot: usize) -> (Answer, Option<Report>) {
+        let slots = self.slots() as u8;
+        let first = self.now.wrapping_add(1);
+        let refuse = |e| (Answer::Refused(seq, e), None);
+        if self.locked {
+            return refuse(LinkError::Busy(wire::Busy::Uploading));
+        }
+        if self.stream != StreamState::Off || self.streaming() {
+            return refuse(LinkError::Busy(wire::Busy::Streaming));
+        }
+        let stimulus = match self.slot(slot) {
+            Err(Error::NoSuchSlot(_)) => {
+                return refuse(LinkError::NoSuchSlot {
+                    slot: slot.min(255) as u8,
+                    slots,
+                })
+            }
+            Err(_) => return refuse(LinkError::BadSlot { slot: slot as u8 }),
+            Ok(s) => s,
+        };
+        let wire_slot = slot as u8;
+        if self.playing.is_some() {
+            // As a press on another slot: the one playing ramps down first.
+            let report = self.stop();
+            self.queued = Some(slot);
+            let reply = Reply::Play {
+                slot: wire_slot,
+                tick: first,
+                now: false,
+            };
+            return (Answer::Reply(seq, reply), report);
+        }
+        let limits = stimulus.limits().min(self.device.limits);
+        if let Err(hot) = self.thermal.check_start(&limits) {
+            let e = LinkError::TooHot {
+                channel: hot.channel,
+                permille: hot.permille,
+                cooldown_ms: hot.cooldown_ms,
+            };
+            return refuse(e);
+        }
+        self.selected = slot;
+        let report = self.start(slot);
+        let reply = Reply::Play {
+            slot: wire_slot,
+            tick: first,
+            now: true,
+        };
+        (Answer::Reply(seq, reply), report)
+    }
+
+    /// The state the link's `Status` reports (the per-mille arithmetic is the link
+    /// server's, outside the tick).
+    fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            tick: self.now,
+            playing: self.playing.as_ref().map(|(what, _)| source(*what)),
+            stopping: self.stopping,
+            selected: self.selected as u8,
+            thermal: self.thermal(),
+            faults: self.faults,
+            last_fault: self.last_fault,
+        }
+    }
+
+    /// Tells the host what a report says (the frames it describes go out at the next
+    /// tick).
+    fn announce(&mut self, report: Report) {
+        if self.link.is_none() {
+            return;
+        }
+        let tick = self.now.wrapping_add(1);
+        let slot = |s: usize| Source::Slot(s as u8);
+        let event = match report {
+            Report::Started(s) => wire::Event::Started(slot(s)),
+            Report::Stopping(s) => wire::Event::Stopping(slot(s)),
+            Report::Finished(s) => wire::Event::Finished(slot(s)),
+            Report::Fault(s, f) => wire::Event::LimitHit {
+                source: slot(s),
+                kind: f.kind.into(),
+                channel: f.channel,
+            },
+            Report::Selected(s) => wire::Event::Selected(s as u8),
+            Report::BadSlot(s, _) => wire::Event::BadSlot(s as u8),
+            Report::TooHot(s, hot) => too_hot(slot(s), hot),
+            Report::Stream(StreamReport::Started) => wire::Event::Started(Source::Stream),
+            Report::Stream(StreamReport::Stopping(why)) => wire::Event::StreamStopped(why),
+            Report::Stream(StreamReport::Finished) => wire::Event::Finished(Source::Stream),
+            Report::Stream(StreamReport::Fault(f)) => wire::Event::LimitHit {
+                source: Source::Stream,
+                kind: f.kind.into(),
+                channel: f.channel,
+            },
+            Report::Stream(StreamReport::TooHot(hot)) => too_hot(Source::Stream, hot),
+        };
+        self.send(Answer::Event(tick, event));
+    }
+
+    /// Queues an answer for the link (dropped if its queue is full: the link drains
+    /// it every millisecond or so).
+    fn send(&mut self, answer: Answer) {
+        if let Some(port) = self.link.as_mut() {
+            port.send(answer);
+        }
+    }
+}
+
+fn source(what: Playing) -> Source {
+    match what {
+        Playing::Slot(s) => Source::Slot(s as u8),
+        Playing::Stream => Source::Stream,
+    }
+}
+
+fn too_hot(source: Source, hot: TooHot) -> wire::Event {
+    wire::Event::TooHot {
+        source,
+        channel: hot.channel,
+        permille: hot.permille,
+        cooldown_ms: hot.cooldown_ms,
+    }
+}
+
+fn gesture(event: Event) -> wire::Gesture {
+    match event {
+        Event::Toggle => wire::Gesture::Toggle,
+        Event::Next => wire::Gesture::Next,
+        Event::Slot(s) => wire::Gesture::Slot(s as u8),
     }
 }
 

@@ -7,16 +7,19 @@
 //! - [`engine`]: the 1 kHz tick: write the frame computed last tick, then compute
 //!   the next one.
 //! - [`output`]: codes -> timer compare values; the compiled hard limits.
+//! - [`link`]: the computer's link: requests in, replies and events out, the bank
+//!   writer.
 //!
 //! The binary (`src/main.rs`, target only) wires these to TIM3/TIM4/DAC, TIM7,
 //! EXTI and the watchdog.
-#![cfg_attr(not(test), no_std)]
+#![cfg_attr(not(any(test, feature = "sim")), no_std)]
 #![warn(missing_docs)]
 
 pub mod boot;
 pub mod button;
 pub mod control;
 pub mod engine;
+pub mod link;
 pub mod output;
 
 #[cfg(test)]

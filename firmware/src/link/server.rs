@@ -1,0 +1,454 @@
+//! The link server: frames in, replies and events out.
+//!
+//! It runs outside the tick (a thread-mode task on the target). What touches playback
+//! (play, stop, status, streams, the upload's lock) goes to the tick as a [`Control`]
+//! through the lock-free [`LinkPort`], and comes back as an [`Answer`]: the same
+//! controller, player and thermal state as the buttons decide. What does not (info,
+//! slots, bank reads and writes) is answered here.
+
+use touch_protocol::link::{
+    self, cobs, BankState, Busy, Command, FrameError, Info, LinkError, Message, Reply, Request,
+    SlotInfo, StatusReport, MAX_CHUNK, MAX_ENCODED, MAX_MESSAGE, MAX_STREAM_KEYFRAMES,
+};
+use touch_protocol::Bank;
+
+use super::bank::{BankWriter, Flash};
+use super::port::{Answer, Control, LinkPort, Snapshot};
+use crate::output::{device_config, LAYOUT_ID};
+
+/// What the device says about itself in `Info`.
+#[derive(Debug, Clone, Copy)]
+pub struct Identity<'a> {
+    /// The firmware's version.
+    pub firmware: &'a str,
+    /// The layout's name (its file's `id`).
+    pub layout: &'a str,
+    /// The layout's geometry hash.
+    pub layout_hash: u32,
+    /// The bank the device booted with.
+    pub bank: BankState,
+    /// That bank, for slot names and durations (`None` if refused).
+    pub slots: Option<Bank<'a>>,
+}
+
+/// The server (see the module docs).
+pub struct LinkServer<'a, F: Flash> {
+    port: LinkPort<'a>,
+    flash: F,
+    writer: BankWriter,
+    id: Identity<'a>,
+    rx: cobs::Decoder<MAX_ENCODED>,
+    tx: [u8; MAX_ENCODED],
+    /// A `BankBegin` waiting for the tick to lock the bank: seq, len, crc.
+    begin: Option<(u16, u32, u32)>,
+    /// The bank region belongs to an upload until the restart.
+    locked: bool,
+    /// The next stream keyframe index, while a stream takes data.
+    stream_next: Option<u32>,
+    restart: bool,
+}
+
+impl<'a, F: Flash> LinkServer<'a, F> {
+    /// A server over the link's end of the queues and the bank region's flash.
+    pub fn new(port: LinkPort<'a>, flash: F, id: Identity<'a>) -> Self {
+        LinkServer {
+            port,
+            flash,
+            writer: BankWriter::new(),
+            id,
+            rx: cobs::Decoder::new(),
+            tx: [0; MAX_ENCODED],
+            begin: None,
+            locked: false,
+            stream_next: None,
+            restart: false,
+        }
+    }
+
+    /// True once the device should restart (after a committed or abandoned upload),
+    /// when the last reply went out.
+    pub fn restart_requested(&self) -> bool {
+        self.restart
+    }
+
+    /// The bank region's flash.
+    pub fn flash(&self) -> &F {
+        &self.flash
+    }
+
+    /// True while an upload owns the bank region (nothing from the bank plays).
+    pub fn locked(&self) -> bool {
+        self.locked
+    }
+
+    /// Bytes from the wire; every frame they complete is answered through `out`
+    /// (whole encoded frames, ready to send).
+    pub fn receive(&mut self, bytes: &[u8], out: &mut impl FnMut(&[u8])) {
+        for &b in bytes {
+            // The frame is copied out: the request borrows it while the reply borrows
+            // the server.
+            let mut copy = [0u8; link::MAX_FRAME];
+            let n = match self.rx.feed(b) {
+                cobs::Feed::Pending => continue,
+                cobs::Feed::Dropped(e) => {
+                    self.emit(&Message::Unreadable(FrameError::from(e)), out);
+                    continue;
+                }
+                cobs::Feed::Frame(frame) if frame.len() > copy.len() => {
+                    self.emit(&Message::Unreadable(FrameError::TooLong), out);
+                    continue;
+                }
+                cobs::Feed::Frame(frame) => {
+                    copy[..frame.len()].copy_from_slice(frame);
+                    frame.len()
+                }
+            };
+            self.handle_frame(&copy[..n], out);
+        }
+    }
+
+    fn handle_frame(&mut self, frame: &[u8], out: &mut impl FnMut(&[u8])) {
+        match link::decode::<Request>(frame) {
+            Ok(r) => self.handle(r, out),
+            Err(e) => self.emit(&Message::Unreadable(e), out),
+        }
+    }
+
+    /// Answers one request.
+    pub fn handle(&mut self, r: Request<'_>, out: &mut impl FnMut(&[u8])) {
+        let seq = r.seq;
+        let refuse = |s: &mut Self, e, out: &mut dyn FnMut(&[u8])| {
+            s.emit_dyn(&Message::Refused { seq, error: e }, out)
+        };
+        let reply = |s: &mut Self, reply, out: &mut dyn FnMut(&[u8])| {
+            s.emit_dyn(&Message::Reply { seq, reply }, out)
+        };
+        match r.command {
+            Command::Hello { version } if version == link::VERSION => reply(
+                self,
+                Reply::Hello {
+                    version: link::VERSION,
+                    firmware: self.id.firmware,
+                },
+                out,
+            ),
+            Command::Hello { .. } => refuse(
+                self,
+                LinkError::UnsupportedVersion {
+                    device: link::VERSION,
+                },
+                out,
+            ),
+            Command::Info => {
+                let d = device_config();
+                let info = Info {
+                    link_version: link::VERSION,
+                    firmware: self.id.firmware,
+                    layout: self.id.layout,
+                    layout_hash: self.id.layout_hash,
+                    full_scale_ma: d.full_scale_ma,
+                    limits: d.limits,
+                    max_message: MAX_MESSAGE as u16,
+                    max_chunk: MAX_CHUNK as u16,
+                    bank_capacity: touch_protocol::bank::REGION_LEN as u32,
+                    bank: self.id.bank,
+                };
+                reply(self, Reply::Info(info), out)
+            }
+            Command::Slot { slot } => match self.slot_info(slot) {
+                Ok(info) => {
+                    let m = Message::Reply {
+                        seq,
+                        reply: Reply::Slot(info),
+                    };
+                    encode_into(&m, &mut self.tx, out);
+                }
+                Err(e) => refuse(self, e, out),
+            },
+            Command::BankRead { offset, len } => {
+                let region = self.flash.region();
+                let (offset_us, len_us) = (offset as usize, usize::from(len));
+                if len_us > MAX_CHUNK || offset_us > region.len() {
+                    return refuse(self, LinkError::OutOfRange, out);
+                }
+                let end = (offset_us + len_us).min(region.len());
+                let m = Message::Reply {
+                    seq,
+                    reply: Reply::BankData {
+                        offset,
+                        bytes: &region[offset_us..end],
+                    },
+                };
+                encode_into(&m, &mut self.tx, out);
+            }
+            Command::BankBegin { len, crc } => {
+                if self.locked {
+                    // The bank is already the upload's: start over at once.
+                    self.begin = Some((seq, len, crc));
+                    self.erase_and_reply(out);
+                } else if self.begin.is_some() {
+                    refuse(self, LinkError::Busy(Busy::Uploading), out)
+                } else if self.port.send(Control::Lock { seq }).is_ok() {
+                    self.begin = Some((seq, len, crc));
+                } else {
+                    refuse(self, LinkError::Busy(Busy::Playing), out)
+                }
+            }
+            Command::BankChunk { offset, bytes } => {
+                if bytes.len() > MAX_CHUNK {
+                    return refuse(self, LinkError::Malformed, out);
+                }
+                match self.writer.chunk(&mut self.flash, offset, bytes) {
+                    Ok(next) => reply(self, Reply::BankChunk { next }, out),
+                    Err(e) => refuse(self, e, out),
+                }
+            }
+            Command::BankCommit => match self.writer.commit(&mut self.flash) {
+                Ok(c) => {
+                    self.restart = true;
+                    reply(
+                        self,
+                        Reply::BankCommit {
+                            crc: c.crc,
+                            slots: c.slots,
+                        },
+                        out,
+                    )
+                }
+                Err(e) => refuse(self, e, out),
+            },
+            Command::BankAbort => match self.writer.abort() {
+                Ok(()) => {
+                    self.restart = true;
+                    reply(self, Reply::BankAbort, out)
+                }
+                Err(e) => refuse(self, e, out),
+            },
+            Command::Play { slot } => self.forward(seq, Control::Play { seq, slot }, out),
+            Command::Stop => {
+                self.stream_next = None;
+                self.forward(seq, Control::Stop { seq }, out)
+            }
+            Command::Status => self.forward(seq, Control::Status { seq }, out),
+            Command::StreamBegin(params) => {
+                if let Err(e) = params.validate() {
+                    return refuse(self, e, out);
+                }
+                self.forward(seq, Control::StreamBegin { seq, params }, out)
+            }
+            Command::StreamData { index, keyframes } => match self.stream_data(index, keyframes) {
+                Ok((next, room)) => reply(self, Reply::StreamData { next, room }, out),
+                Err(e) => refuse(self, e, out),
+            },
+            Command::StreamEnd => {
+                self.stream_next = None;
+                self.forward(seq, Control::StreamEnd { seq }, out)
+            }
+        }
+    }
+
+    /// Forwards a command to the tick (refused while an upload owns the bank).
+    fn forward(&mut self, seq: u16, c: Control, out: &mut impl FnMut(&[u8])) {
+        let starts = matches!(c, Control::Play { .. } | Control::StreamBegin { .. });
+        let error = if starts && (self.locked || self.begin.is_some()) {
+            Some(LinkError::Busy(Busy::Uploading))
+        } else if self.port.send(c).is_err() {
+            // Four commands already wait for the tick: the host sends faster than
+            // it reads replies.
+            Some(LinkError::Busy(Busy::Playing))
+        } else {
+            None
+        };
+        if let Some(error) = error {
+            self.emit(&Message::Refused { seq, error }, out);
+        }
+    }
+
+    fn stream_data(&mut self, index: u32, keyframes: &[u8]) -> Result<(u32, u16), LinkError> {
+        let expected = self.stream_next.ok_or(LinkError::NoStream)?;
+        if !keyframes.len().is_multiple_of(link::KEYFRAME_LEN) || keyframes.len() > MAX_CHUNK {
+            return Err(LinkError::Malformed);
+        }
+        if index != expected {
+            return Err(LinkError::StreamGap { expected });
+        }
+        let n = keyframes.len() / link::KEYFRAME_LEN;
+        let room = self.port.keyframe_room();
+        if n > room {
+            return Err(LinkError::StreamFull { room: room as u16 });
+        }
+        for i in 0..n.min(MAX_STREAM_KEYFRAMES) {
+            if let Some(k) = link::stream_keyframe(keyframes, i) {
+                let _ = self.port.push_keyframe(k);
+            }
+        }
+        self.port.fed();
+        let next = expected.wrapping_add(n as u32);
+        self.stream_next = Some(next);
+        Ok((next, (room - n) as u16))
+    }
+
+    fn slot_info(&self, slot: u8) -> Result<SlotInfo<'a>, LinkError> {
+        if self.locked || self.begin.is_some() {
+            return Err(LinkError::Busy(Busy::Uploading));
+        }
+        let bank = self.id.slots.ok_or(LinkError::NoBank)?;
+        let slots = bank.len() as u8;
+        let s = bank
+            .slot(usize::from(slot))
+            .map_err(|_| LinkError::NoSuchSlot { slot, slots })?;
+        Ok(SlotInfo {
+            slot,
+            name: s.name(),
+            duration_ms: s.duration_ms(),
+            playback_ms: s.header().playback_ms(),
+            playable: s.check_layout(LAYOUT_ID).is_ok(),
+        })
+    }
+
+    /// Forwards what the tick answered, and does an upload's erase once the tick has
+    /// locked the bank.
+    pub fn poll(&mut self, out: &mut impl FnMut(&[u8])) {
+        while let Some(a) = self.port.receive() {
+            match a {
+                Answer::Reply(seq, reply) => {
+                    if matches!(reply, Reply::StreamBegin { .. }) {
+                        self.stream_next = Some(0);
+                    }
+                    self.emit(&Message::Reply { seq, reply }, out);
+                }
+                Answer::Refused(seq, error) => {
+                    if matches!(self.begin, Some((s, ..)) if s == seq) {
+                        self.begin = None;
+                    }
+                    self.emit(&Message::Refused { seq, error }, out);
+                }
+                Answer::Status(seq, snap) => {
+                    let status = self.status(&snap);
+                    self.emit(
+                        &Message::Reply {
+                            seq,
+                            reply: Reply::Status(status),
+                        },
+                        out,
+                    );
+                }
+                Answer::Locked(_) => {
+                    self.locked = true;
+                    self.erase_and_reply(out);
+                }
+                Answer::Event(tick, event) => {
+                    if matches!(
+                        event,
+                        link::Event::StreamStopped(_)
+                            | link::Event::Finished(link::Source::Stream)
+                            | link::Event::TooHot {
+                                source: link::Source::Stream,
+                                ..
+                            }
+                    ) {
+                        self.stream_next = None;
+                    }
+                    self.emit(&Message::Event { tick, event }, out);
+                }
+            }
+        }
+    }
+
+    fn erase_and_reply(&mut self, out: &mut impl FnMut(&[u8])) {
+        let Some((seq, len, crc)) = self.begin.take() else {
+            return;
+        };
+        let m = match self.writer.begin(&mut self.flash, len, crc) {
+            Ok(()) => Message::Reply {
+                seq,
+                reply: Reply::BankBegin { len },
+            },
+            Err(error) => Message::Refused { seq, error },
+        };
+        self.emit(&m, out);
+    }
+
+    fn status(&self, s: &Snapshot) -> StatusReport {
+        let limits = device_config().limits;
+        let heat = s.thermal.heat_ma2ms();
+        StatusReport {
+            tick: s.tick,
+            playing: s.playing,
+            stopping: s.stopping,
+            selected: s.selected,
+            heat_permille: core::array::from_fn(|c| budget_permille(heat[c], &limits)),
+            cooldown_ms: s
+                .thermal
+                .check_start(&limits)
+                .err()
+                .map_or(0, |h| h.cooldown_ms),
+            faults: s.faults,
+            last_fault: s.last_fault,
+            upload: self.writer.progress(),
+        }
+    }
+
+    fn emit(&mut self, m: &Message<'_>, out: &mut impl FnMut(&[u8])) {
+        encode_into(m, &mut self.tx, out);
+    }
+
+    fn emit_dyn(&mut self, m: &Message<'_>, out: &mut dyn FnMut(&[u8])) {
+        encode_into(m, &mut self.tx, &mut |b: &[u8]| out(b));
+    }
+}
+
+/// Encodes and hands out one frame. Every message the server builds fits
+/// [`MAX_ENCODED`] (pinned by the protocol's tests), so an error is not expected; if
+/// one came, the host would see no answer and time out, never a wrong one.
+fn encode_into(m: &Message<'_>, tx: &mut [u8; MAX_ENCODED], out: &mut impl FnMut(&[u8])) {
+    if let Ok(n) = link::encode(m, tx) {
+        out(&tx[..n]);
+    }
+}
+
+/// Heat as per mille of the device's I^2 t budget (mA^2 s, the bucket holds mA^2 ms).
+fn budget_permille(heat_ma2ms: u64, limits: &touch_protocol::Limits) -> u16 {
+    let budget = u64::from(limits.i2t_budget_ma2s)
+        .saturating_mul(1000)
+        .max(1);
+    (heat_ma2ms.saturating_mul(1000) / budget).min(u64::from(u16::MAX)) as u16
+}
+
+/// The firmware's version, as `Info` and `Hello` give it.
+pub const FIRMWARE_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// The layout this firmware drives, by name.
+pub const LAYOUT_NAME: &str = "paper-2x4";
+
+/// The boot's view of the bank for `Info`: which bank plays (or why none), and the
+/// bank itself. `source` is what [`crate::boot::bank_source`] chose, `builtin` the
+/// built-in bank it may have chosen.
+pub fn identity<'a>(
+    source: &'a [u8],
+    builtin: &'a [u8],
+    checked: Result<Bank<'a>, crate::boot::BootError>,
+) -> Identity<'a> {
+    let bank = match checked {
+        Ok(b) => {
+            let summary = link::BankSummary {
+                len: b.as_bytes().len() as u32,
+                crc: super::bank::bank_crc(b.as_bytes()),
+                slots: b.len() as u8,
+            };
+            if core::ptr::eq(source, builtin) {
+                BankState::Builtin(summary)
+            } else {
+                BankState::Flashed(summary)
+            }
+        }
+        Err(e) => BankState::Refused { blinks: e.blinks() },
+    };
+    Identity {
+        firmware: FIRMWARE_VERSION,
+        layout: LAYOUT_NAME,
+        layout_hash: u32::from(LAYOUT_ID),
+        bank,
+        slots: checked.ok(),
+    }
+}

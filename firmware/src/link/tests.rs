@@ -1,0 +1,750 @@
+//! The link server and the controller together, through real frames, on the
+//! in-memory sleeve ([`super::sim::Device`]): every command, damaged frames, uploads
+//! cut at every chunk, a bad CRC, a refusal by the thermal state, the stream's
+//! deadline.
+
+use touch_protocol::link::{
+    self, cobs, BankState, Busy, Command, Event, FrameError, LinkError, Message, Reply, Request,
+    Source, StreamStop,
+};
+use touch_protocol::{Limits, Stimulus, CHANNELS, IDLE_CODE};
+
+use super::bank::bank_crc;
+use super::sim::Device;
+use crate::button::Event as Button;
+use crate::output::{device_config, IDLE_FRAME};
+use crate::testutil::{bank, constant_stimulus, stimulus_from};
+
+/// The host's side, as a test drives it: sends requests, collects frames.
+struct Host {
+    dev: Device,
+    seq: u16,
+    rx: cobs::Decoder<{ link::MAX_ENCODED }>,
+    /// Unstuffed frames not yet looked at.
+    frames: Vec<Vec<u8>>,
+    events: Vec<(u32, Event)>,
+    unreadable: Vec<FrameError>,
+}
+
+impl Host {
+    fn new(dev: Device) -> Self {
+        Host {
+            dev,
+            seq: 0,
+            rx: cobs::Decoder::new(),
+            frames: Vec::new(),
+            events: Vec::new(),
+            unreadable: Vec::new(),
+        }
+    }
+
+    fn pump(&mut self) {
+        for b in self.dev.read() {
+            if let cobs::Feed::Frame(f) = self.rx.feed(b) {
+                let f = f.to_vec();
+                match link::decode::<Message>(&f).expect("the device sends good frames") {
+                    Message::Event { tick, event } => self.events.push((tick, event)),
+                    Message::Unreadable(e) => self.unreadable.push(e),
+                    _ => self.frames.push(f),
+                }
+            }
+        }
+    }
+
+    fn send(&mut self, command: Command<'_>) -> u16 {
+        self.seq = self.seq.wrapping_add(1);
+        let mut wire = [0u8; link::MAX_ENCODED];
+        let n = link::encode(
+            &Request {
+                seq: self.seq,
+                command,
+            },
+            &mut wire,
+        )
+        .unwrap();
+        self.dev.write(&wire[..n]);
+        self.seq
+    }
+
+    /// Sends `command` and ticks until its answer: `Ok(reply frame)` or the refusal.
+    fn call(&mut self, command: Command<'_>) -> Result<Vec<u8>, LinkError> {
+        let seq = self.send(command);
+        for _ in 0..10 {
+            self.pump();
+            if let Some(i) = self.frames.iter().position(|f| {
+                matches!(link::decode::<Message>(f), Ok(Message::Reply { seq: s, .. } | Message::Refused { seq: s, .. }) if s == seq)
+            }) {
+                let f = self.frames.remove(i);
+                return match link::decode::<Message>(&f).unwrap() {
+                    Message::Refused { error, .. } => Err(error),
+                    _ => Ok(f),
+                };
+            }
+            self.dev.tick();
+        }
+        panic!("no answer to {command:?}")
+    }
+
+    fn run(&mut self, ms: usize) {
+        for _ in 0..ms {
+            self.dev.tick();
+        }
+        self.pump();
+    }
+}
+
+fn reply(frame: &[u8]) -> Reply<'_> {
+    match link::decode::<Message>(frame).unwrap() {
+        Message::Reply { reply, .. } => reply,
+        m => panic!("not a reply: {m:?}"),
+    }
+}
+
+fn two_slots() -> Vec<u8> {
+    bank(&[
+        constant_stimulus("a", 300, 400),
+        constant_stimulus("b", -300, 400),
+    ])
+}
+
+fn builtin() -> Vec<u8> {
+    bank(&[constant_stimulus("builtin", 100, 100)])
+}
+
+fn host() -> Host {
+    Host::new(Device::boot(&two_slots(), &builtin()))
+}
+
+#[test]
+fn hello_info_and_slots() {
+    let mut h = host();
+    let f = h
+        .call(Command::Hello {
+            version: link::VERSION,
+        })
+        .unwrap();
+    assert!(matches!(
+        reply(&f),
+        Reply::Hello {
+            version: link::VERSION,
+            ..
+        }
+    ));
+    assert_eq!(
+        h.call(Command::Hello { version: 99 }),
+        Err(LinkError::UnsupportedVersion {
+            device: link::VERSION
+        })
+    );
+    let f = h.call(Command::Info).unwrap();
+    let Reply::Info(info) = reply(&f) else {
+        panic!()
+    };
+    let image = two_slots();
+    assert_eq!(
+        info.bank,
+        BankState::Flashed(link::BankSummary {
+            len: image.len() as u32,
+            crc: bank_crc(&image),
+            slots: 2
+        })
+    );
+    assert_eq!(info.limits, device_config().limits);
+    assert_eq!(info.max_chunk as usize, link::MAX_CHUNK);
+    let f = h.call(Command::Slot { slot: 1 }).unwrap();
+    let Reply::Slot(s) = reply(&f) else { panic!() };
+    assert_eq!((s.name, s.playable), ("b", true));
+    assert_eq!(s.playback_ms, s.duration_ms + 40);
+    assert_eq!(
+        h.call(Command::Slot { slot: 2 }),
+        Err(LinkError::NoSuchSlot { slot: 2, slots: 2 })
+    );
+    // Bank reads: the region's bytes, shorter at its end, refused past it.
+    let f = h.call(Command::BankRead { offset: 0, len: 16 }).unwrap();
+    assert_eq!(
+        reply(&f),
+        Reply::BankData {
+            offset: 0,
+            bytes: &image[..16]
+        }
+    );
+    let end = touch_protocol::bank::REGION_LEN as u32;
+    let f = h
+        .call(Command::BankRead {
+            offset: end - 3,
+            len: 16,
+        })
+        .unwrap();
+    assert!(matches!(reply(&f), Reply::BankData { bytes, .. } if bytes.len() == 3));
+    assert_eq!(
+        h.call(Command::BankRead {
+            offset: 0,
+            len: 257
+        }),
+        Err(LinkError::OutOfRange)
+    );
+}
+
+#[test]
+fn an_erased_region_reports_the_builtin_bank_and_a_bad_one_its_led_code() {
+    let mut h = Host::new(Device::boot(&[], &builtin()));
+    let f = h.call(Command::Info).unwrap();
+    let Reply::Info(info) = reply(&f) else {
+        panic!()
+    };
+    assert!(matches!(info.bank, BankState::Builtin(s) if s.slots == 1));
+    let mut bad = two_slots();
+    bad[40] ^= 1;
+    let mut h = Host::new(Device::boot(&bad, &builtin()));
+    let f = h.call(Command::Info).unwrap();
+    let Reply::Info(info) = reply(&f) else {
+        panic!()
+    };
+    assert_eq!(info.bank, BankState::Refused { blinks: 4 });
+    assert_eq!(
+        h.call(Command::Play { slot: 0 }),
+        Err(LinkError::NoSuchSlot { slot: 0, slots: 0 })
+    );
+    assert_eq!(h.call(Command::Slot { slot: 0 }), Err(LinkError::NoBank));
+}
+
+#[test]
+fn play_answers_the_tick_of_the_first_frame_and_stop_the_ramp() {
+    let mut h = host();
+    h.run(5);
+    let f = h.call(Command::Play { slot: 1 }).unwrap();
+    let Reply::Play {
+        slot: 1,
+        tick,
+        now: true,
+    } = reply(&f)
+    else {
+        panic!("{:?}", reply(&f))
+    };
+    h.run(100);
+    let out = h.dev.outputs();
+    assert_eq!(out[tick as usize - 1], IDLE_FRAME);
+    assert_ne!(
+        out[tick as usize], IDLE_FRAME,
+        "first frame at the answered tick"
+    );
+    assert!(h.events.contains(&(tick, Event::Started(Source::Slot(1)))));
+    let f = h.call(Command::Status).unwrap();
+    let Reply::Status(st) = reply(&f) else {
+        panic!()
+    };
+    assert_eq!(
+        (st.playing, st.selected, st.stopping),
+        (Some(Source::Slot(1)), 1, false)
+    );
+    let f = h.call(Command::Stop).unwrap();
+    let Reply::Stop {
+        source: Some(Source::Slot(1)),
+        tick: stop,
+    } = reply(&f)
+    else {
+        panic!()
+    };
+    h.run(200);
+    let out = h.dev.outputs();
+    assert!(out[stop as usize]
+        .iter()
+        .zip(&out[stop as usize - 1])
+        .all(|(a, b)| a.abs_diff(IDLE_CODE) <= b.abs_diff(IDLE_CODE)));
+    assert_eq!(*out.last().unwrap(), IDLE_FRAME);
+    assert!(h
+        .events
+        .iter()
+        .any(|e| e.1 == Event::Finished(Source::Slot(1))));
+    // Stop with nothing playing: answered, nothing to stop.
+    let f = h.call(Command::Stop).unwrap();
+    assert!(matches!(reply(&f), Reply::Stop { source: None, .. }));
+    assert_eq!(
+        h.call(Command::Play { slot: 7 }),
+        Err(LinkError::NoSuchSlot { slot: 7, slots: 2 })
+    );
+}
+
+#[test]
+fn play_over_a_playing_slot_ramps_it_down_first() {
+    let mut h = host();
+    h.call(Command::Play { slot: 0 }).unwrap();
+    h.run(50);
+    let f = h.call(Command::Play { slot: 1 }).unwrap();
+    assert!(matches!(
+        reply(&f),
+        Reply::Play {
+            slot: 1,
+            now: false,
+            ..
+        }
+    ));
+    h.run(300);
+    let started: Vec<_> = h
+        .events
+        .iter()
+        .filter(|e| matches!(e.1, Event::Started(_)))
+        .collect();
+    assert_eq!(started.len(), 2, "{:?}", h.events);
+    assert_eq!(started[1].1, Event::Started(Source::Slot(1)));
+    assert_ne!(h.dev.outputs()[started[1].0 as usize], IDLE_FRAME);
+    assert_eq!(h.dev.outputs()[started[1].0 as usize - 1], IDLE_FRAME);
+}
+
+#[test]
+fn button_gestures_are_events_with_their_tick() {
+    let mut h = host();
+    h.run(10);
+    h.dev.press(Button::Toggle);
+    h.run(10);
+    assert_eq!(h.events[0], (10, Event::Button(link::Gesture::Toggle)));
+    assert_eq!(h.events[1], (11, Event::Started(Source::Slot(0))));
+    assert_ne!(h.dev.outputs()[11], IDLE_FRAME);
+}
+
+#[test]
+fn a_hot_coil_refuses_a_play_as_it_refuses_a_press() {
+    let hot = stimulus_from("hot", 1000, &vec![[32767; CHANNELS]; 61], Limits::SLEEVE);
+    let mut h = Host::new(Device::boot(&bank(&[hot]), &builtin()));
+    h.call(Command::Play { slot: 0 }).unwrap();
+    h.run(60_000);
+    assert!(h.events.iter().any(|e| matches!(
+        e.1,
+        Event::LimitHit {
+            kind: link::Limit::Thermal,
+            ..
+        }
+    )));
+    let refusal = h.call(Command::Play { slot: 0 });
+    let Err(LinkError::TooHot {
+        permille,
+        cooldown_ms,
+        ..
+    }) = refusal
+    else {
+        panic!("{refusal:?}")
+    };
+    assert!(permille > 500 && cooldown_ms > 0);
+    let f = h.call(Command::Status).unwrap();
+    let Reply::Status(st) = reply(&f) else {
+        panic!()
+    };
+    assert!(
+        st.heat_permille.iter().all(|&p| p > 500) && st.cooldown_ms > 0 && st.faults == 1,
+        "{st:?}"
+    );
+    assert_eq!(st.last_fault.map(|f| f.kind), Some(link::Limit::Thermal));
+    // The button is refused the same.
+    assert!(matches!(
+        h.dev.press(Button::Toggle),
+        Some(crate::control::Report::TooHot(0, _))
+    ));
+}
+
+#[test]
+fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
+    let mut h = host();
+    // Garbage (not COBS), a frame too long, a CRC error, a truncated frame, a good
+    // CRC over a request that does not decode.
+    h.dev.write(&[0x05, 0x01, 0x00]);
+    h.dev.write(&[0x11; 400]);
+    h.dev.write(&[0x00]);
+    let mut wire = [0u8; link::MAX_ENCODED];
+    let n = link::encode(
+        &Request {
+            seq: 9,
+            command: Command::Info,
+        },
+        &mut wire,
+    )
+    .unwrap();
+    let mut bad = wire[..n].to_vec();
+    bad[2] ^= 0x10;
+    h.dev.write(&bad);
+    h.dev.write(&wire[..3]);
+    h.dev.write(&[0x00]);
+    h.dev.write(&[0x03, 0x01, 0x02, 0x00]);
+    let body = [0x01, 0x63];
+    let mut raw = body.to_vec();
+    raw.extend_from_slice(&bank_crc(&body).to_le_bytes());
+    let mut stuffed = [0u8; 16];
+    let m = cobs::encode(&raw, &mut stuffed).unwrap();
+    h.dev.write(&stuffed[..m]);
+    h.dev.write(&[0x00]);
+    h.pump();
+    assert_eq!(
+        h.unreadable,
+        [
+            FrameError::Cobs,
+            FrameError::TooLong,
+            FrameError::BadCrc,
+            FrameError::Cobs,
+            FrameError::Short,
+            FrameError::Malformed
+        ]
+    );
+    assert!(h.call(Command::Info).is_ok());
+    // A chunk longer than MAX_CHUNK is refused (it still fits a frame).
+    h.call(Command::BankBegin { len: 1000, crc: 0 }).unwrap();
+    assert_eq!(
+        h.call(Command::BankChunk {
+            offset: 0,
+            bytes: &[1; 257]
+        }),
+        Err(LinkError::Malformed)
+    );
+}
+
+/// Uploads `image` in chunks of `chunk` through the link; the reply to the commit.
+fn upload(h: &mut Host, image: &[u8], chunk: usize) -> Result<Vec<u8>, LinkError> {
+    h.call(Command::BankBegin {
+        len: image.len() as u32,
+        crc: bank_crc(image),
+    })?;
+    for (i, c) in image.chunks(chunk).enumerate() {
+        let f = h.call(Command::BankChunk {
+            offset: (i * chunk) as u32,
+            bytes: c,
+        })?;
+        assert_eq!(
+            reply(&f),
+            Reply::BankChunk {
+                next: (i * chunk + c.len()) as u32
+            }
+        );
+    }
+    h.call(Command::BankCommit)
+}
+
+#[test]
+fn an_upload_commits_and_the_device_restarts_into_it() {
+    let mut h = host();
+    let new = bank(&[
+        constant_stimulus("x", 200, 300),
+        constant_stimulus("y", 200, 300),
+        constant_stimulus("z", 200, 300),
+    ]);
+    let f = upload(&mut h, &new, link::MAX_CHUNK).unwrap();
+    assert_eq!(
+        reply(&f),
+        Reply::BankCommit {
+            crc: bank_crc(&new),
+            slots: 3
+        }
+    );
+    h.run(1);
+    assert_eq!(h.dev.boots, 1);
+    let f = h.call(Command::Info).unwrap();
+    let Reply::Info(info) = reply(&f) else {
+        panic!()
+    };
+    assert!(matches!(info.bank, BankState::Flashed(s) if s.crc == bank_crc(&new) && s.slots == 3));
+    let f = h.call(Command::Slot { slot: 2 }).unwrap();
+    assert!(matches!(reply(&f), Reply::Slot(s) if s.name == "z"));
+    let f = h.call(Command::Play { slot: 2 }).unwrap();
+    assert!(matches!(
+        reply(&f),
+        Reply::Play {
+            slot: 2,
+            now: true,
+            ..
+        }
+    ));
+}
+
+#[test]
+fn uploads_wait_for_rest_and_lock_the_bank() {
+    let mut h = host();
+    h.call(Command::Play { slot: 0 }).unwrap();
+    assert_eq!(
+        h.call(Command::BankBegin { len: 100, crc: 0 }),
+        Err(LinkError::Busy(Busy::Playing))
+    );
+    h.run(600);
+    h.call(Command::BankBegin { len: 100, crc: 0 }).unwrap();
+    assert_eq!(
+        h.call(Command::Play { slot: 0 }),
+        Err(LinkError::Busy(Busy::Uploading))
+    );
+    assert_eq!(
+        h.call(Command::Slot { slot: 0 }),
+        Err(LinkError::Busy(Busy::Uploading))
+    );
+    // A press does not start a slot of the erased bank either.
+    h.dev.press(Button::Toggle);
+    h.run(100);
+    assert!(h.dev.outputs()[h.dev.outputs().len() - 100..]
+        .iter()
+        .all(|f| *f == IDLE_FRAME));
+    let f = h.call(Command::Status).unwrap();
+    assert!(matches!(reply(&f), Reply::Status(s) if s.upload == Some(0)));
+    // Abandoned: the device restarts into the built-in bank.
+    h.call(Command::BankAbort).unwrap();
+    h.run(1);
+    let f = h.call(Command::Info).unwrap();
+    assert!(matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))));
+    assert_eq!(h.call(Command::BankCommit), Err(LinkError::NoUpload));
+}
+
+#[test]
+fn a_bad_crc_commit_is_refused_and_a_new_upload_can_follow() {
+    let mut h = host();
+    let new = two_slots();
+    h.call(Command::BankBegin {
+        len: new.len() as u32,
+        crc: bank_crc(&new) ^ 0xFF,
+    })
+    .unwrap();
+    let half = new.len() / 2;
+    h.call(Command::BankChunk {
+        offset: 0,
+        bytes: &new[..half],
+    })
+    .unwrap();
+    h.call(Command::BankChunk {
+        offset: half as u32,
+        bytes: &new[half..],
+    })
+    .unwrap();
+    assert_eq!(
+        h.call(Command::BankCommit),
+        Err(LinkError::BadCrc {
+            expected: bank_crc(&new) ^ 0xFF,
+            computed: bank_crc(&new)
+        })
+    );
+    assert!(upload(&mut h, &new, 100).is_ok());
+}
+
+/// The host vanishes after every chunk of an upload and the power is cycled: the
+/// device boots the built-in bank, plays it on a press, and answers a new upload.
+#[test]
+fn an_upload_cut_at_every_chunk_leaves_the_builtin_bank() {
+    let new = bank(&[
+        constant_stimulus("x", 200, 2000),
+        constant_stimulus("y", 200, 2000),
+    ]);
+    let chunks = new.len().div_ceil(16);
+    assert!(chunks > 8, "{chunks}");
+    for cut in 0..chunks {
+        let mut h = host();
+        h.call(Command::BankBegin {
+            len: new.len() as u32,
+            crc: bank_crc(&new),
+        })
+        .unwrap();
+        for (i, c) in new.chunks(16).take(cut).enumerate() {
+            h.call(Command::BankChunk {
+                offset: (i * 16) as u32,
+                bytes: c,
+            })
+            .unwrap();
+        }
+        h.dev.restart();
+        let f = h.call(Command::Info).unwrap();
+        assert!(
+            matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))),
+            "cut after chunk {cut}"
+        );
+        let f = h.call(Command::Play { slot: 0 }).unwrap();
+        assert!(matches!(reply(&f), Reply::Play { now: true, .. }));
+    }
+}
+
+fn stream_params() -> link::StreamParams {
+    link::StreamParams {
+        keyframe_period_ms: 20,
+        ramp_ms: 20,
+        full_scale_ma: 1000,
+        limits: Limits::SLEEVE,
+    }
+}
+
+fn stream_keyframes(n: usize) -> Vec<[i16; 8]> {
+    (0..n)
+        .map(|i| core::array::from_fn(|c| ((i * 700 + c * 900) % 16000) as i16 - 8000))
+        .collect()
+}
+
+/// Sends keyframes `from..to` in chunks of up to 8.
+fn feed(h: &mut Host, ks: &[[i16; 8]], from: usize, to: usize) {
+    let mut at = from;
+    while at < to {
+        let n = (to - at).min(8);
+        let mut bytes = [0u8; 8 * link::KEYFRAME_LEN];
+        let len = link::put_stream_keyframes(&ks[at..at + n], &mut bytes);
+        let f = h
+            .call(Command::StreamData {
+                index: at as u32,
+                keyframes: &bytes[..len],
+            })
+            .unwrap();
+        assert!(matches!(reply(&f), Reply::StreamData { next, .. } if next as usize == at + n));
+        at += n;
+    }
+}
+
+#[test]
+fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
+    let ks = stream_keyframes(30);
+    let mut h = host();
+    let f = h.call(Command::StreamBegin(stream_params())).unwrap();
+    let Reply::StreamBegin { capacity } = reply(&f) else {
+        panic!()
+    };
+    assert_eq!(capacity, 32);
+    feed(&mut h, &ks, 0, 16);
+    // Keep the buffer topped up every 40 ms (2 keyframes), inside the deadline.
+    let mut sent = 16;
+    while sent < ks.len() {
+        h.run(40);
+        let next = (sent + 2).min(ks.len());
+        feed(&mut h, &ks, sent, next);
+        sent = next;
+    }
+    h.call(Command::StreamEnd).unwrap();
+    h.run(1000);
+    let started = h
+        .events
+        .iter()
+        .find(|e| e.1 == Event::Started(Source::Stream))
+        .unwrap()
+        .0 as usize;
+    assert!(
+        h.events
+            .iter()
+            .any(|e| e.1 == Event::StreamStopped(StreamStop::Ended)),
+        "{:?}",
+        h.events
+    );
+    assert!(h
+        .events
+        .iter()
+        .any(|e| e.1 == Event::Finished(Source::Stream)));
+    // The stored player, on a stimulus of the same keyframes: the same codes.
+    let header = touch_protocol::stimulus::Header {
+        channels: 8,
+        output_rate_hz: 1000,
+        keyframe_period_ms: 20,
+        keyframe_count: ks.len() as u32,
+        duration_ms: (ks.len() as u32 - 1) * 20,
+        ramp_ms: 20,
+        full_scale_ma: 1000,
+        quant_shift: 0,
+        layout_id: 1,
+        limits: Limits::SLEEVE,
+        name: "s",
+    };
+    let file = touch_protocol::stimulus::encode(header, &ks).unwrap();
+    let expected: Vec<_> =
+        touch_protocol::Player::new(&Stimulus::decode(&file).unwrap(), &device_config())
+            .take(header.duration_ms as usize)
+            .map(|t| t.codes)
+            .collect();
+    assert_eq!(
+        &h.dev.outputs()[started..started + expected.len()],
+        &expected[..]
+    );
+    assert_eq!(*h.dev.outputs().last().unwrap(), IDLE_FRAME);
+}
+
+#[test]
+fn a_host_that_vanishes_mid_stream_brings_the_outputs_to_rest() {
+    let ks = stream_keyframes(30);
+    let mut h = host();
+    h.call(Command::StreamBegin(stream_params())).unwrap();
+    feed(&mut h, &ks, 0, 30);
+    let last_data = h.dev.controller().now();
+    // Nothing more: no data, no end.
+    h.run(400);
+    let (tick, _) = *h
+        .events
+        .iter()
+        .find(|e| e.1 == Event::StreamStopped(StreamStop::Deadline))
+        .expect("the deadline stopped the stream");
+    assert!(
+        tick - last_data <= link::STREAM_DEADLINE_MS + 1,
+        "{tick} vs {last_data}"
+    );
+    // 0 A within the deadline plus the ramp (and the slew bound from where it was).
+    let rest = h
+        .dev
+        .outputs()
+        .iter()
+        .rposition(|f| *f != IDLE_FRAME)
+        .unwrap() as u32
+        + 1;
+    assert!(
+        rest - last_data <= link::STREAM_DEADLINE_MS + 20 + 20,
+        "at rest {} ms after the last data",
+        rest - last_data
+    );
+    // Data after the stream stopped is refused.
+    let mut bytes = [0u8; 16];
+    link::put_stream_keyframes(&ks[..1], &mut bytes);
+    assert_eq!(
+        h.call(Command::StreamData {
+            index: 30,
+            keyframes: &bytes
+        }),
+        Err(LinkError::NoStream)
+    );
+}
+
+#[test]
+fn stream_rules() {
+    let ks = stream_keyframes(40);
+    let mut h = host();
+    let mut bytes = [0u8; 16];
+    link::put_stream_keyframes(&ks[..1], &mut bytes);
+    assert_eq!(
+        h.call(Command::StreamData {
+            index: 0,
+            keyframes: &bytes
+        }),
+        Err(LinkError::NoStream)
+    );
+    assert_eq!(h.call(Command::StreamEnd), Err(LinkError::NoStream));
+    let mut bad = stream_params();
+    bad.keyframe_period_ms = 0;
+    assert_eq!(h.call(Command::StreamBegin(bad)), Err(LinkError::Malformed));
+    h.call(Command::StreamBegin(stream_params())).unwrap();
+    assert_eq!(
+        h.call(Command::StreamData {
+            index: 0,
+            keyframes: &bytes[..15]
+        }),
+        Err(LinkError::Malformed)
+    );
+    assert_eq!(
+        h.call(Command::StreamData {
+            index: 3,
+            keyframes: &bytes
+        }),
+        Err(LinkError::StreamGap { expected: 0 })
+    );
+    feed(&mut h, &ks, 0, 32);
+    assert_eq!(
+        h.call(Command::Play { slot: 0 }),
+        Err(LinkError::Busy(Busy::Streaming))
+    );
+    // The buffer holds 32: 16 more do not fit (the player took 2 or 3 so far).
+    let mut sixteen = [0u8; link::MAX_CHUNK];
+    link::put_stream_keyframes(&ks[..16], &mut sixteen);
+    let r = h.call(Command::StreamData {
+        index: 32,
+        keyframes: &sixteen,
+    });
+    assert!(matches!(r, Err(LinkError::StreamFull { .. })), "{r:?}");
+    let f = h.call(Command::Stop).unwrap();
+    assert!(matches!(
+        reply(&f),
+        Reply::Stop {
+            source: Some(Source::Stream),
+            ..
+        }
+    ));
+    h.run(200);
+    assert_eq!(*h.dev.outputs().last().unwrap(), IDLE_FRAME);
+    assert!(h.call(Command::Play { slot: 0 }).is_ok());
+}
