@@ -26,7 +26,7 @@ pub const USB_IDS: (u16, u16) = (0x1209, 0x0001);
 /// What `--help` says after the subcommands.
 const AFTER_HELP: &str = "\
 Port: --port PATH, else the only USB serial port attached (the sleeve's own socket
-first). A USB-serial adapter on the sleeve's USART (PA2 TX, PA3 RX, 115200 8N1) is
+first). A USB-serial adapter on the sleeve's USART (PA2 TX, PA3 RX, 460800 8N1) is
 listed too: name it with --port when there are several.
 
 Exit status: 0 success, 1 no sleeve attached or the sleeve refused or failed, 2 usage.";
@@ -309,10 +309,10 @@ fn info(port: Option<&Path>, as_json: bool) -> anyhow::Result<()> {
     }
     let bank = match i.bank {
         BankState::Flashed(s) => {
-            json!({"state": "flashed", "bytes": s.len, "crc": format!("{:08x}", s.crc), "slots": s.slots})
+            json!({"state": "flashed", "bytes": s.len, "slots": s.slots})
         }
         BankState::Builtin(s) => {
-            json!({"state": "builtin", "bytes": s.len, "crc": format!("{:08x}", s.crc), "slots": s.slots})
+            json!({"state": "builtin", "bytes": s.len, "slots": s.slots})
         }
         BankState::Refused { blinks } => json!({"state": "refused", "led_code": blinks}),
     };
@@ -367,13 +367,13 @@ fn info(port: Option<&Path>, as_json: bool) -> anyhow::Result<()> {
     match i.bank {
         BankState::Flashed(s) => writeln!(
             out,
-            "bank:      flashed, {} slots, {} of {} bytes, CRC {:08x}",
-            s.slots, s.len, i.bank_capacity, s.crc
+            "bank:      flashed, {} slots, {} of {} bytes",
+            s.slots, s.len, i.bank_capacity
         )?,
         BankState::Builtin(s) => writeln!(
             out,
-            "bank:      built in (the bank region is erased), {} slots, CRC {:08x}",
-            s.slots, s.crc
+            "bank:      built in (the bank region is erased), {} slots",
+            s.slots
         )?,
         BankState::Refused { blinks } => writeln!(
             out,
@@ -462,11 +462,10 @@ fn upload(port: Option<&Path>, files: &[PathBuf], layout: Option<&Path>) -> anyh
     bar.finish_and_clear();
     verified?;
     eprintln!(
-        "touchc: {}: uploaded and verified {} bytes, {} slots, CRC {:08x}",
+        "touchc: {}: uploaded and verified {} bytes, {} slots",
         port.display(),
         image.len(),
-        slots,
-        touch_protocol::container::crc32(&image)
+        slots
     );
     Ok(())
 }

@@ -81,18 +81,41 @@ pub enum ClientError {
         /// This host's ([`link::VERSION`]).
         host: u16,
     },
-    /// A bank read back after an upload is not the image sent.
-    #[error("the bank read back has CRC {got:#010x}, the image sent {expected:#010x}")]
-    Verify {
-        /// The image's CRC-32.
-        expected: u32,
-        /// The CRC-32 of what the device holds.
-        got: u32,
-    },
+    /// The bank the device holds after an upload is not the image sent.
+    #[error("the sleeve's bank differs from the image sent: {0}")]
+    Verify(VerifyError),
     /// A device bug: a reply that breaks the protocol (a chunk acknowledged at
     /// another offset, a stream index going back).
     #[error("the device broke the protocol: {0}")]
     Protocol(&'static str),
+}
+
+/// How a bank read back differs from the image sent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum VerifyError {
+    /// The device does not play a bank from its region.
+    #[error("it plays no bank from its region")]
+    NotFlashed,
+    /// Its bank has another length.
+    #[error("{got} bytes, {expected} sent")]
+    Length {
+        /// Bytes sent.
+        expected: u32,
+        /// Bytes the device reports.
+        got: u32,
+    },
+    /// The commit's reply carries another CRC than the image's.
+    #[error("commit CRC {got:#010x}, the image's {expected:#010x}")]
+    CommitCrc {
+        /// The image's CRC-32.
+        expected: u32,
+        /// The reply's.
+        got: u32,
+    },
+    /// A byte read back differs.
+    #[error("byte {0} differs")]
+    Byte(usize),
 }
 
 /// What a sleeve says about itself ([`link::Info`], owned).
@@ -179,6 +202,9 @@ pub struct Client<T: Transport> {
 
 /// Events kept for [`Client::next_event`]; older ones are dropped past this.
 const MAX_QUEUED_EVENTS: usize = 4096;
+
+/// How long a restarting device is left alone before [`Client::reconnect`] asks.
+const RESTART_GRACE: Duration = Duration::from_millis(100);
 
 /// Retries of a command that is safe to send twice.
 const RETRIES: u32 = 2;
@@ -409,7 +435,10 @@ impl<T: Transport> Client<T> {
             _ => None,
         })?;
         if got != crc {
-            return Err(ClientError::Verify { expected: crc, got });
+            return Err(ClientError::Verify(VerifyError::CommitCrc {
+                expected: crc,
+                got,
+            }));
         }
         Ok(slots)
     }
@@ -424,9 +453,14 @@ impl<T: Transport> Client<T> {
     }
 
     /// Waits for a restarted device to answer (`hello`), for at most the restart
-    /// timeout.
+    /// timeout. The device restarts after its reply to a commit went out: the first
+    /// moments are left to it, so that the old firmware cannot answer.
     pub fn reconnect(&mut self) -> Result<String, ClientError> {
         let start = self.transport.now();
+        // A port that vanished with the restart (USB) fails here: the hello says so.
+        let _ = self.pump(RESTART_GRACE);
+        self.decoder.reset();
+        self.inbox.clear();
         loop {
             match self.hello() {
                 Ok(firmware) => return Ok(firmware),
@@ -438,28 +472,28 @@ impl<T: Transport> Client<T> {
     }
 
     /// Checks that the device plays `image` from its bank region: its summary says
-    /// so, and the bytes read back have the image's CRC.
+    /// so, and every byte read back is the image's. (Bytes, not a CRC of them: a
+    /// bank ends with its own CRC, so the CRC-32 of any intact bank image is the
+    /// same constant, 0x2144DF1C.)
     pub fn verify(
         &mut self,
         image: &[u8],
         progress: impl FnMut(Progress),
     ) -> Result<(), ClientError> {
-        let expected = touch_protocol::container::crc32(image);
-        let info = self.info()?;
-        match info.bank {
-            BankState::Flashed(s) if s.crc == expected && s.len as usize == image.len() => {}
+        let expected = image.len() as u32;
+        match self.info()?.bank {
+            BankState::Flashed(s) if s.len == expected => {}
             BankState::Flashed(s) => {
-                return Err(ClientError::Verify {
+                return Err(ClientError::Verify(VerifyError::Length {
                     expected,
-                    got: s.crc,
-                })
+                    got: s.len,
+                }))
             }
-            _ => return Err(ClientError::Verify { expected, got: 0 }),
+            _ => return Err(ClientError::Verify(VerifyError::NotFlashed)),
         }
-        let back = self.read_bank(0, image.len() as u32, progress)?;
-        let got = touch_protocol::container::crc32(&back);
-        if got != expected {
-            return Err(ClientError::Verify { expected, got });
+        let back = self.read_bank(0, expected, progress)?;
+        if let Some(at) = (0..image.len()).find(|&i| back.get(i) != Some(&image[i])) {
+            return Err(ClientError::Verify(VerifyError::Byte(at)));
         }
         Ok(())
     }
@@ -647,18 +681,23 @@ impl<T: Transport> Client<T> {
     }
 
     /// Reads bytes for at most `timeout` and hands each decoded message to `seen`
-    /// (events are queued first); stops early once `seen` returns true.
+    /// (events are queued instead); returns once a read brought whole messages (or
+    /// `seen` returned true), or at the timeout.
     fn receive(
         &mut self,
         timeout: Duration,
         mut seen: impl FnMut(Message<'_>) -> bool,
     ) -> Result<(), ClientError> {
         let start = self.transport.now();
+        // At least one read, even with no time left: what already arrived counts.
+        let mut read = false;
         loop {
+            let mut decoded = false;
             while let Some(byte) = self.inbox.pop_front() {
                 match self.decoder.feed(byte) {
                     Feed::Frame(frame) => match link::decode::<Message>(frame) {
                         Ok(Message::Event { tick, event }) => {
+                            decoded = true;
                             // A caller that never reads events keeps the newest.
                             if self.events.len() >= MAX_QUEUED_EVENTS {
                                 self.events.pop_front();
@@ -670,6 +709,7 @@ impl<T: Transport> Client<T> {
                             });
                         }
                         Ok(message) => {
+                            decoded = true;
                             if seen(message) {
                                 return Ok(());
                             }
@@ -681,14 +721,14 @@ impl<T: Transport> Client<T> {
                 }
             }
             let elapsed = self.transport.now() - start;
-            if elapsed >= timeout && !self.inbox.is_empty() {
-                continue;
-            }
-            if elapsed >= timeout {
+            if decoded || (read && elapsed >= timeout) {
                 return Ok(());
             }
             let mut buf = [0u8; 512];
-            let n = self.transport.read(&mut buf, timeout - elapsed)?;
+            let n = self
+                .transport
+                .read(&mut buf, timeout.saturating_sub(elapsed))?;
+            read = true;
             self.inbox.extend(&buf[..n]);
             if n == 0 {
                 return Ok(());

@@ -13,6 +13,6 @@ pub mod serial;
 mod transport;
 
 pub use client::{
-    Client, ClientError, DeviceInfo, Progress, SlotEntry, Stamped, Started, Timeouts,
+    Client, ClientError, DeviceInfo, Progress, SlotEntry, Stamped, Started, Timeouts, VerifyError,
 };
 pub use transport::{MemoryTransport, Transport};

@@ -8,7 +8,7 @@ use std::time::Duration;
 use super::Transport;
 
 /// The baud rate of the sleeve's USART. A CDC-ACM port ignores it.
-pub const BAUD: u32 = 115_200;
+pub const BAUD: u32 = 460_800;
 
 /// A serial port opened for the link (8N1, no flow control).
 pub struct SerialTransport {

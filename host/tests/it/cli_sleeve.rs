@@ -64,7 +64,11 @@ fn a_port_that_is_not_a_sleeve_times_out_in_one_line() {
     // /dev/null opens but is no terminal: the serial port layer refuses it.
     let out = touchc(&["sleeve", "--port", "/dev/null", "info"]);
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
-    assert!(stderr(&out).starts_with("touchc: error: /dev/null"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).starts_with("touchc: error: /dev/null"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]
@@ -111,7 +115,10 @@ fn bad_files_are_named_before_opening_a_port() {
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(1), "{err}");
         assert!(err.contains(j), "{err}");
-        assert!(!err.contains("no-such-sleeve"), "the file is checked first: {err}");
+        assert!(
+            !err.contains("no-such-sleeve"),
+            "the file is checked first: {err}"
+        );
     }
 }
 
