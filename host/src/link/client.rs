@@ -756,3 +756,145 @@ fn command_name(command: &Command<'_>) -> &'static str {
         Command::StreamEnd => "stream end",
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::MemoryTransport;
+    use touch_protocol::link::cobs::Decoder;
+
+    /// A scripted device: answers each request with what `answer` returns (frames
+    /// to send back), until the host hangs up.
+    fn device(
+        mut answer: impl FnMut(u16, Command<'_>) -> Vec<Vec<u8>> + Send + 'static,
+    ) -> (MemoryTransport, std::thread::JoinHandle<()>) {
+        let (host, mut dev) = MemoryTransport::pair();
+        let t = std::thread::spawn(move || {
+            let mut decoder = Decoder::<{ link::MAX_ENCODED }>::new();
+            let mut buf = [0u8; 512];
+            while let Ok(n) = dev.read(&mut buf, Duration::from_secs(5)) {
+                for &b in &buf[..n] {
+                    if let Feed::Frame(f) = decoder.feed(b) {
+                        let r: Request<'_> = link::decode(f).unwrap();
+                        for frame in answer(r.seq, r.command) {
+                            if dev.write_all(&frame).is_err() {
+                                return;
+                            }
+                        }
+                    }
+                }
+            }
+        });
+        (host, t)
+    }
+
+    fn frame(m: &Message<'_>) -> Vec<u8> {
+        let mut wire = [0u8; link::MAX_ENCODED];
+        let n = link::encode(m, &mut wire).unwrap();
+        wire[..n].to_vec()
+    }
+
+    fn quick(t: MemoryTransport) -> Client<MemoryTransport> {
+        Client::new(t).with_timeouts(Timeouts {
+            reply: Duration::from_millis(100),
+            ..Timeouts::default()
+        })
+    }
+
+    #[test]
+    fn another_link_version_is_named_either_way() {
+        let (t, _d) = device(|seq, _| {
+            vec![frame(&Message::Reply {
+                seq,
+                reply: Reply::Hello {
+                    version: link::VERSION + 1,
+                    firmware: "9.9.9",
+                },
+            })]
+        });
+        match quick(t).hello() {
+            Err(ClientError::Version { device, host }) => {
+                assert_eq!((device, host), (link::VERSION + 1, link::VERSION))
+            }
+            other => panic!("{other:?}"),
+        }
+        let (t, _d) = device(|seq, _| {
+            vec![frame(&Message::Refused {
+                seq,
+                error: LinkError::UnsupportedVersion { device: 7 },
+            })]
+        });
+        assert!(matches!(
+            quick(t).hello(),
+            Err(ClientError::Version { device: 7, .. })
+        ));
+    }
+
+    #[test]
+    fn stale_replies_and_events_are_sorted_out() {
+        // Before each answer: an event and a reply to an older request.
+        let (t, _d) = device(|seq, _| {
+            vec![
+                frame(&Message::Event {
+                    tick: 5,
+                    event: Event::Selected(1),
+                }),
+                frame(&Message::Reply {
+                    seq: seq.wrapping_sub(1),
+                    reply: Reply::Stop {
+                        source: None,
+                        tick: 1,
+                    },
+                }),
+                frame(&Message::Reply {
+                    seq,
+                    reply: Reply::Stop {
+                        source: Some(Source::Slot(2)),
+                        tick: 9,
+                    },
+                }),
+            ]
+        });
+        let mut c = quick(t);
+        assert_eq!(c.stop().unwrap(), (Some(Source::Slot(2)), 9));
+        let e = c.next_event(Duration::ZERO).unwrap().unwrap();
+        assert_eq!((e.tick, e.event), (5, Event::Selected(1)));
+    }
+
+    #[test]
+    fn a_damaged_request_is_retried_when_that_is_safe_and_not_otherwise() {
+        let calls = std::sync::Arc::new(std::sync::atomic::AtomicU32::new(0));
+        let seen = calls.clone();
+        // The first frame of all arrives damaged; the rest get through.
+        let (t, _d) = device(move |seq, command| {
+            if seen.fetch_add(1, std::sync::atomic::Ordering::SeqCst) == 0 {
+                return vec![frame(&Message::Unreadable(FrameError::BadCrc))];
+            }
+            let reply = match command {
+                Command::Status => return vec![],
+                Command::Stop => Reply::Stop {
+                    source: None,
+                    tick: 3,
+                },
+                _ => Reply::Play {
+                    slot: 0,
+                    tick: 4,
+                    now: true,
+                },
+            };
+            vec![frame(&Message::Reply { seq, reply })]
+        });
+        let mut c = quick(t);
+        assert_eq!(c.stop().unwrap(), (None, 3), "stop is sent again");
+        calls.store(0, std::sync::atomic::Ordering::SeqCst);
+        match c.play(0) {
+            Err(ClientError::Unreadable { command, .. }) => assert_eq!(command, "play"),
+            other => panic!("a play is never sent twice: {other:?}"),
+        }
+        // No answer at all: a timeout that names the command.
+        match c.status() {
+            Err(ClientError::Timeout { command, .. }) => assert_eq!(command, "status"),
+            other => panic!("{other:?}"),
+        }
+    }
+}
