@@ -27,7 +27,8 @@ fn header(n: usize) -> stimulus::Header<'static> {
         ramp_ms: 30,
         full_scale_ma: 1000,
         quant_shift: 0,
-        layout_id: 1,
+        layout_hash: 1,
+        layout: "test",
         limits: Limits::SLEEVE,
         name: "s",
     }

@@ -23,8 +23,10 @@ use sleeve_firmware::boot::{check_bank, BootError};
 use sleeve_firmware::button::{Buttons, Mode};
 use sleeve_firmware::control::Controller;
 use sleeve_firmware::engine::{Engine, Watchdog};
+use sleeve_firmware::link::{Channels, Control, LinkPort};
 use sleeve_firmware::output::{device_config, pwm_compare, Frame, PWM_PERIOD};
 use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
+use touch_protocol::link::StreamParams;
 use touch_protocol::player::{DeviceConfig, Player, Status};
 use touch_protocol::{Bank, OutputSink, CHANNELS};
 
@@ -85,6 +87,50 @@ enum Job {
     Player(Player<'static>),
     /// The firmware's whole tick: buttons, controller, player, output write.
     Engine(Engine<'static, Ccr, NoDog, 1>),
+    /// The same with the link attached and busy: its end of the queues, driven
+    /// between ticks as the link's task would (see [`host_side`]).
+    Linked(Engine<'static, Ccr, NoDog, 1>, LinkPort<'static>),
+}
+
+/// The most instructions a playing tick may take with the link busy (a command every
+/// tick and a stream fed through it): the player's tick has to fit a 1 kHz period
+/// with the interrupts of the buttons and the link beside it.
+const LINK_BUSY_BUDGET_INSNS: u32 = 1_700;
+
+/// Ticks the link-busy run lasts.
+const LINK_TICKS: u32 = 4000;
+
+/// The link's task between two ticks: a command for the tick every millisecond
+/// (a stream begun at once and fed a keyframe every 20 ms, then a stop, a play, a
+/// stop, and a status request whenever nothing else is due), and the answers taken.
+fn host_side(t: u32, port: &mut LinkPort<'static>) {
+    let seq = t as u16;
+    let control = match t {
+        0 => Control::StreamBegin {
+            seq,
+            params: StreamParams {
+                keyframe_period_ms: 20,
+                ramp_ms: 20,
+                full_scale_ma: 1000,
+                limits: touch_protocol::Limits::SLEEVE,
+            },
+        },
+        2000 | 3500 => Control::Stop { seq },
+        2300 => Control::Play { seq, slot: 0 },
+        _ => Control::Status { seq },
+    };
+    let _ = port.send(control);
+    if t < 2000 && t % 20 == 1 {
+        // Two keyframes ahead: a triangle on every channel, up to 0.9 A.
+        let k = ((t / 20) % 20) as i32;
+        let v = (if k < 10 { k } else { 20 - k } * 2949) as i16;
+        let n = if t == 1 { 3 } else { 1 };
+        for _ in 0..n {
+            let _ = port.push_keyframe([v; CHANNELS]);
+        }
+        port.fed();
+    }
+    while port.receive().is_some() {}
 }
 
 struct State {
@@ -95,6 +141,8 @@ struct State {
     done: bool,
     max_counts: u32,
     sum_counts: u64,
+    /// The worst tick while a stream plays steadily (the link run only).
+    steady_counts: u32,
 }
 
 impl State {
@@ -107,6 +155,7 @@ impl State {
             done: false,
             max_counts: 0,
             sum_counts: 0,
+            steady_counts: 0,
         }
     }
 
@@ -237,6 +286,33 @@ fn main() -> ! {
         "firmware tick (buttons + controller + player + CCR writes), worst: {}",
         max_insns
     );
+
+    // The same tick with the link attached and a command queued every tick.
+    static mut LINK_QUEUES: Channels = Channels::new();
+    // SAFETY: split once, here; each end has one owner from now on.
+    let (link_port, tick_port) = unsafe { (*core::ptr::addr_of_mut!(LINK_QUEUES)).split() };
+    let mut controller = Controller::new(bank, device_config());
+    controller.attach(tick_port);
+    let engine = Engine::new(
+        Ccr([0; CHANNELS]),
+        NoDog,
+        Buttons::<1>::new(Mode::PlayNext),
+        controller,
+    );
+    let s = run(&mut cp.SYST, State::new(Job::Linked(engine, link_port)));
+    let (max_insns, mean_insns) = s.insns();
+    let streamed = s.faulted;
+    let steady = s.steady_counts * 1000 / COUNTS_PER_INSN_X1000;
+    ok &= streamed && steady < LINK_BUSY_BUDGET_INSNS;
+    hprintln!(
+        "firmware tick with the link busy (a command every tick, a stream, play, stop): {} ticks, insns/tick max {} mean {}, while the stream plays max {} (budget {}), stream played: {}",
+        s.ticks,
+        max_insns,
+        mean_insns,
+        steady,
+        LINK_BUSY_BUDGET_INSNS,
+        if streamed { "ok" } else { "FAILED" }
+    );
     hprintln!(
         "{} passed, {} failed",
         if ok { 1 } else { 0 },
@@ -280,6 +356,19 @@ fn SysTick() {
                 let end = SYST::get_current();
                 (engine.sink().0, None, start, end)
             }
+            Job::Linked(engine, port) => {
+                host_side(t, port);
+                let start = SYST::get_current();
+                engine.tick([None], |_| {});
+                let end = SYST::get_current();
+                // `faulted` marks here that the stream still plays near its end (not 0 A).
+                let frame = engine.sink().0;
+                if (100..1900).contains(&t) {
+                    s.steady_counts = s.steady_counts.max(elapsed(start, end));
+                }
+                s.faulted |= t == 1900 && frame.iter().any(|&c| c != touch_protocol::IDLE_CODE);
+                (frame, None, start, end)
+            }
         };
         let spent = elapsed(start, end);
         s.max_counts = s.max_counts.max(spent);
@@ -289,6 +378,7 @@ fn SysTick() {
         s.faulted |= matches!(status, Some(Status::Fault(_)));
         s.done = match status {
             Some(status) => status == Status::Finished || s.ticks > 1_000_000,
+            None if matches!(s.job, Job::Linked(..)) => s.ticks >= LINK_TICKS,
             None => s.ticks >= scenario::TICKS,
         };
     });

@@ -15,6 +15,8 @@
 //! | button 0      | PA0  | EXTI0, pull-down, active high (Olimex STM32-H405 "BUT") |
 //! | buttons 1-3 (`button-per-slot`) | PC1, PC2, PC3 | EXTI1-3, pull-down, active high |
 //! | status LED    | PC12 | GPIO, active high (Olimex STM32-H405 "STAT") |
+//! | link TX       | PA2  | USART2 TX (AF7), to the host's RX |
+//! | link RX       | PA3  | USART2 RX (AF7), from the host's TX |
 //!
 //! Channel numbering is the sleeve's: `channel = row * 4 + column`.
 
@@ -120,6 +122,8 @@ pub struct Board {
     pub iwdg: embassy_stm32::Peri<'static, embassy_stm32::peripherals::IWDG>,
     /// TIM7, the 1 kHz tick.
     pub tick: embassy_stm32::Peri<'static, embassy_stm32::peripherals::TIM7>,
+    /// The link's USART, interrupt driven, below the tick's priority.
+    pub link: super::link::Uart,
 }
 
 /// Takes the board's pins. The outputs come first and start at 0 A.
@@ -150,6 +154,7 @@ pub fn take(p: Peripherals) -> Board {
         led,
         iwdg: p.IWDG,
         tick: p.TIM7,
+        link: super::link::Uart::new(p.USART2, p.PA2, p.PA3),
     }
 }
 

@@ -1,6 +1,8 @@
 //! Everything that touches the STM32F405RG. The logic lives in the library.
 
 pub mod board;
+pub mod flash;
+pub mod link;
 pub mod outputs;
 pub mod tick;
 
@@ -12,8 +14,10 @@ use embassy_stm32::mode::Async;
 use embassy_time::{with_timeout, Duration, Timer};
 use sleeve_firmware::boot::{bank_source, check_bank, BootError};
 use sleeve_firmware::button::{boot_events, Buttons, EdgeMailbox, DEBOUNCE_TICKS};
-use sleeve_firmware::control::{Controller, Report};
+use sleeve_firmware::control::{Controller, Report, StreamReport};
 use sleeve_firmware::engine::{Engine, Watchdog};
+use sleeve_firmware::link::server::identity;
+use sleeve_firmware::link::{Channels, LinkServer};
 use sleeve_firmware::output::device_config;
 use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
 
@@ -33,7 +37,9 @@ static EMOJI_BANK: &[u8] = include_bytes!("../../../examples/emoji/emoji.bank");
 /// The whole bank region of flash.
 fn bank_region() -> &'static [u8] {
     // SAFETY: the region is internal flash, mapped and readable for the life of the
-    // program, and nothing writes it while the firmware runs.
+    // program. Only the link's bank writer changes it (`flash.rs`), and only after the
+    // tick locked the bank out of playback: the stimuli borrowed at boot are not read
+    // again before the restart that follows an upload.
     unsafe { core::slice::from_raw_parts(REGION_ADDR as *const u8, REGION_LEN) }
 }
 
@@ -46,6 +52,7 @@ pub async fn run(spawner: Spawner) -> ! {
         mut led,
         iwdg,
         tick: tim7,
+        link: uart,
     } = board::take(p);
     info!("sleeve: outputs at 0 A");
     // The buttons next: their tasks arm EXTI at their first poll (the yield), so a
@@ -62,15 +69,17 @@ pub async fn run(spawner: Spawner) -> ! {
     if core::ptr::eq(source, EMOJI_BANK) {
         info!("bank region erased: playing the built-in emoji bank");
     }
-    let bank = match check_bank(source) {
-        Ok(bank) => bank,
+    let checked = check_bank(source);
+    dog.feed();
+    // A refused bank still boots the tick (every output at 0 A, nothing to play) and
+    // the link, so that a computer can read why and upload a good bank.
+    let mut controller = match checked {
+        Ok(bank) => Controller::new(bank, device_config()),
         Err(e) => {
             error!("bank refused, nothing plays: {}", e);
-            blink_forever(&mut led, &mut dog, e).await
+            Controller::empty(device_config())
         }
     };
-    dog.feed();
-    let controller = Controller::new(bank, device_config());
     info!("bank: {} slots", controller.slots());
     for i in 0..controller.slots() {
         match controller.slot(i) {
@@ -78,6 +87,18 @@ pub async fn run(spawner: Spawner) -> ! {
             Err(e) => error!("  slot {}: refused, never played: {}", i, e),
         }
     }
+    // The link's queues, split once: one end to the tick's controller, one to the
+    // server's task.
+    static mut CHANNELS: Channels = Channels::new();
+    // SAFETY: `run` runs once, so the queues are borrowed once, for good.
+    let channels = unsafe { &mut *core::ptr::addr_of_mut!(CHANNELS) };
+    let (link_port, tick_port) = channels.split();
+    controller.attach(tick_port);
+    let server = LinkServer::new(
+        link_port,
+        flash::BankFlash::new(),
+        identity(source, EMOJI_BANK, checked),
+    );
     dog.tighten();
     let mut engine = Engine::new(
         outputs,
@@ -94,6 +115,10 @@ pub async fn run(spawner: Spawner) -> ! {
         }
     }
     tick::start(engine, tim7);
+    spawner.spawn(defmt::unwrap!(link::serve(uart, server)));
+    if let Err(e) = checked {
+        blink_forever(&mut led, e).await
+    }
     info!("ready: press to play slot 0, hold to select the next");
     // What presses during boot did, shown like any other report (the tick runs, so
     // the watchdog is fed while an LED pattern plays).
@@ -120,8 +145,8 @@ async fn show(report: Report, led: &mut Output<'static>) {
         _ => info!("{}", report),
     }
     match report {
-        Report::Started(_) => led.set_high(),
-        Report::Finished(_) => led.set_low(),
+        Report::Started(_) | Report::Stream(StreamReport::Started) => led.set_high(),
+        Report::Finished(_) | Report::Stream(StreamReport::Finished) => led.set_low(),
         Report::TooHot(..) => flicker(led, 5, 60).await,
         Report::BadSlot(..) => flicker(led, 2, 400).await,
         _ => {}
@@ -173,22 +198,18 @@ async fn flicker(led: &mut Output<'static>, n: u8, ms: u64) {
     }
 }
 
-/// The refused-bank LED code: `blinks` short flashes, a pause, forever, feeding
-/// the boot watchdog at least every 250 ms (the outputs stay at 0 A).
-async fn blink_forever(led: &mut Output<'static>, dog: &mut tick::Iwdg, e: BootError) -> ! {
+/// The refused-bank LED code: `blinks` short flashes, a pause, forever. The tick
+/// runs (every output at 0 A, nothing to play) and feeds the watchdog; the link
+/// answers, so a computer can upload a good bank.
+async fn blink_forever(led: &mut Output<'static>, e: BootError) -> ! {
     loop {
         for _ in 0..e.blinks() {
             led.set_high();
             Timer::after_millis(150).await;
-            dog.feed();
             led.set_low();
             Timer::after_millis(250).await;
-            dog.feed();
         }
-        for _ in 0..6 {
-            Timer::after_millis(200).await;
-            dog.feed();
-        }
+        Timer::after_millis(1200).await;
     }
 }
 
@@ -198,7 +219,12 @@ async fn blink_forever(led: &mut Output<'static>, dog: &mut tick::Iwdg, e: BootE
 fn panic(info: &core::panic::PanicInfo) -> ! {
     cortex_m::interrupt::disable();
     outputs::force_idle();
-    error!("panic, outputs at 0 A: {}", defmt::Display2Format(info));
+    // Where, not the message: formatting the message would link core::fmt (about
+    // 3.5 KB of the 64 KB flash budget) for a path that never runs in a good build.
+    match info.location() {
+        Some(at) => error!("panic at {}:{}, outputs at 0 A", at.file(), at.line()),
+        None => error!("panic, outputs at 0 A"),
+    }
     loop {
         cortex_m::asm::nop();
     }

@@ -100,6 +100,9 @@ fn TIM7() {
             engine.tick(edges, |report| {
                 let _ = REPORTS.try_send(report);
             });
+            if engine.controller().link_answered() {
+                super::link::wake();
+            }
         }
     });
 }

@@ -16,10 +16,8 @@
 use touch_protocol::bank::REGION_LEN;
 use touch_protocol::container::crc32;
 use touch_protocol::link::LinkError;
-use touch_protocol::Bank;
 
-use crate::boot::check_bank;
-use crate::output::LAYOUT_ID;
+use crate::boot::{check_bank, BootError};
 
 /// Bytes of one flash sector of the bank region (sectors 10 and 11 of the F405).
 pub const SECTOR_LEN: usize = 128 * 1024;
@@ -250,17 +248,15 @@ fn image_crc(head: &[u8], body: &[u8]) -> u32 {
     d.finalize()
 }
 
-/// The boot's check of a region, and the firmware's layout check of every slot:
+/// The boot's check of a region (its format, every CRC, the layout's geometry hash):
 /// the number of slots, or why the image is refused.
 pub fn check(region: &[u8]) -> Result<u8, LinkError> {
-    let bank: Bank<'_> =
-        check_bank(region).map_err(|e| LinkError::BadBank { blinks: e.blinks() })?;
-    for (slot, s) in bank.stimuli().enumerate() {
-        if s.check_layout(LAYOUT_ID).is_err() {
-            return Err(LinkError::WrongLayout { slot: slot as u8 });
-        }
+    match check_bank(region) {
+        Ok(bank) => Ok(bank.len() as u8),
+        // A bank holds one layout: every slot was compiled for the other one.
+        Err(BootError::OtherLayout(_)) => Err(LinkError::WrongLayout { slot: 0 }),
+        Err(e) => Err(LinkError::BadBank { blinks: e.blinks() }),
     }
-    Ok(bank.len() as u8)
 }
 
 /// CRC-32 of a whole bank image (as [`touch_protocol::link::Command::BankBegin`]
@@ -463,18 +459,18 @@ mod tests {
     }
 
     #[test]
-    fn a_slot_for_another_layout_is_refused_at_commit() {
+    fn a_bank_for_another_layout_is_refused_at_commit() {
         let good = constant_stimulus("good", 300, 200);
         let s = touch_protocol::Stimulus::decode(&good).unwrap();
         let mut h = *s.header();
-        h.layout_id = LAYOUT_ID.wrapping_add(1);
+        h.layout_hash = crate::output::LAYOUT_HASH.wrapping_add(1);
         let frames: Vec<_> = s.keyframes().collect();
         let other = touch_protocol::stimulus::encode(h, &frames).unwrap();
-        let image = bank(&[good, other]);
+        let image = bank(&[other.clone(), other]);
         let mut f = FlashModel::with(&[]);
         assert_eq!(
             upload(&mut f, &image, 100),
-            Err(LinkError::WrongLayout { slot: 1 })
+            Err(LinkError::WrongLayout { slot: 0 })
         );
         assert!(f.region().iter().all(|&b| b == 0xFF));
     }

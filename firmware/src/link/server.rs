@@ -13,8 +13,8 @@ use touch_protocol::link::{
 use touch_protocol::Bank;
 
 use super::bank::{BankWriter, Flash};
-use super::port::{Answer, Control, LinkPort, Snapshot};
-use crate::output::{device_config, LAYOUT_ID};
+use super::port::{Answer, Control, LinkPort, Snapshot, TickReply};
+use crate::output::{device_config, LAYOUT_HASH};
 
 /// What the device says about itself in `Info`.
 #[derive(Debug, Clone, Copy)]
@@ -83,7 +83,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
 
     /// Bytes from the wire; every frame they complete is answered through `out`
     /// (whole encoded frames, ready to send).
-    pub fn receive(&mut self, bytes: &[u8], out: &mut impl FnMut(&[u8])) {
+    pub fn receive(&mut self, bytes: &[u8], out: &mut dyn FnMut(&[u8])) {
         for &b in bytes {
             // The frame is copied out: the request borrows it while the reply borrows
             // the server.
@@ -107,7 +107,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         }
     }
 
-    fn handle_frame(&mut self, frame: &[u8], out: &mut impl FnMut(&[u8])) {
+    fn handle_frame(&mut self, frame: &[u8], out: &mut dyn FnMut(&[u8])) {
         match link::decode::<Request>(frame) {
             Ok(r) => self.handle(r, out),
             Err(e) => self.emit(&Message::Unreadable(e), out),
@@ -115,13 +115,14 @@ impl<'a, F: Flash> LinkServer<'a, F> {
     }
 
     /// Answers one request.
-    pub fn handle(&mut self, r: Request<'_>, out: &mut impl FnMut(&[u8])) {
+    #[inline(never)]
+    pub fn handle(&mut self, r: Request<'_>, out: &mut dyn FnMut(&[u8])) {
         let seq = r.seq;
         let refuse = |s: &mut Self, e, out: &mut dyn FnMut(&[u8])| {
-            s.emit_dyn(&Message::Refused { seq, error: e }, out)
+            s.emit(&Message::Refused { seq, error: e }, out)
         };
         let reply = |s: &mut Self, reply, out: &mut dyn FnMut(&[u8])| {
-            s.emit_dyn(&Message::Reply { seq, reply }, out)
+            s.emit(&Message::Reply { seq, reply }, out)
         };
         match r.command {
             Command::Hello { version } if version == link::VERSION => reply(
@@ -248,7 +249,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
     }
 
     /// Forwards a command to the tick (refused while an upload owns the bank).
-    fn forward(&mut self, seq: u16, c: Control, out: &mut impl FnMut(&[u8])) {
+    fn forward(&mut self, seq: u16, c: Control, out: &mut dyn FnMut(&[u8])) {
         let starts = matches!(c, Control::Play { .. } | Control::StreamBegin { .. });
         let error = if starts && (self.locked || self.begin.is_some()) {
             Some(LinkError::Busy(Busy::Uploading))
@@ -302,19 +303,21 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             name: s.name(),
             duration_ms: s.duration_ms(),
             playback_ms: s.header().playback_ms(),
-            playable: s.check_layout(LAYOUT_ID).is_ok(),
+            playable: s.check_layout(LAYOUT_HASH).is_ok(),
         })
     }
 
     /// Forwards what the tick answered, and does an upload's erase once the tick has
     /// locked the bank.
-    pub fn poll(&mut self, out: &mut impl FnMut(&[u8])) {
+    #[inline(never)]
+    pub fn poll(&mut self, out: &mut dyn FnMut(&[u8])) {
         while let Some(a) = self.port.receive() {
             match a {
                 Answer::Reply(seq, reply) => {
-                    if matches!(reply, Reply::StreamBegin { .. }) {
+                    if matches!(reply, TickReply::StreamBegin { .. }) {
                         self.stream_next = Some(0);
                     }
+                    let reply = reply.into();
                     self.emit(&Message::Reply { seq, reply }, out);
                 }
                 Answer::Refused(seq, error) => {
@@ -323,7 +326,10 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                     }
                     self.emit(&Message::Refused { seq, error }, out);
                 }
-                Answer::Status(seq, snap) => {
+                Answer::Status(seq) => {
+                    let Some(snap) = self.port.snapshot() else {
+                        continue;
+                    };
                     let status = self.status(&snap);
                     self.emit(
                         &Message::Reply {
@@ -355,7 +361,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         }
     }
 
-    fn erase_and_reply(&mut self, out: &mut impl FnMut(&[u8])) {
+    fn erase_and_reply(&mut self, out: &mut dyn FnMut(&[u8])) {
         let Some((seq, len, crc)) = self.begin.take() else {
             return;
         };
@@ -389,19 +395,15 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         }
     }
 
-    fn emit(&mut self, m: &Message<'_>, out: &mut impl FnMut(&[u8])) {
+    fn emit(&mut self, m: &Message<'_>, out: &mut dyn FnMut(&[u8])) {
         encode_into(m, &mut self.tx, out);
-    }
-
-    fn emit_dyn(&mut self, m: &Message<'_>, out: &mut dyn FnMut(&[u8])) {
-        encode_into(m, &mut self.tx, &mut |b: &[u8]| out(b));
     }
 }
 
 /// Encodes and hands out one frame. Every message the server builds fits
 /// [`MAX_ENCODED`] (pinned by the protocol's tests), so an error is not expected; if
 /// one came, the host would see no answer and time out, never a wrong one.
-fn encode_into(m: &Message<'_>, tx: &mut [u8; MAX_ENCODED], out: &mut impl FnMut(&[u8])) {
+fn encode_into(m: &Message<'_>, tx: &mut [u8; MAX_ENCODED], out: &mut dyn FnMut(&[u8])) {
     if let Ok(n) = link::encode(m, tx) {
         out(&tx[..n]);
     }
@@ -419,7 +421,7 @@ fn budget_permille(heat_ma2ms: u64, limits: &touch_protocol::Limits) -> u16 {
 pub const FIRMWARE_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// The layout this firmware drives, by name.
-pub const LAYOUT_NAME: &str = "paper-2x4";
+pub const LAYOUT_NAME: &str = touch_protocol::layout::SLEEVE_NAME;
 
 /// The boot's view of the bank for `Info`: which bank plays (or why none), and the
 /// bank itself. `source` is what [`crate::boot::bank_source`] chose, `builtin` the
@@ -447,7 +449,7 @@ pub fn identity<'a>(
     Identity {
         firmware: FIRMWARE_VERSION,
         layout: LAYOUT_NAME,
-        layout_hash: u32::from(LAYOUT_ID),
+        layout_hash: LAYOUT_HASH,
         bank,
         slots: checked.ok(),
     }

@@ -150,6 +150,13 @@ fn hello_info_and_slots() {
         })
     );
     assert_eq!(info.limits, device_config().limits);
+    assert_eq!(
+        (info.layout, info.layout_hash),
+        (
+            touch_protocol::layout::SLEEVE_NAME,
+            touch_protocol::layout::SLEEVE_HASH
+        )
+    );
     assert_eq!(info.max_chunk as usize, link::MAX_CHUNK);
     let f = h.call(Command::Slot { slot: 1 }).unwrap();
     let Reply::Slot(s) = reply(&f) else { panic!() };
@@ -487,6 +494,24 @@ fn uploads_wait_for_rest_and_lock_the_bank() {
 }
 
 #[test]
+fn a_bank_for_another_layout_is_refused_at_commit_and_never_boots() {
+    let s = constant_stimulus("mirrored", 200, 100);
+    let d = Stimulus::decode(&s).unwrap();
+    let mut h = *d.header();
+    h.layout_hash = touch_protocol::layout::SLEEVE_HASH.rotate_left(8);
+    let frames: Vec<_> = d.keyframes().collect();
+    let other = bank(&[touch_protocol::stimulus::encode(h, &frames).unwrap()]);
+    let mut h = host();
+    assert_eq!(
+        upload(&mut h, &other, 64),
+        Err(LinkError::WrongLayout { slot: 0 })
+    );
+    h.dev.restart();
+    let f = h.call(Command::Info).unwrap();
+    assert!(matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))));
+}
+
+#[test]
 fn a_bad_crc_commit_is_refused_and_a_new_upload_can_follow() {
     let mut h = host();
     let new = two_slots();
@@ -631,7 +656,8 @@ fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
         ramp_ms: 20,
         full_scale_ma: 1000,
         quant_shift: 0,
-        layout_id: 1,
+        layout_hash: 1,
+        layout: "test",
         limits: Limits::SLEEVE,
         name: "s",
     };
@@ -747,4 +773,52 @@ fn stream_rules() {
     h.run(200);
     assert_eq!(*h.dev.outputs().last().unwrap(), IDLE_FRAME);
     assert!(h.call(Command::Play { slot: 0 }).is_ok());
+}
+
+/// The tick's side alone: a stream begun, then fed one keyframe per period, plays
+/// on without an underrun when the host keeps two keyframes ahead (the live player
+/// needs the keyframe after next at each boundary), and stops when only one.
+#[test]
+fn a_stream_fed_ahead_plays_on() {
+    use super::{Answer, Channels, Control};
+    use crate::control::Controller;
+    let image = two_slots();
+    let run = |ahead: usize| {
+        let bank = touch_protocol::Bank::decode(&image).unwrap();
+        let mut c = Controller::new(bank, device_config());
+        let channels: &'static mut Channels = Box::leak(Box::new(Channels::new()));
+        let (mut port, tick) = channels.split();
+        c.attach(tick);
+        let mut events = Vec::new();
+        port.send(Control::StreamBegin {
+            seq: 1,
+            params: stream_params(),
+        })
+        .unwrap();
+        c.next_frame();
+        for t in 1..2000u32 {
+            if t % 20 == 1 {
+                let v = (((t / 20) % 20) as i16).min(10) * 2000;
+                let n = if t == 1 { 1 + ahead } else { 1 };
+                for _ in 0..n {
+                    port.push_keyframe([v; 8]).unwrap();
+                }
+                port.fed();
+            }
+            c.next_frame();
+            while let Some(a) = port.receive() {
+                if let Answer::Event(_, e) = a {
+                    events.push(e);
+                }
+            }
+        }
+        (c.streaming(), events)
+    };
+    let (on, events) = run(2);
+    assert!(on, "{events:?}");
+    let (on, events) = run(1);
+    assert!(
+        !on && events.contains(&Event::StreamStopped(StreamStop::Underrun)),
+        "{events:?}"
+    );
 }

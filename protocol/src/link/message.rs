@@ -236,7 +236,8 @@ pub enum BankState {
     Builtin(BankSummary),
     /// The bank in the region was refused; nothing plays. `blinks` is its LED code.
     Refused {
-        /// The LED blink code (2 empty, 3 not a bank, 4 CRC, 5 malformed).
+        /// The LED blink code (2 empty, 3 not a bank, 4 CRC, 5 malformed, 6 another
+        /// layout).
         blinks: u8,
     },
 }
@@ -458,9 +459,10 @@ pub enum LinkError {
         /// Computed over the bytes received.
         computed: u32,
     },
-    /// A slot of the image was compiled for another layout; the region is erased.
+    /// The image was compiled for another layout (its geometry hash is not the
+    /// firmware's); the region is erased.
     WrongLayout {
-        /// The slot.
+        /// The first slot compiled for another layout (a bank holds one layout: 0).
         slot: u8,
     },
     /// The image is not a valid bank; the region is erased. `blinks` is the LED code

@@ -35,6 +35,7 @@
 
 pub mod cobs;
 mod message;
+mod ser;
 
 pub use message::{
     BankState, BankSummary, Busy, Command, Event, FaultRecord, Gesture, Info, Limit, LinkError,
@@ -116,9 +117,7 @@ impl core::error::Error for FrameError {}
 /// returns its length. `out` needs [`MAX_ENCODED`] bytes for any message.
 pub fn encode<T: Serialize>(message: &T, out: &mut [u8]) -> Result<usize, FrameError> {
     let mut raw = [0u8; MAX_FRAME];
-    let n = postcard::to_slice(message, &mut raw[..MAX_MESSAGE])
-        .map_err(|_| FrameError::TooLong)?
-        .len();
+    let n = ser::to_slice(message, &mut raw[..MAX_MESSAGE]).map_err(|_| FrameError::TooLong)?;
     let crc = crate::container::crc32(&raw[..n]);
     raw[n..n + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
     let stuffed = cobs::encode(&raw[..n + CRC_LEN], out)?;
