@@ -19,7 +19,6 @@ from unicorn import (
     UC_ARCH_ARM,
     UC_HOOK_CODE,
     UC_HOOK_INTR,
-    UC_HOOK_MEM_READ,
     UC_HOOK_MEM_WRITE,
     UC_MODE_MCLASS,
     UC_MODE_THUMB,
@@ -605,9 +604,11 @@ class Flash:
     its datasheet time (`timing` "typ" or "max"); a program is one write of PSIZE's
     width at an aligned address, busy for 16 or 100 us, and only clears bits (a
     write over data that is not erased is counted in `dirty_writes`). While BSY,
-    every read of flash stalls the CPU, instruction fetches and vector reads
-    included (the board stops executing from flash until the operation ends); the
-    timers and the IWDG keep counting. A reset during an erase leaves the part of
+    an instruction fetch or a vector read from flash stalls the CPU until the
+    operation ends (checked at the end of each quantum, so code in flash may run
+    up to a quantum past the start of an erase); the timers and the IWDG keep counting. Code
+    in RAM runs on; its data reads of flash are not stalled. A RAM loop that only
+    polls FLASH_SR (and reloads the watchdog) is skipped to the operation's end. A reset during an erase leaves the part of
     the sector already erased at 0xFF and the rest as it was."""
 
     ACR, KEYR, OPTKEYR, SR, CR, OPTCR = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x14
@@ -713,13 +714,14 @@ class Flash:
         if self.op and self.op[0] == "erase":
             _, snb, start, old = self.op
             addr, size = SECTORS[snb]
-            done = size * (t - start) // max(1, self.busy_until - start) & ~3
+            done = min(size, max(0, size * (t - start) // max(1, self.busy_until - start))) & ~3
             self.board.uc.mem_write(addr + done, old[done:])
         self.busy_until, self.op = None, None
 
     def program(self, addr, size, value, old):
-        """A CPU write of `size` bytes at `addr` in flash (the write itself already
-        landed in memory: this sets the memory to what the chip would hold)."""
+        """A CPU write of `size` bytes at `addr` in flash, over `old`: sets the flags
+        and returns what the cells hold after it (the board writes that over the
+        store once the quantum ends)."""
         b = self.board
         width = 1 << self.psize()
         ok = True
@@ -738,7 +740,6 @@ class Flash:
         new = old & value & mask if ok else old
         if ok and value & mask & ~old:
             b.dirty_writes.append((b.t, addr, old, value & mask))
-        b.uc.mem_write(addr, new.to_bytes(size, "little"))
         if ok:
             start = max(b.t, self.busy_until or 0)
             self.busy_until = start + round(PROGRAM_S[self.timing] * T_HZ)
@@ -747,6 +748,7 @@ class Flash:
             b.flash_busy_changed()
         elif self.cr & self.ERRIE:
             self.sr |= self.OPERR
+        return new
 
 
 class Iwdg:
@@ -967,7 +969,7 @@ class Nvic:
             if v >> 16 == 0x05FA:
                 self.prigroup = v >> 8 & 7
                 if v & 4:
-                    b.reset("SYSRESETREQ")
+                    b.request_reset("SYSRESETREQ")
         elif off == 0xF00:
             self.pending |= 1 << (16 + (v & 0x1FF))
         else:
@@ -996,9 +998,10 @@ class Board:
         self.erases = []  # (start, end, sector) of every sector erase
         self.programs = 0  # flash writes programmed
         self.dirty_writes = []  # (t, addr, old, value): programs over bits not erased
-        self.tick_instructions = None  # a list: instructions per TIM7 handler, when counted
+        self.tick_instructions = None  # [(t, instructions)] per TIM7 handler, when counted
+        self.counting = False
         self._count_hook = None
-        self._flash_hooks = []
+        self._polls = None  # (reads, fed) of a wait on a busy flash
         self._flash_writes = []
         # The host's end of each USART: the wire outlives the chip's resets.
         self.usarts = {
@@ -1076,34 +1079,55 @@ class Board:
         uc.emu_stop()
 
     def _flash_write(self, uc, _access, addr, size, value, _):
-        """A CPU store into flash: stop after the instruction, and let the flash
-        interface decide what the cells hold (`Flash.program`)."""
+        """A CPU store into flash: once the quantum ends, the flash interface
+        decides what the cells hold (`Flash.program`). (Not stopped here: unicorn
+        would run the store again.)"""
         old = int.from_bytes(uc.mem_read(addr, size), "little")
-        self._flash_writes.append((addr, size, value, old))
-        self.stop = ("flash",)
-        uc.emu_stop()
-
-    def _flash_access(self, uc, *args):
-        """A fetch or read of flash while it is busy: the CPU stalls there."""
-        self.stop = ("flash",)
-        uc.emu_stop()
+        self._flash_writes.append((addr, self.flash.program(addr, size, value, old).to_bytes(size, "little")))
 
     def flash_busy_changed(self):
-        """Watches flash accesses from code running outside flash while it is busy."""
-        busy = self.flash.busy_until is not None
-        if busy and not self._flash_hooks:
-            end = FLASH_BASE + FLASH_SIZE - 1
-            self._flash_hooks = [self.uc.hook_add(UC_HOOK_CODE, self._flash_access, None, FLASH_BASE, end),
-                                 self.uc.hook_add(UC_HOOK_MEM_READ, self._flash_access, None, FLASH_BASE, end)]
-        elif not busy and self._flash_hooks:
-            for h in self._flash_hooks:
-                self.uc.hook_del(h)
-            self._flash_hooks = []
+        """A flash operation started or ended. (The quantum is not cut short here:
+        stopping inside a bus access makes unicorn run that instruction again.)"""
+
+    def _poll(self, kind):
+        """Watches for a wait on a busy flash: FLASH_SR read again and again with
+        nothing but watchdog reloads between (`kind` is "sr", "feed" or anything
+        else). Such a loop, in RAM, would spin for the whole erase; the board skips
+        to its end instead, reloading the watchdog as the loop did (or not). (A
+        loop that also counts its rounds to give up early is not told apart.)"""
+        if kind == "sr" and self.flash.busy():
+            n, fed = self._polls if self._polls else (0, False)
+            self._polls = (n + 1, fed)
+            if n + 1 >= 32:
+                self.stop = ("flash-wait", fed)
+                self.uc.emu_stop()
+        elif kind == "feed" and self._polls:
+            self._polls = (self._polls[0], True)
+        else:
+            self._polls = None
+
+    def _skip_flash_wait(self, end, fed):
+        """Runs the clock to the end of the flash operation (or `end`, or an
+        interrupt that would preempt the loop), reloading the watchdog every
+        millisecond if the loop did."""
+        target = min(self.flash.busy_until or self.t, end)
+        self._polls = None
+        while self.t < target:
+            if fed:
+                self.iwdg.write(0x00, 0xAAAA)
+            if self._advance_to(min(target, self.t + T_HZ // 1000)):
+                return True
+            if self._next_exception() is not None:
+                break
+        return False
 
     def count_tick_instructions(self, on=True):
-        """From now on, records the instructions each TIM7 handler executes (its
-        own and anything nested in it) in `tick_instructions`."""
-        self.tick_instructions = [] if on else None
+        """From now on (until called with `on` false), appends (time, instructions)
+        of each TIM7 handler (its own and anything nested in it) to
+        `tick_instructions`."""
+        self.counting = on
+        if on and self.tick_instructions is None:
+            self.tick_instructions = []
 
     def _count(self, uc, address, size, _):
         self._icount += 1
@@ -1112,7 +1136,6 @@ class Board:
         self.rcc = Rcc(self, self.csr_flags)
         self.pwr = Pwr()
         self.flash = Flash(self, self.flash_timing)
-        self.flash_busy_changed()
         for u in self.usarts.values():
             u.reset()
         self.timers = {}
@@ -1141,6 +1164,13 @@ class Board:
         uc.reg_write(A.UC_ARM_REG_SP, self.read32(FLASH_BASE))
         uc.reg_write(A.UC_ARM_REG_LR, 0xFFFF_FFFF)
         self.pc = self.read32(FLASH_BASE + 4) & ~1
+
+    def request_reset(self, cause):
+        """A reset asked for by the running code: it takes effect once the CPU has
+        stopped (a reset from inside a bus access would be undone by the rest of
+        the quantum)."""
+        self.stop = ("reset", cause)
+        self.uc.emu_stop()
 
     def reset(self, cause):
         """A system reset: peripherals and core to their reset state, RAM kept."""
@@ -1194,11 +1224,13 @@ class Board:
 
     def _pread(self, uc, off, size, _):
         p, o = self._periph(0x4000_0000 + off)
+        self._poll("sr" if p is self.flash and o & ~3 == Flash.SR else "other")
         v = p.read(o & ~3) >> (8 * (o & 3))
         return v & ((1 << (8 * size)) - 1)
 
     def _pwrite(self, uc, off, size, value, _):
         p, o = self._periph(0x4000_0000 + off)
+        self._poll("feed" if p is self.iwdg and o == 0 and value & 0xFFFF == 0xAAAA else "other")
         if size != 4:
             shift = 8 * (o & 3)
             mask = ((1 << (8 * size)) - 1) << shift
@@ -1314,7 +1346,7 @@ class Board:
         self.sleeping = None
         self.event_reg = True
         self.taken.append((self.t, n))
-        if n == 16 + IRQ["TIM7"] and self.tick_instructions is not None and self._count_hook is None:
+        if n == 16 + IRQ["TIM7"] and self.counting and self._count_hook is None:
             self._icount = 0
             self._count_hook = uc.hook_add(UC_HOOK_CODE, self._count)
 
@@ -1448,8 +1480,11 @@ class Board:
         stop = self.stop
         executed = count if stop is None and error is None else max(1, count // 2)
         writes, self._flash_writes = self._flash_writes, []
-        for w in writes:
-            self.flash.program(*w)
+        for addr, cells in writes:
+            uc.mem_write(addr, cells)
+        if stop and stop[0] == "reset":
+            self.reset(stop[1])
+            return
         if stop and stop[0] in ("wfe", "wfi"):
             self.pc = stop[1] + 2
             if stop[0] == "wfe" and self.event_reg:
@@ -1458,8 +1493,14 @@ class Board:
                 self.sleeping = stop[0]
         elif pc >= 0xFFFF_FF00:
             self._exit(pc | 1)
-        elif stop and stop[0] in ("flash",):
+        elif stop and stop[0] == "flash":
             self.pc = pc
+        elif stop and stop[0] == "flash-wait":
+            self.pc = pc
+            if self._advance_to(min(end, self.t + executed * units)):
+                return
+            self._skip_flash_wait(end, stop[1])
+            return
         elif stop and stop[0] == "fault":
             self.pc = pc
             self._enter(HARDFAULT)

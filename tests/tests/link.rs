@@ -9,7 +9,7 @@ use std::io;
 use std::time::Duration;
 
 use sleeve_firmware::link::sim::Device;
-use sleeve_firmware::output::{device_config, Frame, IDLE_FRAME, LAYOUT_ID};
+use sleeve_firmware::output::{device_config, Frame, IDLE_FRAME, LAYOUT_HASH};
 use touch_protocol::link::{
     self, BankState, Command, Event, LinkError, Message, Request, Source, StreamStop,
 };
@@ -132,7 +132,8 @@ fn flat(name: &str, level: i16, ms: u32, limits: Limits) -> Vec<u8> {
         ramp_ms: 40,
         full_scale_ma: 1000,
         quant_shift: 0,
-        layout_id: LAYOUT_ID,
+        layout_hash: LAYOUT_HASH,
+        layout: touch_protocol::layout::SLEEVE_NAME,
         limits,
         name,
     };

@@ -19,15 +19,16 @@ use touchc::link::{Client, ClientError, Progress, Stamped};
 
 use super::{escaped, usage};
 
-/// The sleeve's USB vendor and product id (pid.codes' test pair): how `list` tells
-/// the sleeve's own socket from a USB-serial adapter.
+/// The USB vendor and product id a sleeve's own USB socket would present (pid.codes'
+/// test pair): such a port is listed first. The firmware's link is on its USART, so
+/// in practice every port is a USB-serial adapter.
 pub const USB_IDS: (u16, u16) = (0x1209, 0x0001);
 
 /// What `--help` says after the subcommands.
 const AFTER_HELP: &str = "\
-Port: --port PATH, else the only USB serial port attached (the sleeve's own socket
-first). A USB-serial adapter on the sleeve's USART (PA2 TX, PA3 RX, 460800 8N1) is
-listed too: name it with --port when there are several.
+Port: --port PATH, else the only USB serial port attached: a USB-serial adapter on
+the sleeve's USART2 (PA2 TX, PA3 RX, 460800 8N1). Name it with --port when there
+are several.
 
 Exit status: 0 success, 1 no sleeve attached or the sleeve refused or failed, 2 usage.";
 
@@ -44,7 +45,7 @@ pub struct Args {
 
 #[derive(Debug, clap::Subcommand)]
 enum Cmd {
-    /// List the serial ports a sleeve may be on (the sleeve's own USB socket first).
+    /// List the USB serial ports a sleeve may be on.
     List {
         /// Ask each port for the sleeve's info (sends a few bytes to every port).
         #[arg(long)]
@@ -438,6 +439,22 @@ fn upload(port: Option<&Path>, files: &[PathBuf], layout: Option<&Path>) -> anyh
     let image = image_of(files, layout)?;
     let Link { port, mut client } = connect(port)?;
     let info = client.info().map_err(|e| describe(e, &port, "info"))?;
+    // Checked here, before the sleeve erases its bank for an image it would refuse.
+    let bank = touch_protocol::Bank::decode(&image).context("the bank does not decode")?;
+    for (slot, s) in bank.stimuli().enumerate() {
+        let name = if let [one] = files {
+            one.display().to_string()
+        } else {
+            files
+                .get(slot)
+                .map_or_else(|| format!("slot {slot}"), |f| f.display().to_string())
+        };
+        same_layout(
+            &s,
+            &info,
+            &format!("{name}: slot {slot} ({})", escaped(s.name())),
+        )?;
+    }
     if image.len() as u64 > u64::from(info.bank_capacity) {
         bail!(
             "the bank is {} bytes, the sleeve's bank region {} bytes",
@@ -467,6 +484,26 @@ fn upload(port: Option<&Path>, files: &[PathBuf], layout: Option<&Path>) -> anyh
         image.len(),
         slots
     );
+    Ok(())
+}
+
+/// Refuses a stimulus compiled for another layout than the sleeve's, naming both.
+fn same_layout(
+    s: &Stimulus<'_>,
+    info: &touchc::link::DeviceInfo,
+    what: &str,
+) -> anyhow::Result<()> {
+    let h = s.header();
+    if h.layout_hash != info.layout_hash {
+        bail!(
+            "{what} was compiled for layout \"{}\" (geometry {:#010x}), but the sleeve drives \"{}\" \
+             (geometry {:#010x}); compile it with the sleeve's layout. Nothing was sent",
+            escaped(h.layout),
+            h.layout_hash,
+            escaped(&info.layout),
+            info.layout_hash
+        );
+    }
     Ok(())
 }
 
@@ -549,6 +586,8 @@ fn stream(port: Option<&Path>, file: &Path) -> anyhow::Result<()> {
     let stimulus = Stimulus::decode(&bytes)
         .with_context(|| format!("{}: not a valid stimulus", super::input_name(file)))?;
     let Link { port, mut client } = connect(port)?;
+    let info = client.info().map_err(|e| describe(e, &port, "info"))?;
+    same_layout(&stimulus, &info, &super::input_name(file))?;
     let bar = bar(u64::from(stimulus.header().keyframe_count), "keyframes");
     let r = client
         .stream(&stimulus, |p: Progress| bar.set_position(p.done))
