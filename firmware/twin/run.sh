@@ -22,11 +22,11 @@ elf="${TWIN_ELF:-$root/target/thumbv7em-none-eabihf/firmware/sleeve-firmware}"
 if [ ! -f "$elf" ]; then
     (cd "$root/firmware" && cargo build --profile firmware --locked)
 fi
-cd "$here"
 if [ "${1:-}" = serve ]; then
     shift
-    exec "$venv/bin/python" twin.py "$elf" "$@"
+    exec "$venv/bin/python" "$here/twin.py" "$elf" "$@"
 fi
+cd "$here"
 # The host player's codes, from the protocol crate built for this machine; touchc for
 # the README's study script.
 (cd "$root" && cargo build --quiet --locked -p sleeve-firmware --example twin_codes &&
