@@ -1046,6 +1046,49 @@ class LinkTwin(unittest.TestCase):
         self.assertFalse([m for _, m in self.host.messages if m["kind"] == "unreadable"])
 
 
+class PlayLatency(unittest.TestCase):
+    """A play frame whose last byte lands anywhere in the 1 kHz period: the tick
+    writes the slot's first frame within 2 ms, and the carrier takes it up at its
+    next period."""
+
+    def test_every_phase_of_the_tick(self):
+        if not has_link():
+            self.skipTest("this ELF has no USART link (no USART2 handler)")
+        b = boot(EMOJI)
+        h = Host(b)
+        b.run(0.3)
+        # Slot 0 begins at rest: enough of it to hold its first steps away from 0 A.
+        want = expected(EMOJI, 0)[0][:300]
+        self.assertNotEqual(set(want), {IDLE})
+        t3 = b.timers["TIM3"]
+        carrier = (t3.arr_a + 1) * t3.unit()
+        wire = len(link.play(1, 0)) * round(10 * twin.T_HZ / h.u.host_baud)
+        written, active = [], []
+        for k in range(20):
+            # The frame's last byte k/20 of a period after a tick.
+            tick = b.frames[-1][0]
+            at = tick + 2 * MS + k * MS // 20 - wire
+            h.pump((at - b.t) / twin.T_HZ)
+            h.seq += 1
+            end = h.u.send(link.play(h.seq, 0))
+            h.pump(0.31)
+            frames = codes(b)
+            i = first_frame_after(b, end / twin.T_HZ)
+            o = find(frames, want, i, i + 5)
+            self.assertIsNotNone(o, f"phase {k}: slot 0 not on the outputs")
+            w = b.frames[o][0]  # the handler that wrote the first frame returned
+            on = t3.started_at + -(-(w - t3.started_at) // carrier) * carrier
+            written.append((w - end) / MS)
+            active.append((on - end) / MS)
+            h.ok(link.stop)
+            h.pump(0.1)
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nplay frame's last byte to the first frame written: {min(written):.3f}-{max(written):.3f} ms, "
+                  f"active at the carrier: {min(active):.3f}-{max(active):.3f} ms")
+        self.assertLessEqual(max(written), 2.0, written)
+        self.assertLessEqual(max(active), 2.0 + carrier / MS, active)
+
+
 class LinkStream(unittest.TestCase):
     """A stream that the host abandons ramps to 0 A; one that it stops, too."""
 
