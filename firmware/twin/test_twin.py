@@ -1166,34 +1166,58 @@ class StudyScript(unittest.TestCase):
         subprocess.run(["bash", "-n", str(script)], check=True)
         self.assertLessEqual(len(study_script().splitlines()), 12, "a short script")
 
-    def test_a_randomised_list_plays_and_logs_every_trial(self):
+    def serving(self, board):
+        """Serves `board` on a pseudo-terminal in a thread; returns (its path, stop)."""
         if not has_link():
             self.skipTest("this ELF has no USART link (no USART2 handler)")
         if not TOUCHC.exists():
             self.skipTest(f"{TOUCHC} not built (run.sh builds it)")
         SCRATCH.mkdir(parents=True, exist_ok=True)
-        script, log, port = SCRATCH / "study.sh", SCRATCH / "study.jsonl", SCRATCH / "sleeve-pty"
+        port = SCRATCH / "sleeve-pty"
+        stop = threading.Event()
+        server = threading.Thread(target=twin.serve, args=(board, str(port)), kwargs={"stop": stop})
+        server.start()
+        self.addCleanup(server.join)
+        self.addCleanup(stop.set)
+        deadline = time.monotonic() + 10
+        while not port.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return port
+
+    def touchc(self, *args):
+        return subprocess.run([str(TOUCHC), "sleeve", *args], capture_output=True, text=True, timeout=60)
+
+    def test_a_randomised_list_plays_and_logs_every_trial(self):
+        b = boot(EMOJI)
+        port = self.serving(b)
+        script, log = SCRATCH / "study.sh", SCRATCH / "study.jsonl"
         script.write_text(study_script())
         log.unlink(missing_ok=True)
-        b = boot(EMOJI)
-        stop = threading.Event()
-        server = threading.Thread(target=twin.serve, args=(b, str(port)), kwargs={"stop": stop})
-        server.start()
-        try:
-            deadline = time.monotonic() + 10
-            while not port.exists() and time.monotonic() < deadline:
-                time.sleep(0.01)
-            env = dict(os.environ, PATH=f"{TOUCHC.parent}:{os.environ['PATH']}", REPS="1", GAP="0.3")
-            subprocess.run(["bash", str(script), str(port), str(log)], check=True, env=env, timeout=120)
-        finally:
-            stop.set()
-            server.join()
+        env = dict(os.environ, PATH=f"{TOUCHC.parent}:{os.environ['PATH']}", REPS="1", GAP="0.3")
+        subprocess.run(["bash", str(script), str(port), str(log)], check=True, env=env, timeout=120)
         trials = [json.loads(line) for line in log.read_text().splitlines()]
         self.assertEqual(sorted(t["slot"] for t in trials), list(range(6)), trials)
         ticks = [t["tick"] for t in trials]
         self.assertEqual(ticks, sorted(ticks), "in the order played")
         self.assertEqual(len(set(ticks)), len(ticks))
         self.assertEqual(b.resets, [])
+
+    def test_touchc_uploads_stimuli_and_the_sleeve_plays_the_new_bank(self):
+        b = boot(EMOJI)
+        port = self.serving(b)
+        emoji = ROOT / "examples/emoji"
+        up = self.touchc("--port", str(port), "upload", str(emoji / "love.touch"), str(emoji / "sadness.touch"))
+        self.assertEqual(up.returncode, 0, up.stderr)
+        self.assertIn("uploaded and verified", up.stderr)
+        info = self.touchc("--port", str(port), "info", "--json")
+        self.assertEqual(info.returncode, 0, info.stderr)
+        got = json.loads(info.stdout)
+        self.assertEqual([s["name"] for s in got["slots"]], ["love", "sadness"])
+        self.assertEqual(got["bank"]["state"], "flashed")
+        bad = self.touchc("--port", str(port), "play", "5")
+        self.assertEqual(bad.returncode, 1)
+        self.assertIn("slot 5 does not exist: the sleeve's bank has 2 slots (0-1)", bad.stderr)
+        self.assertEqual([c for _, c in b.resets], ["SYSRESETREQ"])
 
 
 if __name__ == "__main__":

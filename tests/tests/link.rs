@@ -448,6 +448,28 @@ fn a_commit_with_a_bad_crc_is_refused_and_nothing_plays_from_the_region() {
 }
 
 #[test]
+fn an_abandoned_upload_leaves_the_region_erased_and_the_builtin_bank_playing() {
+    let old = hot_bank(30_000_000);
+    let mut c = sleeve(&old);
+    let begin = raw(&mut c, 50, Command::BankBegin { len: 1000, crc: 0 });
+    assert!(matches!(begin, Message::Reply { seq: 50, .. }), "{begin:?}");
+    // Nothing plays while an upload holds the region.
+    assert!(matches!(c.play(0), Err(ClientError::Refused { .. })));
+    c.abort_upload().unwrap();
+    c.reconnect().unwrap();
+    assert!(matches!(c.info().unwrap().bank, BankState::Builtin(_)));
+    assert!(dev(&mut c).dev.region().iter().all(|&b| b == 0xFF));
+    // An abort without an upload is refused.
+    match c.abort_upload() {
+        Err(ClientError::Refused {
+            error: LinkError::NoUpload,
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
 fn malformed_and_truncated_frames_are_answered_and_the_link_recovers() {
     let mut c = sleeve(EMOJI);
     // Garbage that is not COBS, a frame with a damaged CRC, a frame cut short
