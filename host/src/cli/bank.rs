@@ -27,11 +27,21 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut inputs: Vec<_> = args
+            .stimuli
+            .iter()
+            .map(|p| named("the stimulus", p))
+            .collect();
+        inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
+        refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
+    }
     let (image, slots) = build(&args.stimuli, args.layout.as_deref(), &args.output)?;
     write_atomic(&args.output, &image)?;
     eprintln!(
         "touchc: wrote {} ({} slots, {} of {} bytes of the bank region)",
-        args.output.display(),
+        super::escaped(&crate::cli::output::shown(&args.output)),
         slots,
         image.len(),
         bank::REGION_LEN
@@ -50,12 +60,12 @@ pub(crate) fn build(
     let layout = super::layout(layout)?;
     let target = layout.geometry_hash();
     if stimuli.len() > usize::from(bank::MAX_SLOTS) {
-        bail!(
+        return Err(super::usage(format!(
             "{}: {} stimuli, but a bank holds at most {} slots",
             bank_name.display(),
             stimuli.len(),
             bank::MAX_SLOTS
-        );
+        )));
     }
     let files = stimuli
         .iter()

@@ -277,35 +277,27 @@ impl ser::SerializeMap for &mut Out<'_> {
     }
 }
 
-impl ser::SerializeStruct for &mut Out<'_> {
-    type Ok = ();
-    type Error = Full;
-    fn serialize_field<T: Serialize + ?Sized>(
-        &mut self,
-        _: &'static str,
-        value: &T,
-    ) -> Result<(), Full> {
-        value.serialize(&mut **self)
-    }
-    fn end(self) -> Result<(), Full> {
-        Ok(())
-    }
+/// The struct forms: their fields' values, in order, without the names.
+macro_rules! fields {
+    ($($trait:ident),*) => {$(
+        impl ser::$trait for &mut Out<'_> {
+            type Ok = ();
+            type Error = Full;
+            fn serialize_field<T: Serialize + ?Sized>(
+                &mut self,
+                _: &'static str,
+                value: &T,
+            ) -> Result<(), Full> {
+                value.serialize(&mut **self)
+            }
+            fn end(self) -> Result<(), Full> {
+                Ok(())
+            }
+        }
+    )*};
 }
 
-impl ser::SerializeStructVariant for &mut Out<'_> {
-    type Ok = ();
-    type Error = Full;
-    fn serialize_field<T: Serialize + ?Sized>(
-        &mut self,
-        _: &'static str,
-        value: &T,
-    ) -> Result<(), Full> {
-        value.serialize(&mut **self)
-    }
-    fn end(self) -> Result<(), Full> {
-        Ok(())
-    }
-}
+fields!(SerializeStruct, SerializeStructVariant);
 
 #[cfg(test)]
 mod tests {
