@@ -119,9 +119,13 @@ fn at(frames: &[Frame], want: &[Frame], from: usize) -> Option<usize> {
         .find(|&o| frames[o..o + want.len()] == *want)
 }
 
-/// A stimulus at `level` (Q15 of 1 A) on every channel for `ms`, with `limits`.
+/// A stimulus at `level` (Q15 of 1 A) on every channel for `ms`, with `limits`,
+/// keyframes every 100 ms.
 fn flat(name: &str, level: i16, ms: u32, limits: Limits) -> Vec<u8> {
-    let period = 100u16;
+    flat_every(name, level, ms, limits, 100)
+}
+
+fn flat_every(name: &str, level: i16, ms: u32, limits: Limits, period: u16) -> Vec<u8> {
     let frames = vec![[level; CHANNELS]; (ms / u32::from(period)) as usize + 1];
     let header = stimulus::Header {
         channels: CHANNELS as u8,
@@ -593,6 +597,30 @@ fn a_stream_plays_through_and_ends() {
     let frames = dev(&mut c).dev.outputs();
     assert!(frames.iter().any(|f| f[3] > IDLE_FRAME[3] + 500));
     assert_eq!(*frames.last().unwrap(), IDLE_FRAME);
+}
+
+#[test]
+fn a_stream_longer_than_the_devices_buffer_is_paced_by_its_room() {
+    // 10 ms keyframes for 2 s: far more than the device buffers at once.
+    let s = flat_every("long", 9830, 2000, Limits::SLEEVE, 10);
+    let stim = Stimulus::decode(&s).unwrap();
+    let total = u64::from(stim.header().keyframe_count);
+    let mut c = sleeve(EMOJI);
+    let mut acked = Vec::new();
+    c.stream(&stim, |p| acked.push(p.done)).unwrap();
+    assert_eq!(acked.last(), Some(&total));
+    let mut stopped = None;
+    while let Some(e) = c.next_event(Duration::from_millis(3000)).unwrap() {
+        match e.event {
+            Event::StreamStopped(r) => stopped = Some(r),
+            Event::Finished(Source::Stream) => break,
+            _ => {}
+        }
+    }
+    assert_eq!(stopped, Some(StreamStop::Ended), "never starved, never cut");
+    let frames = dev(&mut c).dev.outputs();
+    let on = frames.iter().filter(|f| f[0] > IDLE_FRAME[0] + 400).count();
+    assert!(on >= 1900, "{on} ms at 0.3 A");
 }
 
 #[test]
