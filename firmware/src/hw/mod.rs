@@ -71,6 +71,47 @@ pub async fn run(spawner: Spawner) -> ! {
     }
     let checked = check_bank(source);
     dog.feed();
+    let mut tick = start(spawner, source, checked, outputs, dog, tim7, uart);
+    // Let the button tasks post what happened while the bank was checked.
+    Timer::after_millis(1).await;
+    let mut at_boot = heapless::Vec::<Report, BUTTONS>::new();
+    for event in boot_events(board::BUTTON_MODE, &tick::EDGES) {
+        if let Some(report) = tick.engine().inject(event) {
+            let _ = at_boot.push(report);
+        }
+    }
+    tick.start();
+    if let Err(e) = checked {
+        blink_forever(&mut led, e).await
+    }
+    info!("ready: press to play slot 0, hold to select the next");
+    // What presses during boot did, shown like any other report (the tick runs, so
+    // the watchdog is fed while an LED pattern plays).
+    for report in at_boot {
+        info!("press during boot:");
+        show(report, &mut led).await;
+    }
+
+    loop {
+        show(tick::REPORTS.receive().await, &mut led).await;
+    }
+}
+
+/// Builds playback and starts the link: the controller over the checked bank, the
+/// engine in its place for the tick (not started), the link's server in its task.
+/// Not async, and not inlined into `run`: the engine and the server are built and
+/// moved out here, so they take no room in `run`'s future (a static the size of
+/// everything it holds across an await).
+#[inline(never)]
+fn start(
+    spawner: Spawner,
+    source: &'static [u8],
+    checked: Result<touch_protocol::Bank<'static>, BootError>,
+    outputs: outputs::Outputs,
+    mut dog: tick::Iwdg,
+    tim7: embassy_stm32::Peri<'static, embassy_stm32::peripherals::TIM7>,
+    uart: link::Uart,
+) -> tick::Tick {
     // A refused bank still boots the tick (every output at 0 A, nothing to play) and
     // the link, so that a computer can read why and upload a good bank.
     let mut controller = match checked {
@@ -90,7 +131,7 @@ pub async fn run(spawner: Spawner) -> ! {
     // The link's queues, split once: one end to the tick's controller, one to the
     // server's task.
     static mut CHANNELS: Channels = Channels::new();
-    // SAFETY: `run` runs once, so the queues are borrowed once, for good.
+    // SAFETY: `start` runs once (from `run`), so the queues are borrowed once, for good.
     let channels = unsafe { &mut *core::ptr::addr_of_mut!(CHANNELS) };
     let (link_port, tick_port) = channels.split();
     controller.attach(tick_port);
@@ -100,36 +141,15 @@ pub async fn run(spawner: Spawner) -> ! {
         identity(source, EMOJI_BANK, checked),
     );
     dog.tighten();
-    let mut engine = Engine::new(
+    let engine = Engine::new(
         outputs,
         dog,
         Buttons::<BUTTONS>::new(board::BUTTON_MODE),
         controller,
     );
-    // Let the button tasks post what happened while the bank was checked.
-    Timer::after_millis(1).await;
-    let mut at_boot = heapless::Vec::<Report, BUTTONS>::new();
-    for event in boot_events(board::BUTTON_MODE, &tick::EDGES) {
-        if let Some(report) = engine.inject(event) {
-            let _ = at_boot.push(report);
-        }
-    }
-    tick::start(engine, tim7);
+    let tick = tick::install(engine, tim7);
     spawner.spawn(defmt::unwrap!(link::serve(uart, server)));
-    if let Err(e) = checked {
-        blink_forever(&mut led, e).await
-    }
-    info!("ready: press to play slot 0, hold to select the next");
-    // What presses during boot did, shown like any other report (the tick runs, so
-    // the watchdog is fed while an LED pattern plays).
-    for report in at_boot {
-        info!("press during boot:");
-        show(report, &mut led).await;
-    }
-
-    loop {
-        show(tick::REPORTS.receive().await, &mut led).await;
-    }
+    tick
 }
 
 /// Logs a report and shows it on the LED (on while a slot plays). Every report goes

@@ -1,8 +1,8 @@
 //! The 1 kHz tick: TIM7's update interrupt steps the [`Engine`].
 
-use core::cell::RefCell;
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
 
-use critical_section::Mutex;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
 use embassy_stm32::peripherals::{IWDG, TIM7};
 use embassy_stm32::wdg::IndependentWatchdog;
@@ -63,8 +63,10 @@ impl Watchdog for Iwdg {
 /// The engine as the firmware runs it.
 pub type SleeveEngine = Engine<'static, Outputs, Iwdg, BUTTONS>;
 
-/// Owned by the tick interrupt once started.
-static ENGINE: Mutex<RefCell<Option<SleeveEngine>>> = Mutex::new(RefCell::new(None));
+/// Written once by [`start`] before TIM7's interrupt is enabled, then owned by the
+/// handler. Uninitialised rather than an `Option`: a `None` of this type is not all
+/// zeros, so it would sit in `.data` and copy its 2.7 KB image from flash.
+static mut ENGINE: MaybeUninit<SleeveEngine> = MaybeUninit::uninit();
 
 /// Button edges, from the EXTI tasks to the tick.
 pub static EDGES: [EdgeMailbox; BUTTONS] = [const { EdgeMailbox::new() }; BUTTONS];
@@ -72,37 +74,61 @@ pub static EDGES: [EdgeMailbox; BUTTONS] = [const { EdgeMailbox::new() }; BUTTON
 /// What the tick reports, for the log task. Full means dropped, never blocked.
 pub static REPORTS: Channel<CriticalSectionRawMutex, Report, 16> = Channel::new();
 
-/// Hands the engine to the tick interrupt and starts TIM7 at 1 kHz.
-pub fn start(engine: SleeveEngine, _tim7: Peri<'static, TIM7>) {
-    critical_section::with(|cs| ENGINE.borrow(cs).replace(Some(engine)));
-    embassy_stm32::rcc::enable_and_reset::<TIM7>();
-    let t = pac::TIM7;
-    // 84 MHz / 84 = 1 MHz; 1000 counts = 1 ms.
-    t.psc().write_value(83);
-    t.arr().write(|w| w.set_arr(999));
-    t.egr().write(|w| w.set_ug(true));
-    t.sr().write(|w| w.set_uif(false));
-    t.dier().modify(|w| w.set_uie(true));
-    // The highest priority: nothing preempts the frame write at the start of the tick.
-    interrupt::TIM7.set_priority(Priority::P0);
-    // SAFETY: the handler below only touches ENGINE (behind a critical section), the
-    // mailboxes and the report channel, all of which are ready.
-    unsafe { interrupt::TIM7.enable() };
-    t.cr1().modify(|w| w.set_cen(true));
+/// The engine in its place for the tick, before the tick runs.
+pub struct Tick {
+    engine: &'static mut SleeveEngine,
+    _tim7: Peri<'static, TIM7>,
+}
+
+/// Puts the engine where the tick interrupt will own it (it is not moved again).
+pub fn install(engine: SleeveEngine, tim7: Peri<'static, TIM7>) -> Tick {
+    // SAFETY: `install` runs once (it takes the TIM7 singleton), and the interrupt
+    // that reads ENGINE is enabled only by `Tick::start`, which gives up this borrow.
+    let engine = unsafe { (*addr_of_mut!(ENGINE)).write(engine) };
+    Tick {
+        engine,
+        _tim7: tim7,
+    }
+}
+
+impl Tick {
+    /// The engine, until the tick starts.
+    pub fn engine(&mut self) -> &mut SleeveEngine {
+        self.engine
+    }
+
+    /// Hands the engine to the tick interrupt and starts TIM7 at 1 kHz.
+    pub fn start(self) {
+        embassy_stm32::rcc::enable_and_reset::<TIM7>();
+        let t = pac::TIM7;
+        // 84 MHz / 84 = 1 MHz; 1000 counts = 1 ms.
+        t.psc().write_value(83);
+        t.arr().write(|w| w.set_arr(999));
+        t.egr().write(|w| w.set_ug(true));
+        t.sr().write(|w| w.set_uif(false));
+        t.dier().modify(|w| w.set_uie(true));
+        // The highest priority: nothing preempts the frame write at the start of the tick.
+        interrupt::TIM7.set_priority(Priority::P0);
+        // SAFETY: the handler below only touches ENGINE (written by `install`, its
+        // borrow given up with `self`), the mailboxes and the report channel, all of
+        // which are ready.
+        unsafe { interrupt::TIM7.enable() };
+        t.cr1().modify(|w| w.set_cen(true));
+    }
 }
 
 #[interrupt]
 fn TIM7() {
     pac::TIM7.sr().write(|w| w.set_uif(false));
-    critical_section::with(|cs| {
-        if let Some(engine) = ENGINE.borrow(cs).borrow_mut().as_mut() {
-            let edges = core::array::from_fn(|i| EDGES[i].take());
-            engine.tick(edges, |report| {
-                let _ = REPORTS.try_send(report);
-            });
-            if engine.controller().link_answered() {
-                super::link::wake();
-            }
-        }
+    // SAFETY: this interrupt is enabled only after `install` wrote ENGINE, and from
+    // then on only this handler touches it. At the highest priority nothing preempts
+    // it to run it again (an interrupt does not preempt one of its own priority).
+    let engine = unsafe { (*addr_of_mut!(ENGINE)).assume_init_mut() };
+    let edges = core::array::from_fn(|i| EDGES[i].take());
+    engine.tick(edges, |report| {
+        let _ = REPORTS.try_send(report);
     });
+    if engine.controller().link_answered() {
+        super::link::wake();
+    }
 }
