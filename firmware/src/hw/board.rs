@@ -124,6 +124,9 @@ pub struct Board {
     pub tick: embassy_stm32::Peri<'static, embassy_stm32::peripherals::TIM7>,
     /// The link's USART, interrupt driven, below the tick's priority.
     pub link: super::link::Uart,
+    /// The link's USB socket (started once VBUS comes, see `usb.rs`).
+    #[cfg(feature = "usb")]
+    pub usb: super::usb::Usb,
 }
 
 /// Takes the board's pins. The outputs come first and start at 0 A.
@@ -155,6 +158,13 @@ pub fn take(p: Peripherals) -> Board {
         iwdg: p.IWDG,
         tick: p.TIM7,
         link: super::link::Uart::new(p.USART2, p.PA2, p.PA3),
+        #[cfg(feature = "usb")]
+        usb: super::usb::Usb {
+            otg: p.USB_OTG_FS,
+            dm: p.PA11,
+            dp: p.PA12,
+            vbus: p.PA9,
+        },
     }
 }
 

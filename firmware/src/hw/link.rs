@@ -1,11 +1,14 @@
-//! The link over USART2 (PA2 TX, PA3 RX, 460,800 baud 8N1): the server in a task.
+//! The link's server in a task, over USART2 (PA2 TX, PA3 RX, 460,800 baud 8N1) and,
+//! with the feature `usb`, the USB socket (`usb.rs`): the same frames on both.
 //!
-//! The USART's interrupt, below the tick's priority, moves bytes between the data
-//! register and two lock-free rings; the task wakes when a byte arrived or the tick
-//! queued an answer (each signals it), hands the received bytes to the server, lets
-//! it forward the tick's answers, and queues the frames for the interrupt to send. Nothing here runs in the tick, which only takes
-//! a command from a lock-free queue. The registers are driven directly: the USART's
-//! data register, its status flags and two interrupt enables are all the link uses.
+//! Each transport moves bytes between its wire and two lock-free rings (a [`Port`]):
+//! the USART's interrupt, below the tick's priority, and the USB task. The task here
+//! wakes when a byte arrived or the tick queued an answer (each signals it), hands
+//! the received bytes to the one server, lets it forward the tick's answers, and
+//! queues the frames on the transport they answer. Nothing here runs in the tick,
+//! which only takes a command from a lock-free queue. The USART's registers are
+//! driven directly: its data register, its status flags and two interrupt enables
+//! are all the link uses.
 
 use core::ptr::addr_of_mut;
 
@@ -20,6 +23,8 @@ use heapless::spsc::{Consumer, Producer, Queue};
 use sleeve_firmware::link::LinkServer;
 
 use super::flash::BankFlash;
+#[cfg(feature = "usb")]
+use super::usb;
 
 /// Baud rate of the link's USART.
 pub const BAUD: u32 = 460_800;
@@ -31,15 +36,19 @@ const PCLK1_HZ: u32 = 42_000_000;
 /// into the built-in bank rather than stay locked.
 const UPLOAD_IDLE: Duration = Duration::from_secs(30);
 
+/// A frame begun on one transport and silent this long gives way to the other's.
+const FRAME_IDLE: Duration = Duration::from_millis(100);
+
 /// Bytes received and not yet taken by the task (0.5 ms at 460,800 baud is 23).
-const RX_LEN: usize = 257;
+pub const RX_LEN: usize = 257;
 /// Bytes waiting to be sent: two frames of the largest size, and events.
-const TX_LEN: usize = 3 * touch_protocol::link::MAX_ENCODED;
+pub const TX_LEN: usize = 3 * touch_protocol::link::MAX_ENCODED;
 
 /// Wakes the link's task: a byte arrived, or the tick has answers.
 static WAKE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
-/// Wakes the link's task (from the tick, when it queued answers).
+/// Wakes the link's task (from the tick, when it queued answers, and from a
+/// transport, when bytes arrived).
 pub fn wake() {
     WAKE.signal(());
 }
@@ -49,10 +58,34 @@ static mut TX: Queue<u8, TX_LEN> = Queue::new();
 /// The interrupt's ends of the rings, set once before the interrupt is enabled.
 static mut ISR_ENDS: Option<(Producer<'static, u8, RX_LEN>, Consumer<'static, u8, TX_LEN>)> = None;
 
-/// The task's ends of the rings and the pins (kept so nothing else takes them).
+/// The task's end of one transport: the bytes it received, the frames to send, and
+/// how to tell its sender that some wait.
+pub struct Port {
+    /// Bytes from the wire.
+    pub rx: Consumer<'static, u8, RX_LEN>,
+    /// Frames to the wire.
+    pub tx: Producer<'static, u8, TX_LEN>,
+    /// Called after a frame was queued on `tx`.
+    pub kick: fn(),
+}
+
+impl Port {
+    /// Queues a frame to send, whole or not at all (a frame that does not fit is
+    /// dropped: the host times out and asks again, it never sees a wrong frame).
+    fn send(&mut self, frame: &[u8]) {
+        if self.tx.capacity() - self.tx.len() >= frame.len() {
+            for &b in frame {
+                // SAFETY: room was checked above.
+                unsafe { self.tx.enqueue_unchecked(b) };
+            }
+            (self.kick)();
+        }
+    }
+}
+
+/// USART2's end of the link and its pins (kept so nothing else takes them).
 pub struct Uart {
-    rx: Consumer<'static, u8, RX_LEN>,
-    tx: Producer<'static, u8, TX_LEN>,
+    port: Port,
     _pins: (Flex<'static>, Flex<'static>),
 }
 
@@ -90,22 +123,13 @@ impl Uart {
         // SAFETY: the handler below only touches its ring ends, set just above.
         unsafe { interrupt::USART2.enable() };
         Uart {
-            rx: rx_end,
-            tx: tx_end,
+            port: Port {
+                rx: rx_end,
+                tx: tx_end,
+                kick: || pac::USART2.cr1().modify(|w| w.set_txeie(true)),
+            },
             _pins: (tx_pin, rx_pin),
         }
-    }
-}
-
-/// Queues a frame to send, whole or not at all (a frame that does not fit is
-/// dropped: the host times out and asks again, it never sees a wrong frame).
-fn send(tx: &mut Producer<'static, u8, TX_LEN>, frame: &[u8]) {
-    if tx.capacity() - tx.len() >= frame.len() {
-        for &b in frame {
-            // SAFETY: room was checked above.
-            unsafe { tx.enqueue_unchecked(b) };
-        }
-        pac::USART2.cr1().modify(|w| w.set_txeie(true));
     }
 }
 
@@ -132,35 +156,95 @@ fn USART2() {
     }
 }
 
-/// Serves the link until a restart.
+/// The link's transports: USART2, and the USB socket when built in (feature `usb`).
+pub struct Transports {
+    /// USART2.
+    pub uart: Uart,
+    /// The USB socket.
+    #[cfg(feature = "usb")]
+    pub usb: usb::Link,
+}
+
+/// Serves the link on every transport until a restart. The server's frame decoder
+/// holds one transport's frame at a time: the other's bytes wait in its ring until
+/// that frame ends (or its transport falls silent mid-frame, [`FRAME_IDLE`]). A
+/// request is answered on the transport it came from; the tick's answers and events
+/// go to the transport that last sent a frame.
 #[embassy_executor::task]
-pub async fn serve(mut uart: Uart, mut server: LinkServer<'static, BankFlash>) {
+pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankFlash>) {
+    let Transports {
+        uart: Uart { port: uart, _pins },
+        #[cfg(feature = "usb")]
+        usb,
+    } = transports;
+    let mut ports = [
+        uart,
+        #[cfg(feature = "usb")]
+        usb.port,
+    ];
+    // The transport whose frame the decoder holds, and when it last sent a byte.
+    let mut owner: Option<usize> = None;
+    let mut owner_heard = Instant::now();
+    // The transport that gets the tick's answers and events.
+    let mut last = 0;
     let mut heard = Instant::now();
     let mut batch = [0u8; RX_LEN];
     loop {
         // Woken by a byte or an answer; once a second anyway, for the upload timeout.
         let _ = with_timeout(Duration::from_secs(1), WAKE.wait()).await;
-        let mut n = 0;
-        while n < batch.len() {
-            match uart.rx.dequeue() {
-                Some(b) => batch[n] = b,
-                None => break,
+        for (i, port) in ports.iter_mut().enumerate() {
+            if owner.is_some_and(|o| o != i) {
+                continue;
             }
-            n += 1;
-        }
-        if n > 0 {
+            // Up to the end of a frame: the next frame may be the other transport's.
+            let mut n = 0;
+            while n < batch.len() {
+                match port.rx.dequeue() {
+                    Some(b) => batch[n] = b,
+                    None => break,
+                }
+                n += 1;
+                if batch[n - 1] == 0 {
+                    break;
+                }
+            }
+            if n == 0 {
+                continue;
+            }
             heard = Instant::now();
+            owner_heard = heard;
+            owner = (batch[n - 1] != 0).then_some(i);
+            last = i;
+            server.receive(&batch[..n], &mut |f: &[u8]| port.send(f));
+            if port.rx.len() > 0 {
+                // More than a batch, or a frame after this one: come back after a yield.
+                WAKE.signal(());
+            }
         }
-        let Uart { rx: _, tx, .. } = &mut uart;
-        let mut out = |f: &[u8]| {
-            send(tx, f);
-        };
-        server.receive(&batch[..n], &mut out);
-        server.poll(&mut out);
+        if let Some(o) = owner {
+            let waiting = ports
+                .iter()
+                .enumerate()
+                .any(|(i, p)| i != o && p.rx.len() > 0);
+            if waiting && owner_heard.elapsed() > FRAME_IDLE {
+                // The half frame ends here (answered as unreadable on its transport),
+                // and the decoder is free for the other one.
+                let port = &mut ports[o];
+                server.receive(&[0], &mut |f: &[u8]| port.send(f));
+                owner = None;
+                WAKE.signal(());
+            }
+        }
+        let port = &mut ports[last];
+        server.poll(&mut |f: &[u8]| port.send(f));
         let abandoned = server.locked() && heard.elapsed() > UPLOAD_IDLE;
         if server.restart_requested() || abandoned {
-            // Let the last reply leave: the ring empties at 46 bytes per ms.
-            while uart.tx.len() > 0 {
+            // Let the last reply leave: the USART's ring empties at 46 bytes per ms;
+            // the USB one as the host reads, if it does (not waited for past 100 ms).
+            let since = Instant::now();
+            while ports.iter().any(|p| p.tx.len() > 0)
+                && since.elapsed() < Duration::from_millis(100)
+            {
                 Timer::after_millis(1).await;
             }
             Timer::after_millis(20).await;

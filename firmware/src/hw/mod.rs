@@ -5,6 +5,8 @@ pub mod flash;
 pub mod link;
 pub mod outputs;
 pub mod tick;
+#[cfg(feature = "usb")]
+pub mod usb;
 
 use defmt::{error, info, warn};
 use embassy_executor::Spawner;
@@ -53,6 +55,8 @@ pub async fn run(spawner: Spawner) -> ! {
         iwdg,
         tick: tim7,
         link: uart,
+        #[cfg(feature = "usb")]
+            usb: usb_parts,
     } = board::take(p);
     info!("sleeve: outputs at 0 A");
     // The buttons next: their tasks arm EXTI at their first poll (the yield), so a
@@ -71,7 +75,16 @@ pub async fn run(spawner: Spawner) -> ! {
     }
     let checked = check_bank(source);
     dog.feed();
-    let mut tick = start(spawner, source, checked, outputs, dog, tim7, uart);
+    #[cfg(feature = "usb")]
+    let (usb_link, usb_wire) = usb::split();
+    let transports = link::Transports {
+        uart,
+        #[cfg(feature = "usb")]
+        usb: usb_link,
+    };
+    let mut tick = start(spawner, source, checked, outputs, dog, tim7, transports);
+    #[cfg(feature = "usb")]
+    spawner.spawn(defmt::unwrap!(usb::run(usb_parts, usb_wire)));
     // Let the button tasks post what happened while the bank was checked.
     Timer::after_millis(1).await;
     let mut at_boot = heapless::Vec::<Report, BUTTONS>::new();
@@ -110,7 +123,7 @@ fn start(
     outputs: outputs::Outputs,
     mut dog: tick::Iwdg,
     tim7: embassy_stm32::Peri<'static, embassy_stm32::peripherals::TIM7>,
-    uart: link::Uart,
+    transports: link::Transports,
 ) -> tick::Tick {
     // A refused bank still boots the tick (every output at 0 A, nothing to play) and
     // the link, so that a computer can read why and upload a good bank.
@@ -148,7 +161,7 @@ fn start(
         controller,
     );
     let tick = tick::install(engine, tim7);
-    spawner.spawn(defmt::unwrap!(link::serve(uart, server)));
+    spawner.spawn(defmt::unwrap!(link::serve(transports, server)));
     tick
 }
 
