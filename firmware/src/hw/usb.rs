@@ -4,10 +4,11 @@
 //!
 //! A task here moves bytes between the USB endpoints and a [`Port`]'s two rings, as
 //! USART2's interrupt does for its own. It starts the USB core only once VBUS is on
-//! PA9: the core's soft reset, the first thing the driver does, spins until the
-//! core reports its AHB master idle, which a board without the core powered (or an
-//! emulator without it modelled) never does, and that spin would stop every task on
-//! the executor. After that, the driver follows VBUS itself (plug and unplug).
+//! PA9: before that no host listens, and the driver's first act, the core's soft
+//! reset, spins until the core reports its AHB master idle. A core that never does
+//! (the twin does not model OTG FS: the access stops the emulation) would stop every
+//! task on the executor there. After the start the driver follows VBUS itself (plug
+//! and unplug).
 
 use core::ptr::addr_of_mut;
 
