@@ -30,6 +30,7 @@ mod extremes;
 mod flow;
 mod knobs;
 mod placement_oracle;
+mod playback;
 mod placement_reference;
 mod poisoned;
 mod recording;
