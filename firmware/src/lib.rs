@@ -7,6 +7,7 @@
 //! - [`engine`]: the 1 kHz tick: write the frame computed last tick, then compute
 //!   the next one.
 //! - [`output`]: codes -> timer compare values; the compiled hard limits.
+//! - [`led`]: what the status LED shows, as patterns a person tells apart.
 //!
 //! The binary (`src/main.rs`, target only) wires these to TIM3/TIM4/DAC, TIM7,
 //! EXTI and the watchdog.
@@ -17,6 +18,7 @@ pub mod boot;
 pub mod button;
 pub mod control;
 pub mod engine;
+pub mod led;
 pub mod output;
 
 #[cfg(test)]
