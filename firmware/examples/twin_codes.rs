@@ -18,7 +18,7 @@
 use std::io::Write;
 use std::process::ExitCode;
 
-use sleeve_firmware::output::{device_config, FULL_SCALE_MA, LAYOUT_ID};
+use sleeve_firmware::output::{device_config, FULL_SCALE_MA, LAYOUT_HASH};
 use touch_protocol::player::Status;
 use touch_protocol::stimulus::OUTPUT_RATE_HZ;
 use touch_protocol::{bank, stimulus, Bank, Limits, Player, CHANNELS};
@@ -100,7 +100,8 @@ fn hot(budget_ma2s: u32, out: &str) -> Result<(), String> {
             ramp_ms: 40,
             full_scale_ma: FULL_SCALE_MA,
             quant_shift: 0,
-            layout_id: LAYOUT_ID,
+            layout_hash: LAYOUT_HASH,
+            layout: touch_protocol::layout::SLEEVE_NAME,
             limits,
             name,
         };

@@ -75,7 +75,8 @@ fn encode(
         ramp_ms: 50,
         full_scale_ma,
         quant_shift: 4,
-        layout_id: touch_protocol::SLEEVE_LAYOUT_ID,
+        layout_hash: touch_protocol::layout::SLEEVE_HASH,
+        layout: touch_protocol::layout::SLEEVE_NAME,
         limits,
         name,
     };

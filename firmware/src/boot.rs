@@ -15,17 +15,21 @@ pub enum BootError {
     Corrupt(Error),
     /// The bank decodes but a stimulus in it is malformed.
     Invalid(Error),
+    /// The bank was compiled for another actuator layout geometry
+    /// ([`Error::WrongLayout`]): its channels would play in the wrong places.
+    OtherLayout(Error),
 }
 
 impl BootError {
     /// LED blink count after the long light: 2 empty, 3 not a bank / wrong version,
-    /// 4 CRC, 5 malformed.
+    /// 4 CRC, 5 malformed, 6 another layout.
     pub fn blinks(&self) -> u8 {
         match self {
             BootError::Empty => 2,
             BootError::NotABank(_) => 3,
             BootError::Corrupt(_) => 4,
             BootError::Invalid(_) => 5,
+            BootError::OtherLayout(_) => 6,
         }
     }
 }
@@ -59,7 +63,10 @@ pub fn check_bank(region: &[u8]) -> Result<Bank<'_>, BootError> {
         return Err(BootError::Empty);
     }
     match Bank::decode(region) {
-        Ok(bank) if !bank.is_empty() => Ok(bank),
+        Ok(bank) if !bank.is_empty() => bank
+            .check_layout(crate::output::LAYOUT_HASH)
+            .map(|()| bank)
+            .map_err(BootError::OtherLayout),
         Ok(_) => Err(BootError::Empty),
         Err(e @ (Error::BadMagic { .. } | Error::UnsupportedVersion { .. })) => {
             Err(BootError::NotABank(e))
@@ -91,6 +98,23 @@ mod tests {
         ]);
         let region = region_with(&image);
         assert_eq!(check_bank(&region).unwrap().len(), 2);
+    }
+
+    #[test]
+    fn a_bank_for_another_layout_geometry_is_refused_at_boot() {
+        let s = constant_stimulus("mirrored", 200, 100);
+        let d = touch_protocol::Stimulus::decode(&s).unwrap();
+        let mut h = *d.header();
+        // Same name as the sleeve's layout, other geometry: refused on the hash.
+        h.layout_hash = crate::output::LAYOUT_HASH.rotate_left(8);
+        let frames: std::vec::Vec<_> = d.keyframes().collect();
+        let image = bank(&[touch_protocol::stimulus::encode(h, &frames).unwrap()]);
+        let e = check_bank(&region_with(&image)).unwrap_err();
+        assert!(
+            matches!(e, BootError::OtherLayout(Error::WrongLayout { .. })),
+            "{e:?}"
+        );
+        assert_eq!(e.blinks(), 6);
     }
 
     #[test]
@@ -183,7 +207,7 @@ mod tests {
         payload.extend_from_slice(postcard::to_slice(&MAX_KEYFRAMES, &mut buf).unwrap());
         let file = container::seal(stimulus::MAGIC, stimulus::VERSION, &payload).unwrap();
         let image = bank(&[file.clone(), file.clone(), file.clone(), file]);
-        assert!(image.len() < 300, "{} bytes", image.len());
+        assert!(image.len() < 360, "{} bytes", image.len());
         let region = region_with(&image);
         let b = check_bank(&region).unwrap();
         assert_eq!(b.slot(3).unwrap().duration_ms(), MAX_KEYFRAMES - 1);

@@ -286,6 +286,17 @@ mod tests {
         assert!(matches!(e, BootError::NotABank(_)), "{e:?}");
         assert!(seen.starts_with("-...|-...|"), "{seen}");
 
+        // 6: a bank compiled for another layout geometry.
+        let one = constant_stimulus("mirrored", 200, 100);
+        let d = touch_protocol::Stimulus::decode(&one).unwrap();
+        let mut h = *d.header();
+        h.layout_hash = crate::output::LAYOUT_HASH ^ 1;
+        let frames: Vec<_> = d.keyframes().collect();
+        let other = bank(&[touch_protocol::stimulus::encode(h, &frames).unwrap()]);
+        let (e, seen) = refused_bank_reads(&other);
+        assert!(matches!(e, BootError::OtherLayout(_)), "{e:?}");
+        assert!(seen.starts_with("-......|-......|"), "{seen}");
+
         // 2: a bank with no slot is its own code; the erased region plays the
         // built-in bank instead and shows no code at all.
         let seen = read(&timeline(Led::refused(BootError::Empty, 0), 0, 12_000, &[]));
@@ -335,6 +346,10 @@ mod tests {
             }),
             BootError::Corrupt(Error::BadLength(0)),
             BootError::Invalid(Error::KeyframeOutOfRange),
+            BootError::OtherLayout(Error::WrongLayout {
+                found: 1,
+                expected: 2,
+            }),
         ] {
             note(std::format!("bank refused: {e:?}"), &[], Led::refused(e, 0));
         }
@@ -343,7 +358,7 @@ mod tests {
         assert_eq!(&blinks[..3], [".", "..", "..."]);
         assert_eq!(blinks[6], "~".repeat(FLICKERS));
         assert_eq!(blinks[7], "-.-");
-        assert_eq!(blinks[12], "*");
+        assert_eq!(blinks[13], "*");
     }
 
     /// Pressing play lights the LED at once, even in the middle of a selection's

@@ -16,8 +16,9 @@ pub const PWM_PERIOD: u32 = 4096;
 /// Current at codes 0 and 4095: the LM675T stage has a gain of 1 A/V.
 pub const FULL_SCALE_MA: u16 = 1000;
 
-/// The actuator layout this firmware drives: a slot compiled for another is refused.
-pub const LAYOUT_ID: u16 = touch_protocol::SLEEVE_LAYOUT_ID;
+/// Geometry hash of the actuator layout this firmware drives: a bank compiled for
+/// another is refused at boot, and a slot for another never plays.
+pub const LAYOUT_HASH: u32 = touch_protocol::layout::SLEEVE_HASH;
 
 /// Limits compiled into the firmware: the sleeve's, as the protocol crate defines them
 /// (one source for the host's checks and the device's). The stimulus carries its own;

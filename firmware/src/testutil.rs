@@ -21,7 +21,8 @@ pub fn stimulus_from(
         ramp_ms: RAMP_MS,
         full_scale_ma: 1000,
         quant_shift: 0,
-        layout_id: touch_protocol::SLEEVE_LAYOUT_ID,
+        layout_hash: touch_protocol::layout::SLEEVE_HASH,
+        layout: touch_protocol::layout::SLEEVE_NAME,
         limits,
         name,
     };
@@ -65,8 +66,8 @@ pub fn dense_bank(limit: usize) -> Vec<u8> {
             .collect()
     };
     // About two bytes a keyframe; shrink by the excess until the bank (the stimulus
-    // plus 24 bytes of framing and index) fits.
-    let room = limit - 24;
+    // plus 28 bytes of framing, layout hash and index) fits.
+    let room = limit - 28;
     let mut n = room / 2;
     loop {
         let one = stimulus_from("dense", 1, &frames(n), Limits::SLEEVE);

@@ -8,7 +8,7 @@ use std::hint::black_box;
 mod common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use touchc::compile::{compile, layout_tag, CompileOptions};
+use touchc::compile::{compile, CompileOptions};
 use touchc::config::{Config, Preset};
 use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::input::recording::Recording;
@@ -136,7 +136,8 @@ fn bench(c: &mut Criterion) {
     let layout = Layout::paper();
     let fields = HeaderFields {
         name: "bench",
-        layout_id: layout_tag(&layout),
+        layout_hash: layout.geometry_hash(),
+        layout: layout.id(),
         limits: opts.limits,
     };
     c.bench_function("stage/keyframes", |b| {

@@ -28,12 +28,11 @@ mod common;
 
 use ndarray::Array3;
 use touch_protocol::{Limits, CHANNELS};
-use touchc::compile::{compile, layout_tag, stimulus_name, CompileOptions};
+use touchc::compile::{compile, stimulus_name, CompileOptions};
 use touchc::config::{Config, MetadataOverrides, Preset};
 use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::input::recording::Recording;
 use touchc::input::synth::{self, Gesture, Sensor, SynthSpec};
-use touchc::placement::layout::Layout;
 
 /// One recording: its name, its frames and the sensor's rate and pitch when they are
 /// not the paper's (a synthetic 10 x 10 grid).
@@ -165,7 +164,8 @@ fn encode_kept(dir: &Path) -> anyhow::Result<()> {
         });
         let fields = HeaderFields {
             name: stimulus_name("touch"),
-            layout_id: layout_tag(&Layout::paper()),
+            layout_hash: touch_protocol::layout::SLEEVE_HASH,
+            layout: touch_protocol::layout::SLEEVE_NAME,
             limits: Limits::SLEEVE,
         };
         let start = common::cpu_seconds();

@@ -190,12 +190,6 @@ pub fn stimulus_name(name: &str) -> &str {
     &name[..end]
 }
 
-/// The 16-bit layout tag written into stimuli: the low half of the CRC-32 of the
-/// layout's id, so a firmware can tell which layout a file was compiled for.
-pub fn layout_tag(layout: &Layout) -> u16 {
-    touch_protocol::layout_id(layout.id())
-}
-
 struct Clock {
     seconds: BTreeMap<&'static str, f64>,
     start: Instant,
@@ -515,7 +509,8 @@ fn finish(
     let name = stimulus_name(&opts.name);
     let fields = HeaderFields {
         name,
-        layout_id: layout_tag(&opts.layout),
+        layout_hash: opts.layout.geometry_hash(),
+        layout: opts.layout.id(),
         limits: opts.limits,
     };
     let options = KeyframeOptions::new(&opts.config.keyframes);

@@ -4,13 +4,16 @@
 //!
 //! ```text
 //! count: u16 LE                       number of slots, 1..=MAX_SLOTS
+//! layout_hash: u32 LE                  geometry hash of the layout every slot was
+//!                                      compiled for (see crate::layout)
 //! index: count x (offset u32 LE, length u32 LE)
 //!                                     each slot's stimulus, offset from the bank's first byte
 //! stimuli                             complete stimulus files, back to back, in slot order
 //! ```
 //!
 //! The fixed-width index makes a slot lookup O(1) and copy-free. Decoding checks
-//! every stimulus, so a bank that decodes plays without further checks.
+//! every stimulus, and that each was compiled for the bank's layout, so a bank that
+//! decodes plays without further checks once its layout is the sleeve's.
 
 use crate::container::{self, PREFIX_LEN};
 use crate::{Error, Stimulus};
@@ -18,7 +21,7 @@ use crate::{Error, Stimulus};
 /// Magic of a bank image.
 pub const MAGIC: [u8; 4] = *b"TCHB";
 /// The bank format version this build reads and writes.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 /// Most slots a bank holds.
 pub const MAX_SLOTS: u16 = 32;
 /// Bytes of the sleeve's bank flash region (sectors 10-11 of the STM32F405RG, the
@@ -29,12 +32,15 @@ pub const REGION_LEN: usize = 256 * 1024;
 pub const REGION_ADDR: usize = 0x080C_0000;
 
 const INDEX_ENTRY_LEN: usize = 8;
+/// Bytes of the payload before the index: count and layout hash.
+const INDEX_AT: usize = 2 + 4;
 
 /// A validated, zero-copy view of a bank image.
 #[derive(Debug, Clone, Copy)]
 pub struct Bank<'a> {
     bytes: &'a [u8],
     count: u16,
+    layout_hash: u32,
 }
 
 impl<'a> Bank<'a> {
@@ -51,14 +57,15 @@ impl<'a> Bank<'a> {
             });
         }
         let payload = c.payload;
-        if payload.len() < 2 {
+        if payload.len() < INDEX_AT {
             return Err(Error::InvalidField("count"));
         }
         let count = u16::from_le_bytes([payload[0], payload[1]]);
         if count == 0 || count > MAX_SLOTS {
             return Err(Error::InvalidField("count"));
         }
-        let index_end = PREFIX_LEN + 2 + usize::from(count) * INDEX_ENTRY_LEN;
+        let layout_hash = u32::from_le_bytes([payload[2], payload[3], payload[4], payload[5]]);
+        let index_end = PREFIX_LEN + INDEX_AT + usize::from(count) * INDEX_ENTRY_LEN;
         let data_end = c.bytes.len() - container::CRC_LEN;
         if index_end > data_end {
             return Err(Error::InvalidField("count"));
@@ -66,6 +73,7 @@ impl<'a> Bank<'a> {
         let bank = Bank {
             bytes: c.bytes,
             count,
+            layout_hash,
         };
         let mut expected_offset = index_end;
         for slot in 0..count {
@@ -77,6 +85,7 @@ impl<'a> Bank<'a> {
             if stimulus.as_bytes().len() != len {
                 return Err(Error::BadIndex(slot));
             }
+            stimulus.check_layout(layout_hash)?;
             expected_offset = offset + len;
         }
         if expected_offset != data_end {
@@ -87,7 +96,7 @@ impl<'a> Bank<'a> {
 
     /// Index entry of `slot` as (offset, length); `slot` must be below `count`.
     fn entry(&self, slot: u16) -> (usize, usize) {
-        let at = PREFIX_LEN + 2 + usize::from(slot) * INDEX_ENTRY_LEN;
+        let at = PREFIX_LEN + INDEX_AT + usize::from(slot) * INDEX_ENTRY_LEN;
         let b = &self.bytes[at..at + INDEX_ENTRY_LEN];
         let offset = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
         let len = u32::from_le_bytes([b[4], b[5], b[6], b[7]]);
@@ -102,6 +111,23 @@ impl<'a> Bank<'a> {
     /// Always false: a valid bank has at least one slot.
     pub fn is_empty(&self) -> bool {
         self.count == 0
+    }
+
+    /// [`crate::layout::geometry_hash`] of the layout every slot was compiled for.
+    pub fn layout_hash(&self) -> u32 {
+        self.layout_hash
+    }
+
+    /// Refuses a bank compiled for another layout geometry than `layout_hash`.
+    pub fn check_layout(&self, layout_hash: u32) -> Result<(), Error> {
+        if self.layout_hash == layout_hash {
+            Ok(())
+        } else {
+            Err(Error::WrongLayout {
+                found: self.layout_hash,
+                expected: layout_hash,
+            })
+        }
     }
 
     /// The whole bank image, prefix to CRC.
@@ -128,14 +154,16 @@ impl<'a> Bank<'a> {
     }
 }
 
-/// Builds a bank from encoded stimuli, one per slot, after checking each.
+/// Builds a bank from encoded stimuli, one per slot, after checking each. The bank's
+/// layout is the first stimulus's; a stimulus for another layout is refused
+/// ([`Error::WrongLayout`]) with its hash and the bank's.
 ///
 /// ```
 /// use touch_protocol::{bank, stimulus, Limits};
 /// let header = stimulus::Header {
 ///     channels: 8, output_rate_hz: 1000, keyframe_period_ms: 40, keyframe_count: 0,
-///     duration_ms: 0, ramp_ms: 10, full_scale_ma: 1000, quant_shift: 0, layout_id: 1,
-///     limits: Limits::SLEEVE, name: "a",
+///     duration_ms: 0, ramp_ms: 10, full_scale_ma: 1000, quant_shift: 0, layout_hash: 1,
+///     layout: "t", limits: Limits::SLEEVE, name: "a",
 /// };
 /// let one = stimulus::encode(header, &[[0; 8]])?;
 /// let image = bank::encode(&[&one, &one])?;
@@ -158,12 +186,19 @@ pub fn encode(stimuli: &[&[u8]]) -> Result<Vec<u8>, Error> {
     if count == 0 {
         return Err(Error::InvalidField("count"));
     }
+    let decoded = stimuli
+        .iter()
+        .map(|s| Stimulus::decode(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let layout_hash = decoded[0].header().layout_hash;
     let mut payload = Vec::new();
     payload.extend_from_slice(&count.to_le_bytes());
-    let mut offset = PREFIX_LEN + 2 + stimuli.len() * INDEX_ENTRY_LEN;
+    payload.extend_from_slice(&layout_hash.to_le_bytes());
+    let mut offset = PREFIX_LEN + INDEX_AT + stimuli.len() * INDEX_ENTRY_LEN;
     let mut exact = Vec::with_capacity(stimuli.len());
-    for s in stimuli {
-        let bytes = Stimulus::decode(s)?.as_bytes();
+    for s in &decoded {
+        s.check_layout(layout_hash)?;
+        let bytes = s.as_bytes();
         let off = u32::try_from(offset).map_err(|_| Error::TooLarge)?;
         let len = u32::try_from(bytes.len()).map_err(|_| Error::TooLarge)?;
         payload.extend_from_slice(&off.to_le_bytes());

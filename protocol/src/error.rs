@@ -58,10 +58,10 @@ pub enum Error {
     TooLarge,
     /// The stimulus was compiled for another actuator layout than the target's.
     WrongLayout {
-        /// The stimulus's `layout_id`.
-        found: u16,
+        /// The stimulus's (or bank's) layout geometry hash.
+        found: u32,
         /// The target's (the bank's, the firmware's).
-        expected: u16,
+        expected: u32,
     },
     /// More slots than a bank holds.
     TooManySlots {
@@ -112,7 +112,7 @@ impl fmt::Display for Error {
             Error::TooLarge => write!(f, "too large for the format"),
             Error::WrongLayout { found, expected } => write!(
                 f,
-                "compiled for layout {found}, but the target is layout {expected}"
+                "compiled for layout geometry {found:#010x}, but the target's is {expected:#010x}"
             ),
             Error::TooManySlots { count, max } => {
                 write!(f, "{count} slots, but a bank holds at most {max}")

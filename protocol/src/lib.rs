@@ -5,6 +5,7 @@
 //! - [`bank`]: several stimuli, one per button slot, as one flash image.
 //! - [`player`]: turns a stimulus into eight 12-bit output codes per 1 kHz tick.
 //! - [`thermal`]: the coils' heat, which the device keeps across plays.
+//! - [`layout`]: the actuator layout's identity, a hash of its geometry.
 //!
 //! Both files are framed the same way (magic, version, length, CRC-32; see
 //! [`container`]) and `SPEC.md` describes every byte. The crate is `no_std` and
@@ -15,6 +16,7 @@
 pub mod bank;
 pub mod container;
 mod error;
+pub mod layout;
 mod limits;
 pub mod player;
 pub mod stimulus;
@@ -32,13 +34,3 @@ pub const CHANNELS: usize = 8;
 
 /// The code for 0 A on a 12-bit output (mid-scale).
 pub const IDLE_CODE: u16 = 2048;
-
-/// The `layout_id` a stimulus carries for the layout whose `id` is `id`: the low 16
-/// bits of its CRC-32 (one definition for the compiler, `touchc bank` and the firmware).
-pub const fn layout_id(id: &str) -> u16 {
-    container::crc32_const(id.as_bytes()) as u16
-}
-
-/// The `layout_id` of the sleeve this firmware drives: the paper's 2 x 4 layout
-/// (`host/layouts/paper.toml`, id `paper-2x4`).
-pub const SLEEVE_LAYOUT_ID: u16 = layout_id("paper-2x4");

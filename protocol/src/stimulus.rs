@@ -34,15 +34,15 @@ use crate::{Error, Limits, CHANNELS};
 /// Magic of a stimulus file.
 pub const MAGIC: [u8; 4] = *b"TCHS";
 /// The stimulus format version this build reads and writes.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 /// The only output rate the format defines, Hz.
 pub const OUTPUT_RATE_HZ: u16 = 1000;
 /// Longest name, bytes of UTF-8.
 pub const MAX_NAME_LEN: usize = 32;
 /// Longest keyframe period, ms (one keyframe per second).
 pub const MAX_KEYFRAME_PERIOD_MS: u16 = 1000;
-/// Upper bound of an encoded header, bytes (fixed fields plus the longest name).
-pub const HEADER_MAX_LEN: usize = 40 + MAX_NAME_LEN;
+/// Upper bound of an encoded header, bytes (fixed fields plus the longest names).
+pub const HEADER_MAX_LEN: usize = 42 + crate::layout::MAX_NAME_LEN + MAX_NAME_LEN;
 /// Largest full scale, mA: keeps the player's fixed-point products inside 32 bits.
 pub const MAX_FULL_SCALE_MA: u16 = 10_000;
 /// Longest keyframed signal, ms: 24 hours.
@@ -75,8 +75,13 @@ pub struct Header<'a> {
     pub full_scale_ma: u16,
     /// Quantisation: a stored value `s` stands for Q15 `s << quant_shift` (0..=15).
     pub quant_shift: u8,
-    /// Which actuator layout the channels were compiled for.
-    pub layout_id: u16,
+    /// [`crate::layout::geometry_hash`] of the actuator layout the channels were
+    /// compiled for: what a player compares before it plays.
+    #[serde(with = "postcard::fixint::le")]
+    pub layout_hash: u32,
+    /// That layout's name (at most [`crate::layout::MAX_NAME_LEN`] bytes), so that a
+    /// refusal can name both layouts; never compared.
+    pub layout: &'a str,
     /// The safety limits the signal was compiled and checked against.
     pub limits: Limits,
     /// A short name ("love", "calming", ...).
@@ -111,6 +116,9 @@ impl Header<'_> {
         }
         if self.quant_shift > 15 {
             return bad("quant_shift");
+        }
+        if self.layout.len() > crate::layout::MAX_NAME_LEN {
+            return bad("layout");
         }
         if self.name.len() > MAX_NAME_LEN {
             return bad("name");
@@ -197,15 +205,15 @@ impl<'a> Stimulus<'a> {
         self.header.duration_ms
     }
 
-    /// Refuses a stimulus compiled for another layout than `layout_id` (the channel
-    /// count is the format's, checked by [`Stimulus::decode`]).
-    pub fn check_layout(&self, layout_id: u16) -> Result<(), Error> {
-        if self.header.layout_id == layout_id {
+    /// Refuses a stimulus compiled for another layout geometry than `layout_hash` (see
+    /// [`crate::layout`]; the channel count is the format's, checked by [`Stimulus::decode`]).
+    pub fn check_layout(&self, layout_hash: u32) -> Result<(), Error> {
+        if self.header.layout_hash == layout_hash {
             Ok(())
         } else {
             Err(Error::WrongLayout {
-                found: self.header.layout_id,
-                expected: layout_id,
+                found: self.header.layout_hash,
+                expected: layout_hash,
             })
         }
     }
@@ -418,11 +426,11 @@ fn push_run(payload: &mut Vec<u8>, run: &mut u32) -> Result<(), Error> {
 /// use touch_protocol::{stimulus, Limits};
 /// let header = stimulus::Header {
 ///     channels: 8, output_rate_hz: 1000, keyframe_period_ms: 50, keyframe_count: 0,
-///     duration_ms: 0, ramp_ms: 20, full_scale_ma: 1000, quant_shift: 4, layout_id: 1,
-///     limits: Limits::SLEEVE, name: "tap",
+///     duration_ms: 0, ramp_ms: 20, full_scale_ma: 1000, quant_shift: 4, layout_hash: 1,
+///     layout: "t", limits: Limits::SLEEVE, name: "tap",
 /// };
 /// let bytes = stimulus::encode(header, &[[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]])?;
-/// assert_eq!(bytes.len(), 44); // 10 prefix + 24 header + 6 keyframes + 4 CRC
+/// assert_eq!(bytes.len(), 49); // 10 prefix + 29 header + 6 keyframes + 4 CRC
 /// let decoded = stimulus::Stimulus::decode(&bytes)?;
 /// assert_eq!(decoded.duration_ms(), 50);
 /// assert_eq!(decoded.keyframes().last(), Some([1600, 0, 0, 0, 0, 0, 0, -160]));

@@ -23,7 +23,8 @@ fn header(period: u16, ramp: u16, full_scale_ma: u16, limits: Limits) -> stimulu
         ramp_ms: ramp,
         full_scale_ma,
         quant_shift: 0,
-        layout_id: 1,
+        layout_hash: 1,
+        layout: "t",
         limits,
         name: "codes",
     }

@@ -13,7 +13,8 @@ fn header(name: &str) -> stimulus::Header<'_> {
         ramp_ms: 20,
         full_scale_ma: 1000,
         quant_shift: 4,
-        layout_id: 1,
+        layout_hash: 0x0403_0201,
+        layout: "t",
         limits: Limits::SLEEVE,
         name,
     }
@@ -30,8 +31,8 @@ fn stimulus_bytes_are_pinned() {
     #[rustfmt::skip]
     let expected: Vec<u8> = [
         &b"TCHS"[..],                 // magic
-        &[0x01, 0x00],                // version 1, u16 LE
-        &[46, 0, 0, 0],               // total length, u32 LE
+        &[0x02, 0x00],                // version 2, u16 LE
+        &[51, 0, 0, 0],               // total length, u32 LE
         // postcard header
         &[0x08],                      // channels = 8
         &[0xE8, 0x07],                // output_rate_hz = 1000 (varint)
@@ -41,7 +42,8 @@ fn stimulus_bytes_are_pinned() {
         &[20],                        // ramp_ms
         &[0xE8, 0x07],                // full_scale_ma = 1000
         &[4],                         // quant_shift
-        &[1],                         // layout_id
+        &[0x01, 0x02, 0x03, 0x04],    // layout_hash, u32 LE (fixed width)
+        &[1, b't'],                   // layout name
         &[0xE8, 0x07, 50, 0xD8, 0x04, 0x80, 0x87, 0xA7, 0x0E], // limits 1000, 50, 600, 30e6
         &[3, b't', b'a', b'p'],       // name
         // keyframes
@@ -54,7 +56,7 @@ fn stimulus_bytes_are_pinned() {
     let crc = touch_protocol::container::crc32(&expected);
     assert_eq!(&bytes[bytes.len() - 4..], &crc.to_le_bytes());
     assert_eq!(
-        crc, 0xB3FC_2721,
+        crc, 0xF087_B86D,
         "CRC of the pinned bytes (Python zlib.crc32 agrees)"
     );
     let s = Stimulus::decode(&bytes).unwrap();
@@ -65,22 +67,24 @@ fn stimulus_bytes_are_pinned() {
 #[test]
 fn bank_bytes_are_pinned() {
     let one = stimulus::encode(header("a"), &[[0; 8]]).unwrap();
-    assert_eq!(one.len(), 10 + 22 + 2 + 4);
+    assert_eq!(one.len(), 10 + 27 + 2 + 4);
     let image = bank::encode(&[&one]).unwrap();
     #[rustfmt::skip]
     let prefix: Vec<u8> = [
         &b"TCHB"[..],                 // magic
-        &[0x01, 0x00],                // version 1
-        &[62, 0, 0, 0],               // total length = 10 + 2 + 8 + 38 + 4
+        &[0x02, 0x00],                // version 2
+        &[71, 0, 0, 0],               // total length = 10 + 2 + 4 + 8 + 43 + 4
         &[1, 0],                      // one slot
-        &[20, 0, 0, 0, 38, 0, 0, 0],  // slot 0 at offset 20, 38 bytes
+        &[0x01, 0x02, 0x03, 0x04],    // layout_hash, the stimulus's
+        &[24, 0, 0, 0, 43, 0, 0, 0],  // slot 0 at offset 24, 43 bytes
     ]
     .concat();
-    assert_eq!(image.len(), 62);
-    assert_eq!(&image[..20], &prefix[..20]);
-    assert_eq!(&image[20..58], &one[..]);
+    assert_eq!(image.len(), 71);
+    assert_eq!(&image[..24], &prefix[..24]);
+    assert_eq!(&image[24..67], &one[..]);
     let b = Bank::decode(&image).unwrap();
     assert_eq!(b.len(), 1);
+    assert_eq!(b.layout_hash(), 0x0403_0201);
     assert_eq!(b.slot(0).unwrap().name(), "a");
     assert_eq!(b.slot(1).unwrap_err(), Error::NoSuchSlot(1));
 }
@@ -89,15 +93,15 @@ fn bank_bytes_are_pinned() {
 fn version_and_crc_errors_say_which() {
     let mut bytes = stimulus::encode(header("v"), &[[0; 8]]).unwrap();
     // A future version with a valid CRC is "unsupported version"...
-    bytes[4] = 2;
+    bytes[4] = 3;
     let n = bytes.len();
     let crc = touch_protocol::container::crc32(&bytes[..n - 4]);
     bytes[n - 4..].copy_from_slice(&crc.to_le_bytes());
     assert_eq!(
         Stimulus::decode(&bytes).unwrap_err(),
         Error::UnsupportedVersion {
-            found: 2,
-            supported: 1
+            found: 3,
+            supported: 2
         }
     );
     // ...and any flipped bit is "bad CRC".
@@ -113,4 +117,37 @@ fn version_and_crc_errors_say_which() {
         Stimulus::decode(&image),
         Err(Error::BadMagic { .. })
     ));
+}
+
+#[test]
+fn a_bank_holds_one_layout_and_says_which() {
+    let ours = stimulus::encode(header("a"), &[[0; 8]]).unwrap();
+    let mut h = header("b");
+    h.layout_hash = 0x0403_0202;
+    let theirs = stimulus::encode(h, &[[0; 8]]).unwrap();
+    // Building a bank of two layouts is refused with both hashes...
+    assert_eq!(
+        bank::encode(&[&ours, &theirs]).unwrap_err(),
+        Error::WrongLayout {
+            found: 0x0403_0202,
+            expected: 0x0403_0201
+        }
+    );
+    // ...and so is reading one that was built by hand: patch the bank's hash.
+    let mut image = bank::encode(&[&ours]).unwrap();
+    image[12] = 0x02;
+    let n = image.len();
+    let crc = touch_protocol::container::crc32(&image[..n - 4]);
+    image[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    assert_eq!(
+        Bank::decode(&image).unwrap_err(),
+        Error::WrongLayout {
+            found: 0x0403_0201,
+            expected: 0x0403_0202
+        }
+    );
+    let image = bank::encode(&[&ours]).unwrap();
+    let b = Bank::decode(&image).unwrap();
+    assert_eq!(b.check_layout(0x0403_0201), Ok(()));
+    assert!(b.check_layout(touch_protocol::layout::SLEEVE_HASH).is_err());
 }

@@ -17,7 +17,8 @@ fn header(period: u16, ramp: u16, shift: u8, limits: Limits) -> stimulus::Header
         ramp_ms: ramp,
         full_scale_ma: 1000,
         quant_shift: shift,
-        layout_id: 1,
+        layout_hash: 1,
+        layout: "t",
         limits,
         name: "prop",
     }
@@ -227,7 +228,7 @@ proptest! {
         let s = Stimulus::decode(&bytes).unwrap();
         prop_assert_eq!(s.keyframes().collect::<Vec<_>>(), kf);
         // Each change costs at most two records (the step and the stop of its line).
-        prop_assert!(bytes.len() <= 10 + 30 + 4 + 2 + changes.len() * 2 * (1 + 3 + 2 + 3) + 3);
+        prop_assert!(bytes.len() <= 10 + 35 + 4 + 2 + changes.len() * 2 * (1 + 3 + 2 + 3) + 3);
     }
 }
 

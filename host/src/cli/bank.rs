@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use crate::cli::output::write_atomic;
 use anyhow::{bail, Context};
-use touch_protocol::{bank, container, layout_id, Error, Stimulus, CHANNELS};
+use touch_protocol::{bank, container, Error, Stimulus, CHANNELS};
 
 /// Arguments of `touchc bank`.
 #[derive(Debug, clap::Args)]
@@ -28,7 +28,7 @@ pub struct Args {
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let layout = super::layout(args.layout.as_deref())?;
-    let target = layout_id(layout.id());
+    let target = layout.geometry_hash();
     if args.stimuli.len() > usize::from(bank::MAX_SLOTS) {
         bail!(
             "{}: {} stimuli, but a bank holds at most {} slots",
@@ -61,15 +61,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 }
 
 /// Checks that `bytes` is a stimulus for the target sleeve: valid, eight channels,
-/// compiled for layout `target` (the layout file's id is `target_name`).
-fn check_fits(bytes: &[u8], path: &Path, target: u16, target_name: &str) -> anyhow::Result<()> {
+/// compiled for the layout geometry `target` (the layout file's id is `target_name`).
+fn check_fits(bytes: &[u8], path: &Path, target: u32, target_name: &str) -> anyhow::Result<()> {
     let name = path.display();
     match Stimulus::decode(bytes) {
         Ok(s) => s.check_layout(target).map_err(|_| {
+            let h = s.header();
             anyhow::anyhow!(
-                "{name}: compiled for layout {}, but the bank is for layout {target} ({target_name}); \
-                 compile it with that layout",
-                s.header().layout_id
+                "{name}: compiled for layout \"{}\" (geometry {:#010x}), but the bank is for \
+                 layout \"{}\" (geometry {target:#010x}); compile it with that layout (--layout)",
+                super::escaped(h.layout),
+                h.layout_hash,
+                super::escaped(target_name)
             )
         }),
         Err(Error::InvalidField("channels")) => {

@@ -36,6 +36,8 @@ struct BankReport {
     version: u16,
     bytes: usize,
     crc: &'static str,
+    /// Geometry hash of the layout every slot was compiled for, hex.
+    layout_hash: String,
     slots: Vec<StimulusReport>,
 }
 
@@ -55,7 +57,10 @@ struct StimulusReport {
     ramp_ms: u16,
     full_scale_ma: u16,
     resolution_ma: f64,
-    layout_id: u16,
+    /// The layout's name as the file gives it (escaped in text).
+    layout: String,
+    /// Geometry hash of the layout, hex: what a sleeve compares.
+    layout_hash: String,
     limits: Limits,
     bytes: usize,
     /// `None` (JSON null, text `-`) for an empty stimulus.
@@ -82,6 +87,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             version: bank::VERSION,
             bytes: bank.as_bytes().len(),
             crc: "ok",
+            layout_hash: format!("{:#010x}", bank.layout_hash()),
             slots: bank.stimuli().map(|s| stimulus_report(&s)).collect(),
         })
     } else {
@@ -119,7 +125,8 @@ fn stimulus_report(s: &Stimulus<'_>) -> StimulusReport {
         ramp_ms: h.ramp_ms,
         full_scale_ma: h.full_scale_ma,
         resolution_ma: f64::from(h.full_scale_ma) * f64::from(1u32 << h.quant_shift) / 32768.0,
-        layout_id: h.layout_id,
+        layout: h.layout.to_string(),
+        layout_hash: format!("{:#010x}", h.layout_hash),
         limits: Limits {
             peak_ma: h.limits.peak_ma,
             slew_ma_per_ms: h.limits.slew_ma_per_ms,
@@ -135,7 +142,11 @@ fn stimulus_report(s: &Stimulus<'_>) -> StimulusReport {
 fn write_text(w: &mut impl Write, report: &Report) -> std::io::Result<()> {
     match report {
         Report::Bank(b) => {
-            writeln!(w, "bank v{}, {} bytes, CRC {}", b.version, b.bytes, b.crc)?;
+            writeln!(
+                w,
+                "bank v{}, {} bytes, CRC {}, layout geometry {}",
+                b.version, b.bytes, b.crc, b.layout_hash
+            )?;
             for (i, slot) in b.slots.iter().enumerate() {
                 write!(w, "slot {i}: ")?;
                 write_stimulus(w, slot)?;
@@ -164,11 +175,12 @@ fn write_stimulus(w: &mut impl Write, s: &StimulusReport) -> std::io::Result<()>
     let l = &s.limits;
     writeln!(
         w,
-        "  full scale {} mA, resolution {:.3} mA, ramp {} ms, layout {}; limits: peak {} mA, slew {} mA/ms, continuous {} mA, I2t {} mA2s",
+        "  full scale {} mA, resolution {:.3} mA, ramp {} ms, layout {} ({}); limits: peak {} mA, slew {} mA/ms, continuous {} mA, I2t {} mA2s",
         s.full_scale_ma,
         s.resolution_ma,
         s.ramp_ms,
-        s.layout_id,
+        super::escaped(&s.layout),
+        s.layout_hash,
         l.peak_ma,
         l.slew_ma_per_ms,
         l.continuous_ma,

@@ -101,6 +101,16 @@ pub enum LayoutError {
         /// File the layout came from.
         origin: String,
     },
+    /// The id is longer than a stimulus can carry.
+    #[error("{origin}: the layout id is {len} bytes long; stimuli carry at most {max}")]
+    IdTooLong {
+        /// File the layout came from.
+        origin: String,
+        /// Bytes of UTF-8 in the id.
+        len: usize,
+        /// [`touch_protocol::layout::MAX_NAME_LEN`].
+        max: usize,
+    },
     /// Not exactly one workspace per channel.
     #[error(
         "{origin}: expected {expected} [[workspace]] entries (2 rows x 4 columns), found {found}"
@@ -220,6 +230,21 @@ impl Layout {
         &self.id
     }
 
+    /// The hash of the layout's geometry that stimuli and banks carry
+    /// ([`touch_protocol::layout::geometry_hash`]): channel order, centres relative to
+    /// channel 0 and radii, in whole micrometres. Weights are a placement preference,
+    /// not geometry, and do not enter it.
+    pub fn geometry_hash(&self) -> u32 {
+        let um = |mm: f64| (mm * 1000.0).round() as i32;
+        touch_protocol::layout::geometry_hash(&self.workspaces.map(|w| {
+            touch_protocol::layout::Actuator {
+                x_um: um(w.x_mm),
+                y_um: um(w.y_mm),
+                radius_um: um(w.radius_mm),
+            }
+        }))
+    }
+
     /// Free-text description from the file, if any.
     pub fn description(&self) -> Option<&str> {
         self.description.as_deref()
@@ -244,6 +269,13 @@ impl Layout {
         let origin_s = || origin.to_owned();
         if file.id.trim().is_empty() {
             return Err(LayoutError::EmptyId { origin: origin_s() });
+        }
+        if file.id.len() > touch_protocol::layout::MAX_NAME_LEN {
+            return Err(LayoutError::IdTooLong {
+                origin: origin_s(),
+                len: file.id.len(),
+                max: touch_protocol::layout::MAX_NAME_LEN,
+            });
         }
         if file.workspace.len() != CHANNELS {
             return Err(LayoutError::WorkspaceCount {
@@ -344,6 +376,33 @@ mod tests {
             assert_eq!(w.radius_mm, 18.5);
             assert_eq!(w.weight, if w.column == 1 { 1.02 } else { 1.0 });
         }
+    }
+
+    #[test]
+    fn the_built_in_layout_is_the_sleeve_the_firmware_drives() {
+        let layout = Layout::paper();
+        assert_eq!(layout.geometry_hash(), touch_protocol::layout::SLEEVE_HASH);
+        assert_eq!(layout.id(), touch_protocol::layout::SLEEVE_NAME);
+    }
+
+    #[test]
+    fn a_layout_id_longer_than_a_stimulus_carries_is_refused() {
+        let text = Layout::paper()
+            .to_toml_string()
+            .unwrap()
+            .replace("paper-2x4", &"x".repeat(25));
+        let err = Layout::from_toml_str(&text, "long.toml").unwrap_err();
+        assert!(
+            matches!(
+                err,
+                LayoutError::IdTooLong {
+                    len: 25,
+                    max: 24,
+                    ..
+                }
+            ),
+            "{err}"
+        );
     }
 
     #[test]

@@ -23,7 +23,8 @@ fn header(name: &str, keyframe_period_ms: u16) -> stimulus::Header<'_> {
         ramp_ms: 10,
         full_scale_ma: 1000,
         quant_shift: 5,
-        layout_id: touch_protocol::SLEEVE_LAYOUT_ID,
+        layout_hash: touch_protocol::layout::SLEEVE_HASH,
+        layout: touch_protocol::layout::SLEEVE_NAME,
         limits: Limits::SLEEVE,
         name,
     }

@@ -34,7 +34,7 @@ fn inspect_reports_header_size_and_crc() {
     assert!(v["crc"].as_str().unwrap().starts_with("ok"));
 
     let text = touchc(&["inspect", file.to_str().unwrap()]);
-    assert!(String::from_utf8_lossy(&text.stdout).contains("love (stimulus v1): 1.000 s"));
+    assert!(String::from_utf8_lossy(&text.stdout).contains("love (stimulus v2): 1.000 s"));
 }
 
 #[test]
@@ -145,7 +145,14 @@ fn bank_refuses_a_stimulus_for_another_layout_or_channel_count() {
     let a = stimulus_file(dir.path(), "love");
     let other = dir.path().join("other.touch");
     let bytes = std::fs::read(&a).unwrap();
-    std::fs::write(&other, with_header(&bytes, |h| h.layout_id = 4242)).unwrap();
+    std::fs::write(
+        &other,
+        with_header(&bytes, |h| {
+            h.layout_hash = 0x4242;
+            h.layout = "elsewhere";
+        }),
+    )
+    .unwrap();
     let out_path = dir.path().join("sleeve.bank");
     let out = touchc(&[
         "bank",
@@ -155,11 +162,11 @@ fn bank_refuses_a_stimulus_for_another_layout_or_channel_count() {
         out_path.to_str().unwrap(),
     ]);
     let err = refused(&out);
-    let target = touch_protocol::SLEEVE_LAYOUT_ID;
+    let target = touch_protocol::layout::SLEEVE_HASH;
     assert!(
         err.contains("other.touch")
-            && err.contains("layout 4242")
-            && err.contains(&format!("layout {target} (paper-2x4)")),
+            && err.contains("layout \"elsewhere\" (geometry 0x00004242)")
+            && err.contains(&format!("layout \"paper-2x4\" (geometry {target:#010x})")),
         "{err}"
     );
     assert!(!out_path.exists());
@@ -224,7 +231,7 @@ fn bank_refuses_too_many_slots_and_too_many_bytes_with_the_limits() {
     let big_path = big_path.to_str().unwrap();
     let out = touchc(&["bank", big_path, big_path, "-o", out_path.to_str().unwrap()]);
     let err = refused(&out);
-    let total = 10 + 2 + 16 + 2 * big.len() + 4;
+    let total = 10 + 2 + 4 + 16 + 2 * big.len() + 4;
     assert!(
         err.contains(&format!(
             "bank image of {total} bytes does not fit the sleeve's 262144-byte bank flash region"
@@ -233,4 +240,54 @@ fn bank_refuses_too_many_slots_and_too_many_bytes_with_the_limits() {
         big.len()
     );
     assert!(!out_path.exists());
+}
+
+/// The paper's layout with its rows swapped, still called `paper-2x4`: a name proves
+/// nothing about geometry, so the bank must refuse what this compiles.
+#[test]
+fn bank_refuses_a_mirrored_layout_that_kept_the_sleeves_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let paper = touchc::placement::layout::Layout::paper();
+    let mut toml = String::from("id = \"paper-2x4\"\n");
+    for w in paper.workspaces() {
+        toml += &format!(
+            "[[workspace]]\nchannel = {}\nrow = {}\ncolumn = {}\nx_mm = {}\ny_mm = {}\nradius_mm = {}\nweight = {}\n",
+            w.channel,
+            w.row,
+            w.column,
+            w.x_mm,
+            50.0 - w.y_mm,
+            w.radius_mm,
+            w.weight
+        );
+    }
+    let mirrored = dir.path().join("mirrored.toml");
+    std::fs::write(&mirrored, toml).unwrap();
+    let recording = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/tap_pat.npy");
+    let touch = dir.path().join("tap.touch");
+    ok(&touchc(&[
+        "compile",
+        bin::s(&recording),
+        "--layout",
+        bin::s(&mirrored),
+        "-o",
+        bin::s(&touch),
+    ]));
+    let out_path = dir.path().join("sleeve.bank");
+    let err = refused(&touchc(&["bank", bin::s(&touch), "-o", bin::s(&out_path)]));
+    let ours = touch_protocol::layout::SLEEVE_HASH;
+    assert!(
+        err.contains("tap.touch") && err.contains(&format!("(geometry {ours:#010x})")),
+        "{err}"
+    );
+    assert!(!out_path.exists());
+    // The same file banked for the layout it was compiled for is accepted.
+    ok(&touchc(&[
+        "bank",
+        bin::s(&touch),
+        "--layout",
+        bin::s(&mirrored),
+        "-o",
+        bin::s(&out_path),
+    ]));
 }

@@ -118,8 +118,10 @@ pub enum KeyframeError {
 pub struct HeaderFields<'a> {
     /// Stimulus name.
     pub name: &'a str,
-    /// Actuator layout id.
-    pub layout_id: u16,
+    /// Geometry hash of the actuator layout ([`touch_protocol::layout`]).
+    pub layout_hash: u32,
+    /// The layout's name, for messages.
+    pub layout: &'a str,
     /// Limits the signal was checked against.
     pub limits: Limits,
 }
@@ -584,7 +586,8 @@ fn header<'a>(
         ramp_ms: opts.encoding.ramp_ms,
         full_scale_ma: opts.full_scale_ma,
         quant_shift: shift,
-        layout_id: fields.layout_id,
+        layout_hash: fields.layout_hash,
+        layout: fields.layout,
         limits: fields.limits,
         name: fields.name,
     }
@@ -849,7 +852,8 @@ mod tests {
     fn fields() -> HeaderFields<'static> {
         HeaderFields {
             name: "test",
-            layout_id: 1,
+            layout_hash: 1,
+            layout: "t",
             limits: Limits::SLEEVE,
         }
     }
