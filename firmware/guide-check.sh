@@ -7,10 +7,15 @@
 # runner is probe-rs, runs as the `cargo build` it starts with; installing probe-rs).
 # A `cargo install` of a tool already on PATH is skipped, said so.
 #
+# `bash firmware/ci.sh` (the Checks section) is not run again: scripts/check.sh runs it
+# on this checkout just before.
+#
 #   bash firmware/guide-check.sh         # from anywhere; GUIDE_KEEP=1 keeps the clone
 #
-# The clone builds everything itself, once (touchc in release, the firmware profile),
-# sharing only cargo's download cache: a few minutes on two cores.
+# The clone is made afresh each time; its builds (touchc in release, the firmware
+# profile) go to a target directory kept between runs, target/guide-check/ of this
+# checkout (GUIDE_TARGET_DIR to choose another, an empty one for a cold build), so only
+# the first run compiles the dependencies: a few minutes on two cores, then about one.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -24,6 +29,7 @@ cleanup() {
     fi
 }
 trap cleanup EXIT
+export CARGO_TARGET_DIR="${GUIDE_TARGET_DIR:-$root/target/guide-check}"
 
 head_commit="$(git -C "$root" rev-parse HEAD)"
 if [ -n "$(git -C "$root" status --porcelain -- firmware/README.md)" ]; then
@@ -68,6 +74,10 @@ for block in "${blocks[@]}"; do
             case "$line" in
             "probe-rs "*)
                 printf 'echo %q\n' "SKIPPED (needs a probe on a board): $line"
+                skipped=$((skipped + 1))
+                ;;
+            "bash firmware/ci.sh"*)
+                printf 'echo %q\n' "SKIPPED (scripts/check.sh runs it on this checkout): $line"
                 skipped=$((skipped + 1))
                 ;;
             "cargo install probe-rs-tools"*)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Everything CI does, runnable by anyone on a fresh Debian machine with rustup:
 # installs what it needs, then formats, lints, tests the host crates, checks the
-# protocol crate for the MCU, and builds and tests the firmware (QEMU included).
+# protocol crate for the MCU, builds and tests the firmware (QEMU included), and runs
+# the firmware guide's commands in a fresh clone.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -47,5 +48,8 @@ cargo build -p touch-protocol --target thumbv7em-none-eabihf --release --locked
 
 step "firmware: host logic tests, release build, QEMU target test"
 bash firmware/ci.sh
+
+step "firmware/README.md's commands, as written, in a fresh clone (up to the probe)"
+bash firmware/guide-check.sh
 
 printf '\nall checks passed in %ss\n' "$(( $(date +%s) - start ))"

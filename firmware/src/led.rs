@@ -148,7 +148,8 @@ impl Led {
             }
             Report::Finished(_) => self.playing = false,
             Report::Selected(slot) => {
-                let slot = u8::try_from(slot).unwrap_or(u8::MAX - 1);
+                // A bank holds at most 32 slots.
+                let slot = u8::try_from(slot).unwrap_or(u8::MAX);
                 self.show(Pattern::Selected(slot), now_ms);
             }
             Report::TooHot(..) => self.show(Pattern::TooHot, now_ms),
