@@ -40,14 +40,19 @@ git -C "$work/clone" checkout --quiet --detach "$head_commit"
 clone="$work/clone"
 guide="$clone/firmware/README.md"
 
-# The blocks, one file each: the lines between "```sh" and "```".
+# The blocks, one file each: the lines between "```sh" and "```". A ```text block that
+# follows one directly (blank lines between at most) is its output as the guide shows
+# it: NN.out, compared with what the block prints.
 mkdir "$work/blocks"
 awk -v dir="$work/blocks" '
     /^```sh[[:space:]]*$/ { n++; inside = 1; file = sprintf("%s/%02d", dir, n); printf "" > file; next }
-    /^```/ && inside { inside = 0; close(file); next }
-    inside { print > file }
+    /^```text[[:space:]]*$/ && after { out = 1; file = sprintf("%s/%02d.out", dir, n); printf "" > file; next }
+    /^```/ && (inside || out) { after = inside; inside = 0; out = 0; close(file); next }
+    inside || out { print > file; next }
+    /^[[:space:]]*$/ { next }
+    { after = 0 }
 ' "$guide"
-blocks=("$work"/blocks/*)
+blocks=("$work"/blocks/[0-9][0-9])
 if [ ! -e "${blocks[0]}" ]; then
     echo "no sh blocks in firmware/README.md" >&2
     exit 1
@@ -109,8 +114,12 @@ for block in "${blocks[@]}"; do
     printf '\n== guide block %s, %s\n' "$n" "${where#\# }"
     sed 's/^/   /' "$block"
     echo "--"
-    if ! (cd "$dir" && bash "$script"); then
+    if ! (cd "$dir" && bash "$script") | tee "$work/printed-$n"; then
         echo "firmware/README.md, sh block $n failed as written (run in ${dir#"$work"/})" >&2
+        exit 1
+    fi
+    if [ -f "$block.out" ] && ! diff -u "$block.out" "$work/printed-$n"; then
+        echo "firmware/README.md, sh block $n printed other figures than the guide shows (diff above)" >&2
         exit 1
     fi
 done
