@@ -12,6 +12,7 @@ use crate::config::Config;
 use crate::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
 use crate::encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
 use crate::input::recording::{Recording, RecordingError};
+use crate::input::warning::InputWarning;
 use crate::measure::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
 use crate::placement::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
@@ -94,6 +95,8 @@ pub enum CompileError {
 pub struct Report {
     /// The recording's name (its file).
     pub input: String,
+    /// The recording's shape as read, `[frames, rows, cols]`.
+    pub shape: [usize; 3],
     /// The stimulus name.
     pub name: String,
     /// Chosen transform `[x_mm, y_mm, scale, rotation, split_mm]`; `None` without touch.
@@ -143,7 +146,8 @@ pub struct Report {
     /// The crop applied: frames `[start, end)`, cells rows/cols `[start, end)`.
     pub crop: Option<Crop>,
     /// Share of the touch pressure within two cells of a tracked contact (1 without
-    /// touch; see [`crate::measure::coverage`]).
+    /// touch, 0 when the tare removed the touch the raw frames hold: none of it is
+    /// played; see [`crate::measure::coverage`]).
     pub coverage: f64,
     /// The figures behind `coverage`: touch and explained pressure, touch readings.
     pub coverage_detail: Coverage,
@@ -151,6 +155,8 @@ pub struct Report {
     pub misses: Option<Misses>,
     /// Things the user should know.
     pub warnings: Vec<String>,
+    /// The input stage's warnings with their figures (each also worded in `warnings`).
+    pub input_warnings: Vec<InputWarning>,
     /// The recording's rate and pitch as used, each with its source (cli, file,
     /// default).
     pub metadata: Metadata,
@@ -268,30 +274,43 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     cfg.validate_for(&sampling, (rows, cols))?;
 
     // Stage 0: tare and trim, and the paper's "no touch" filter.
-    let tared = rec.tare(&cfg.input, &sampling)?;
+    let shape = rec.dim();
+    let (tared, tare_note) = rec.tare_noting(&cfg.input, &sampling)?;
+    let mut notes: Vec<InputWarning> = crate::input::sanity::transposed(shape)
+        .into_iter()
+        .chain(tare_note)
+        .collect();
     warnings.extend(crate::input::sanity::check(
         &rec,
         tared.view(),
         cfg,
         &sampling,
     ));
+    let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
+    let silent = touched <= cfg.input.min_touch_readings;
+    if silent {
+        notes.extend(crate::input::sanity::erased_touch(&rec, cfg, &sampling));
+    }
     // Nothing reads the raw frames after this: only the name.
     let input_name = rec.name().to_string();
     drop(rec);
-    let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
     clock.stage(Stage::Tare);
-    if touched <= cfg.input.min_touch_readings {
+    // The input's own warnings first: what the later ones say may follow from them.
+    for (i, note) in notes.iter().enumerate() {
+        warnings.insert(i, note.to_string());
+    }
+    if silent {
         warnings.push(format!(
             "no touch: {touched} readings above {} psi (needs more than {}); the stimulus is silent",
             cfg.input.touch_threshold_psi, cfg.input.min_touch_readings
         ));
         let signal = vec![[0.0; CHANNELS]];
         return finish(
-            &input_name,
+            (&input_name, shape),
             opts,
             &metadata,
             clock,
-            warnings,
+            (warnings, notes),
             signal,
             1.0,
             None,
@@ -406,11 +425,11 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         covered,
     };
     finish(
-        &input_name,
+        (&input_name, shape),
         opts,
         &metadata,
         clock,
-        warnings,
+        (warnings, notes),
         signal,
         fit_scale,
         Some(scene),
@@ -486,11 +505,11 @@ const MAX_REFITS: u32 = 20;
 /// Stage 7 and the report; `scene` is `None` for a recording without touch.
 #[allow(clippy::too_many_arguments)]
 fn finish(
-    input_name: &str,
+    (input_name, shape): (&str, (usize, usize, usize)),
     opts: &CompileOptions,
     metadata: &Metadata,
     mut clock: Clock,
-    mut warnings: Vec<String>,
+    (mut warnings, input_warnings): (Vec<String>, Vec<InputWarning>),
     mut signal: Vec<[f64; CHANNELS]>,
     mut fit_scale: f64,
     scene: Option<Scene>,
@@ -546,6 +565,7 @@ fn finish(
     let bytes = encoded.bytes.len();
     let report = Report {
         input: input_name.to_string(),
+        shape: [shape.0, shape.1, shape.2],
         name: name.to_string(),
         transform: placement.as_ref().map(|p| {
             let t = &p.transform;
@@ -580,10 +600,21 @@ fn finish(
         fit_scale,
         no_touch,
         crop,
-        coverage: covered.map_or(1.0, |c| c.0.ratio()),
+        // Coverage is of the recorded touch: when the tare removed it, none is played.
+        coverage: match &covered {
+            Some(c) => c.0.ratio(),
+            None if input_warnings
+                .iter()
+                .any(|w| matches!(w, InputWarning::TareErasedTouch { .. })) =>
+            {
+                0.0
+            }
+            None => 1.0,
+        },
         coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
         misses: covered.map(|c| c.1),
         warnings,
+        input_warnings,
         metadata: *metadata,
         config: opts.config.clone(),
         layout: opts.layout.id().to_string(),

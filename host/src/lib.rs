@@ -20,6 +20,7 @@
 #![warn(missing_docs)]
 
 pub mod config;
+pub mod display;
 pub mod geometry;
 
 pub mod input;
@@ -27,6 +28,7 @@ pub mod tracking;
 pub mod placement;
 pub mod rendering;
 pub mod encoding;
+pub mod export;
 
 pub mod compile;
 pub mod stage;

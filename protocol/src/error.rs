@@ -50,7 +50,9 @@ pub enum Error {
     KeyframeOutOfRange,
     /// Bytes remain between the last keyframe (or bank entry) and the CRC.
     TrailingBytes,
-    /// A bank index entry points outside the bank.
+    /// A bank index entry does not give its stimulus's place: the stimuli follow the
+    /// index back to back, each entry giving the offset where the previous one ended
+    /// (the first, the end of the index) and the stimulus's exact length, before the CRC.
     BadIndex(u16),
     /// The requested bank slot does not exist.
     NoSuchSlot(u16),
@@ -107,7 +109,11 @@ impl fmt::Display for Error {
                 write!(f, "keyframe value out of range or non-canonical residual")
             }
             Error::TrailingBytes => write!(f, "unexpected bytes before the CRC"),
-            Error::BadIndex(slot) => write!(f, "bank index entry {slot} points outside the bank"),
+            Error::BadIndex(slot) => write!(
+                f,
+                "bank index entry {slot} does not give the offset and length of stimulus {slot}, \
+                 which must follow the index and the stimuli before it back to back"
+            ),
             Error::NoSuchSlot(slot) => write!(f, "bank has no slot {slot}"),
             Error::TooLarge => write!(f, "too large for the format"),
             Error::WrongLayout { found, expected } => write!(

@@ -27,15 +27,25 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut inputs: Vec<_> = args
+            .stimuli
+            .iter()
+            .map(|p| named("the stimulus", p))
+            .collect();
+        inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
+        refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
+    }
     let layout = super::layout(args.layout.as_deref())?;
     let target = layout.geometry_hash();
     if args.stimuli.len() > usize::from(bank::MAX_SLOTS) {
-        bail!(
+        return Err(super::usage(format!(
             "{}: {} stimuli, but a bank holds at most {} slots",
             args.output.display(),
             args.stimuli.len(),
             bank::MAX_SLOTS
-        );
+        )));
     }
     let files = args
         .stimuli
@@ -52,7 +62,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     write_atomic(&args.output, &image)?;
     eprintln!(
         "touchc: wrote {} ({} slots, {} of {} bytes of the bank region)",
-        args.output.display(),
+        super::escaped(&crate::cli::output::shown(&args.output)),
         slices.len(),
         image.len(),
         bank::REGION_LEN

@@ -10,49 +10,67 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use crate::cli::output::write_atomic;
+use crate::cli::params::{OUTPUT, PRESET_AND_KNOBS};
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use touchc::compile::{compile_owned, CompileOptions, Report};
-use touchc::input::recording::Recording;
+
+/// What `touchc compile --help` adds after the options.
+const AFTER_HELP: &str = "\
+Examples:
+  touchc compile examples/stroke.npy               writes examples/stroke.touch
+  touchc compile rec.npz --report rec.json         the .npz's rate_hz and pitch_mm apply
+  touchc compile rec.npy --rate 54 --pitch-mm 25.4 a sensor other than the paper's sleeve
+  touchc compile rec.npy --preset paper -o paper.touch
+  touchc compile a.npy b.npy c.npz --out-dir stimuli/
+  touchc synth stroke -o - | touchc compile - -o stroke.touch
+
+A stimulus lasts longer than its recording (3.4 s longer at 20 Hz with the default
+preset): the 4 Hz low-pass filter rings out after the last frame (2.4 s of it) and the
+current ramps in and out over 0.5 s at each end.";
 
 /// Arguments of `touchc compile`.
 #[derive(Debug, clap::Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// Recordings, `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell).
-    /// Several need `--out-dir`.
+    /// Recordings: `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell),
+    /// or `.npz` holding such an array as `pressure` (with optional scalars `rate_hz`
+    /// and `pitch_mm`); `-` is standard input. Several need `--out-dir`.
     #[arg(required = true)]
     recordings: Vec<PathBuf>,
-    /// Stimulus file to write (default: the recording's name with `.touch`); one
-    /// recording only.
-    #[arg(short, long, conflicts_with = "out_dir")]
-    output: Option<PathBuf>,
-    /// Write `<stem>.touch` for every recording into this directory (created if needed),
-    /// compiling them in parallel.
-    #[arg(long)]
-    out_dir: Option<PathBuf>,
-    /// Also write the compile's figures as JSON (with `--out-dir`: `<stem>.json` in the
-    /// directory, whatever the name given).
-    #[arg(long)]
-    report: Option<PathBuf>,
     /// Algorithm parameters (preset, config file, knobs) and the recordings' sampling.
     #[command(flatten)]
     config: super::params::ConfigArgs,
-    /// Actuator layout TOML (default: the paper's 2 x 4 sleeve).
-    #[arg(long)]
+    /// Stimulus file to write (default: the recording's name with `.touch`; `-`:
+    /// standard output); one recording only.
+    #[arg(short, long, conflicts_with = "out_dir", help_heading = OUTPUT)]
+    output: Option<PathBuf>,
+    /// Write `<stem>.touch` for every recording into this directory (created if needed),
+    /// compiling them in parallel.
+    #[arg(long, help_heading = OUTPUT)]
+    out_dir: Option<PathBuf>,
+    /// Also write the compile's figures as JSON (with `--out-dir`: `<stem>.json` in the
+    /// directory, whatever the name given).
+    #[arg(long, help_heading = OUTPUT)]
+    report: Option<PathBuf>,
+    /// Actuator layout TOML of the sleeve the stimulus is for (default: the paper's
+    /// 2 x 4 sleeve).
+    #[arg(long, help_heading = OUTPUT)]
     layout: Option<PathBuf>,
     /// Name written into the stimulus (default: the recording's file stem).
-    #[arg(long)]
+    #[arg(long, help_heading = OUTPUT)]
     name: Option<String>,
     /// Scale the signal down to pass the safety limits instead of refusing it.
-    #[arg(long)]
+    #[arg(long, help_heading = OUTPUT)]
     fit: bool,
     /// Run the heavy stages on the whole recording instead of the active scene.
-    #[arg(long)]
+    #[arg(long, help_heading = PRESET_AND_KNOBS)]
     no_crop: bool,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    check_outputs(args)?;
     let config = args.config.resolve()?;
     let layout = super::layout(args.layout.as_deref())?;
     let opts = CompileOptions {
@@ -65,15 +83,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     match (&args.out_dir, args.recordings.as_slice()) {
         (None, [one]) => {
-            let out = args
-                .output
-                .clone()
-                .unwrap_or_else(|| one.with_extension("touch"));
+            let out = default_output(args, one)?;
             let r = compile_one(one, &out, args.report.as_deref(), args, &opts)?;
             for w in &r.warnings {
                 super::warn(one, w);
             }
-            eprintln!("{}", super::escaped(&summary_line(one, &out, &r)));
+            // Named as in every message (`-` is standard input or output).
+            let (input, output) = (
+                PathBuf::from(super::input_name(one)),
+                PathBuf::from(crate::cli::output::shown(&out)),
+            );
+            eprintln!("{}", super::escaped(&summary_line(&input, &output, &r)));
             Ok(())
         }
         (None, _) => Err(super::usage(format!(
@@ -82,6 +102,82 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ))),
         (Some(dir), recordings) => batch(recordings, dir, args, &opts),
     }
+}
+
+/// The stimulus file of a single compile: `-o`, else the recording's name with `.touch`.
+fn default_output(args: &Args, recording: &Path) -> anyhow::Result<PathBuf> {
+    match &args.output {
+        Some(out) => Ok(out.clone()),
+        None if crate::cli::output::is_stdio(recording) => Err(super::usage(
+            "reading the recording from standard input: give -o FILE (or -o - for standard output)",
+        )),
+        None => Ok(recording.with_extension("touch")),
+    }
+}
+
+/// Refuses, before any work, outputs that would write over an input (the recordings,
+/// the config, the layout) or over each other: `-o`, `--report`, and in a batch every
+/// `DIR/<stem>.touch` and `DIR/<stem>.json`.
+fn check_outputs(args: &Args) -> anyhow::Result<()> {
+    use crate::cli::output::{named, refuse_overwrites};
+    let mut inputs: Vec<_> = args
+        .recordings
+        .iter()
+        .map(|r| named("the recording", r))
+        .collect();
+    inputs.extend(args.config.config.as_deref().map(|p| named("--config", p)));
+    inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
+    match (&args.out_dir, args.recordings.as_slice()) {
+        (None, [one]) => {
+            let out = default_output(args, one)?;
+            let label = if args.output.is_some() {
+                "-o"
+            } else {
+                "the default output"
+            };
+            let mut outputs = vec![named(label, &out)];
+            outputs.extend(args.report.as_deref().map(|p| named("--report", p)));
+            refuse_overwrites(&inputs, &outputs)
+        }
+        (None, _) => Ok(()),
+        (Some(dir), recordings) => {
+            if recordings.iter().any(|r| crate::cli::output::is_stdio(r)) {
+                return Err(super::usage(
+                    "standard input (-) cannot be part of a batch: compile it alone with -o",
+                ));
+            }
+            check_stems(recordings, dir)?;
+            let files: Vec<PathBuf> = recordings
+                .iter()
+                .flat_map(|r| {
+                    let name = stem(r);
+                    let report = args
+                        .report
+                        .as_ref()
+                        .map(|_| dir.join(format!("{name}.json")));
+                    std::iter::once(dir.join(format!("{name}.touch"))).chain(report)
+                })
+                .collect();
+            let outputs: Vec<_> = files.iter().map(|p| named("the batch output", p)).collect();
+            refuse_overwrites(&inputs, &outputs)
+        }
+    }
+}
+
+/// Two inputs with one stem would overwrite each other's output: a usage error.
+fn check_stems(recordings: &[PathBuf], dir: &Path) -> anyhow::Result<()> {
+    let mut stems: BTreeMap<String, &Path> = BTreeMap::new();
+    for r in recordings {
+        if let Some(first) = stems.insert(stem(r), r) {
+            return Err(super::usage(format!(
+                "{} and {} would both compile to {}",
+                first.display(),
+                r.display(),
+                dir.join(format!("{}.touch", stem(r))).display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Compiles `input` into `out` (and the report into `report`).
@@ -96,7 +192,7 @@ fn compile_one(
         name: args.name.clone().unwrap_or_else(|| stem(input)),
         ..opts.clone()
     };
-    let recording = Recording::load(input)?;
+    let recording = super::load_recording(input)?;
     let compiled = compile_owned(recording, &opts)
         .with_context(|| format!("{}: cannot compile", input.display()))?;
     // The report first: if it cannot be written, no stimulus appears either.
@@ -110,9 +206,12 @@ fn compile_one(
 
 fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
     format!(
-        "touchc: {} -> {}: {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, {}, {:.1} ms",
+        "touchc: {} -> {}: {} frames of {} x {}, {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, {}, {:.1} ms",
         input.display(),
         out.display(),
+        r.shape[0],
+        r.shape[1],
+        r.shape[2],
         r.duration_s,
         r.bytes,
         r.bytes_per_second,
@@ -134,18 +233,6 @@ fn batch(
     args: &Args,
     opts: &CompileOptions,
 ) -> anyhow::Result<()> {
-    // Two inputs with one stem would overwrite each other's output: refuse up front.
-    let mut stems: BTreeMap<String, &Path> = BTreeMap::new();
-    for r in recordings {
-        if let Some(first) = stems.insert(stem(r), r) {
-            anyhow::bail!(
-                "{} and {} would both compile to {}",
-                first.display(),
-                r.display(),
-                dir.join(format!("{}.touch", stem(r))).display()
-            );
-        }
-    }
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
     let bar = ProgressBar::new(recordings.len() as u64);
@@ -158,7 +245,7 @@ fn batch(
     let results: Vec<anyhow::Result<Report>> = recordings
         .par_iter()
         .map(|input| {
-            bar.set_message(input.display().to_string());
+            bar.set_message(super::escaped(&input.display().to_string()));
             let name = stem(input);
             let out = dir.join(format!("{name}.touch"));
             let report = args
@@ -206,7 +293,7 @@ fn write_summary(
         "recording", "status", "seconds", "bytes", "rms % fs", "tracks", "ms"
     )?;
     for (input, r) in recordings.iter().zip(results) {
-        let name = input.display().to_string();
+        let name = super::escaped(&input.display().to_string());
         match r {
             Ok(r) => writeln!(
                 w,
@@ -228,8 +315,11 @@ fn write_summary(
     Ok(())
 }
 
-/// The file stem as a name ("love.npy" -> "love").
+/// The file stem as a name ("love.npy" -> "love"; standard input is "stdin").
 fn stem(path: &Path) -> String {
+    if crate::cli::output::is_stdio(path) {
+        return "stdin".into();
+    }
     path.file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "touch".into())

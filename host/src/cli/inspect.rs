@@ -78,6 +78,11 @@ struct Limits {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    use crate::cli::output::{named, refuse_overwrites};
+    refuse_overwrites(
+        &[named("the file", &args.file)],
+        &[named("-o", &args.output)],
+    )?;
     let bytes = super::read_input(&args.file)?;
     let name = super::input_name(&args.file);
     let report = if bytes.starts_with(&bank::MAGIC) {

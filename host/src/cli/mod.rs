@@ -4,6 +4,9 @@
 
 mod bank;
 mod compile;
+mod export;
+mod help;
+mod import;
 mod inspect;
 mod output;
 mod params;
@@ -24,13 +27,15 @@ use touch_protocol::{Bank, Stimulus};
 
 /// What `--help` says about exit codes, `-` and errors.
 const AFTER_HELP: &str = "\
-Files: `-` is standard input for `inspect` and `render` (and `plot`), and standard
-output wherever an output can be a stream (`render`, `inspect -o`, `track -o`,
-`synth -o`). Outputs that are regular files appear whole or not at all; devices,
-pipes and symlinks are written through to their target.
+Files: `-` is standard input for `compile`, `inspect`, `render` and `plot`, and
+standard output wherever an output can be a stream (`compile -o`, `render`,
+`inspect -o`, `track -o`, `synth -o`). Outputs that are regular files appear whole or
+not at all; devices, pipes and symlinks are written through to their target. No output
+may be one of the command's inputs, or another of its outputs.
 
 Exit status: 0 success (also when a reader such as `head` closes the pipe early),
-1 bad input, a failed compile or an output that cannot be written, 2 usage error.";
+1 bad input, a failed compile or an output that cannot be written, 2 usage error
+(a flag or parameter file out of range, an output over an input).";
 
 /// Compiles recorded social touch into stimuli for an 8-actuator haptic sleeve.
 #[derive(Debug, Parser)]
@@ -56,6 +61,11 @@ enum Command {
     /// Animate a recording's blurred frames with trajectories, workspaces and actuator
     /// intensities (GIF), or show one frame (PNG).
     Preview(preview::Args),
+    /// Write a stimulus as the sleeve plays it in another haptics format: MPEG-I Haptics
+    /// (.hjif), Meta/Lofelt .haptic, Apple AHAP or bHaptics .tact.
+    Export(export::Args),
+    /// Read an MPEG-I Haptics file written by `export` back into a stimulus.
+    Import(import::Args),
     /// Pack stimuli into a bank image, one per button slot, for the sleeve's flash.
     Bank(bank::Args),
     /// Write a seeded synthetic recording (.npy) of stroke, tap, pat, squeeze, shake.
@@ -71,6 +81,18 @@ enum Command {
     },
 }
 
+/// The command line's definition, its help in plain words (see [`help`]).
+pub fn command() -> clap::Command {
+    help::plain_command(Cli::command())
+}
+
+/// Parses the process's arguments with [`command`].
+pub fn parse() -> Result<Cli, clap::Error> {
+    use clap::FromArgMatches;
+    let matches = command().try_get_matches()?;
+    Cli::from_arg_matches(&matches)
+}
+
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
@@ -80,32 +102,38 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(&args),
         Command::Plot(args) => plot::run(&args),
         Command::Preview(args) => preview::run(&args),
+        Command::Export(args) => export::run(&args),
+        Command::Import(args) => import::run(&args),
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
         Command::Trade(args) => trade::run(&args),
         Command::Completions { shell } => {
             // Generated into memory: clap_complete panics on a write error.
             let mut script = Vec::new();
-            clap_complete::generate(shell, &mut Cli::command(), "touchc", &mut script);
+            clap_complete::generate(shell, &mut command(), "touchc", &mut script);
             Ok(crate::cli::output::write_atomic(Path::new("-"), &script)?)
         }
     }
 }
 
-/// A mistake in how the command was called (exit status 2, like clap's own).
+/// A mistake in how the command was called (exit status 2, like clap's own): a flag's
+/// value, a parameter file, outputs that would overwrite inputs.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub(crate) struct Usage(pub String);
 
-/// Returns a usage error (exit status 2).
 /// The actuator layout of a `--layout FILE` option, or the paper's sleeve without one.
+/// A layout file that cannot be read or is not a layout is a usage error, like a
+/// `--config` file: both are how the command was called.
 pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc::placement::layout::Layout> {
     Ok(match path {
-        Some(path) => touchc::placement::layout::Layout::load(path)?,
+        Some(path) => touchc::placement::layout::Layout::load(path)
+            .map_err(|e| usage(message(&anyhow::Error::new(e))))?,
         None => touchc::placement::layout::Layout::paper(),
     })
 }
 
+/// Returns a usage error (exit status 2).
 pub(crate) fn usage(message: impl Into<String>) -> anyhow::Error {
     Usage(message.into()).into()
 }
@@ -125,25 +153,36 @@ pub fn report(err: &anyhow::Error) -> ExitCode {
         return ExitCode::SUCCESS;
     }
     print_error(err);
-    if err.chain().any(|cause| cause.is::<Usage>()) {
+    // A parameter out of range is a usage error wherever it is found: in the flags, or
+    // only once the recording's sampling is known (a blur wider than the frame).
+    if err
+        .chain()
+        .any(|cause| cause.is::<Usage>() || cause.is::<touchc::config::ConfigError>())
+    {
         ExitCode::from(2)
     } else {
         ExitCode::FAILURE
     }
 }
 
-/// Prints `err` on stderr: its chain once, escaped.
+/// Prints `err` on stderr: its chain once, on one line, escaped and clipped.
 pub(crate) fn print_error(err: &anyhow::Error) {
-    eprintln!("touchc: error: {}", escaped(&message(err)));
+    eprintln!("touchc: error: {}", readable(&message(err)));
 }
 
 /// The error's chain joined by ": ", leaving out every cause whose text an outer error
 /// already quoted: library errors often include their source's text and name it as the
-/// source too, and a message should say each thing once.
+/// source too, and a message should say each thing once. A TOML error is told in one
+/// line (where, then what) instead of its multi-line picture of the offending line.
 fn message(err: &anyhow::Error) -> String {
     let mut out = String::new();
     for cause in err.chain() {
-        let text = cause.to_string();
+        let mut text = cause.to_string();
+        if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
+            let short = toml_message(e);
+            out = out.replace(&text, &short);
+            text = short;
+        }
         if text.is_empty() || out.contains(&text) {
             continue;
         }
@@ -155,13 +194,123 @@ fn message(err: &anyhow::Error) -> String {
     out
 }
 
-/// `text` with control characters shown as escapes (`\u{1b}`, `\n`, ...), so that a
-/// name or path from a file cannot drive the terminal it is printed on.
+/// A TOML error in one line: `line 2, column 9: <what>`, or `<what> (in `key`)` for a
+/// value of the wrong kind, without the echo of the document's line (which can be
+/// megabytes long).
+fn toml_message(e: &toml::de::Error) -> String {
+    let what = e
+        .message()
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ");
+    let display = e.to_string();
+    if let Some(at) = display
+        .lines()
+        .next()
+        .and_then(|l| l.strip_prefix("TOML parse error at "))
+    {
+        return format!("{at}: {what}");
+    }
+    match display.lines().find_map(|l| l.strip_prefix("in `")) {
+        Some(key) => format!("{what} (in `{})", key.trim()),
+        None => what,
+    }
+}
+
+/// Longest piece of user text (a quoted value, a `--set` assignment) a message
+/// repeats; longer ones are cut with an ellipsis.
+pub(crate) const MAX_ECHO: usize = 80;
+/// Longest message, in characters: a few lines of a terminal.
+const MAX_MESSAGE: usize = 480;
+
+/// `text` cut to [`MAX_ECHO`] characters, with `…` when something was cut.
+pub(crate) fn clip(text: &str) -> String {
+    clip_to(text, MAX_ECHO)
+}
+
+fn clip_to(text: &str, max: usize) -> String {
+    match text.char_indices().nth(max) {
+        Some((at, _)) => format!("{}…", &text[..at]),
+        None => text.to_string(),
+    }
+}
+
+/// `text` as a person should read it on a terminal: on one line, every quoted value
+/// (between backticks or double quotes, as serde and toml quote what they were given)
+/// clipped to [`MAX_ECHO`] characters, control and format characters escaped, and the
+/// whole at most [`MAX_MESSAGE`] characters.
+pub(crate) fn readable(text: &str) -> String {
+    let one_line = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ");
+    let out = clip_quoted(&one_line, &['`', '"']);
+    let total = out.chars().count();
+    let out = if total > MAX_MESSAGE {
+        format!(
+            "{} ({} more characters)",
+            clip_to(&out, MAX_MESSAGE),
+            total - MAX_MESSAGE
+        )
+    } else {
+        out
+    };
+    escaped(&out)
+}
+
+/// `text` with every piece between a pair of `quotes` clipped to [`MAX_ECHO`].
+fn clip_quoted(text: &str, quotes: &[char]) -> String {
+    let mut out = String::with_capacity(text.len().min(4 * MAX_MESSAGE));
+    let mut rest = text;
+    while let Some(open) = rest.find(quotes) {
+        let quote = rest[open..].chars().next().unwrap_or('"');
+        let inner = &rest[open + quote.len_utf8()..];
+        let Some(close) = inner.find(quote) else {
+            // A lone quote (in a clipped value, an apostrophe) opens nothing.
+            out.push_str(&rest[..open]);
+            out.push(quote);
+            rest = inner;
+            continue;
+        };
+        out.push_str(&rest[..open]);
+        out.push(quote);
+        out.push_str(&clip(&inner[..close]));
+        out.push(quote);
+        rest = &inner[close + quote.len_utf8()..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// Prints a command-line error of clap's (or its help) and returns its exit status:
+/// 2 for a usage error, 0 for `--help` and `--version`. The values it quotes are user
+/// text, so they are clipped and escaped like every other message.
+pub fn parse_error(err: &clap::Error) -> ExitCode {
+    if !err.use_stderr() {
+        let _ = err.print();
+        return ExitCode::SUCCESS;
+    }
+    let text = err.render().to_string();
+    for line in text.trim_end().lines() {
+        eprintln!("{}", escaped(&clip_quoted(line, &['\'', '`', '"'])));
+    }
+    ExitCode::from(u8::try_from(err.exit_code()).unwrap_or(2))
+}
+
+/// `text` with control and format characters shown as escapes (`\u{1b}`, `\n`,
+/// `\u{202e}`, ...), so that a name or path from a file can neither drive the terminal
+/// it is printed on nor reorder the text around it (bidi overrides, invisible marks).
 pub(crate) fn escaped(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
         if c.is_control() {
             out.extend(c.escape_default());
+        } else if is_format(c) {
+            out.extend(c.escape_unicode());
         } else {
             out.push(c);
         }
@@ -169,11 +318,41 @@ pub(crate) fn escaped(text: &str) -> String {
     out
 }
 
+/// Whether `c` is invisible yet changes how text around it is shown: Unicode's format
+/// characters (general category Cf: bidi controls, zero-width marks, the BOM, tags) and
+/// the line and paragraph separators.
+fn is_format(c: char) -> bool {
+    matches!(
+        u32::from(c),
+        0x00AD
+            | 0x0600..=0x0605
+            | 0x061C
+            | 0x06DD
+            | 0x070F
+            | 0x0890..=0x0891
+            | 0x08E2
+            | 0x180E
+            | 0x200B..=0x200F
+            | 0x2028..=0x202E
+            | 0x2060..=0x2064
+            | 0x2066..=0x206F
+            | 0xFEFF
+            | 0xFFF9..=0xFFFB
+            | 0x110BD
+            | 0x110CD
+            | 0x13430..=0x1343F
+            | 0x1BCA0..=0x1BCA3
+            | 0x1D173..=0x1D17A
+            | 0xE0001
+            | 0xE0020..=0xE007F
+    )
+}
+
 /// Prints a warning about `file` on stderr, escaped like every other message.
 pub(crate) fn warn(file: &Path, message: &str) {
     eprintln!(
         "touchc: warning: {}",
-        escaped(&format!("{}: {message}", input_name(file)))
+        readable(&format!("{}: {message}", input_name(file)))
     );
 }
 
@@ -199,6 +378,16 @@ pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
 }
 
+/// Loads a recording, `-` being standard input (`touchc synth ... -o - | touchc compile -`).
+pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc::input::recording::Recording> {
+    use touchc::input::recording::Recording;
+    if crate::cli::output::is_stdio(path) {
+        let bytes = read_input(path)?;
+        return Ok(Recording::from_bytes(input_name(path), &bytes)?);
+    }
+    Ok(Recording::load(path)?)
+}
+
 /// The stimulus in `bytes`: the file itself, or slot `slot` when it is a bank.
 pub(crate) fn stimulus_in<'a>(
     bytes: &'a [u8],
@@ -212,5 +401,43 @@ pub(crate) fn stimulus_in<'a>(
             .with_context(|| format!("{name}: slot {slot}"))
     } else {
         Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_message_is_one_line_with_its_quoted_values_clipped() {
+        let long = "A".repeat(1000);
+        let text = format!("bad value `{long}`\nin `input.baseline`\n");
+        let shown = readable(&text);
+        assert_eq!(
+            shown,
+            format!("bad value `{}…`; in `input.baseline`", "A".repeat(MAX_ECHO))
+        );
+        // A lone quote does not stop the clipping of the pairs after it.
+        let text = format!("--set x=\"{}…: unknown `{long}`", "B".repeat(10));
+        assert!(!readable(&text).contains(&"A".repeat(MAX_ECHO + 1)));
+    }
+
+    #[test]
+    fn a_message_is_at_most_a_few_lines_long() {
+        let shown = readable(&"word ".repeat(1000));
+        assert!(shown.chars().count() < MAX_MESSAGE + 40, "{shown}");
+        assert!(shown.ends_with("more characters)"), "{shown}");
+    }
+
+    #[test]
+    fn control_and_format_characters_are_escaped() {
+        assert_eq!(escaped("a\u{1b}[31mb"), "a\\u{1b}[31mb");
+        assert_eq!(escaped("\u{202e}kcab"), "\\u{202e}kcab");
+        assert_eq!(
+            escaped("zero\u{200b}width\u{feff}"),
+            "zero\\u{200b}width\\u{feff}"
+        );
+        // Letters, emoji and their variation selectors are text.
+        assert_eq!(escaped("café ❤️ 触"), "café ❤️ 触");
     }
 }

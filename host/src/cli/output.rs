@@ -155,11 +155,12 @@ impl Output {
         }
     }
 
-    /// Wraps an I/O error with this output's name.
+    /// Wraps an I/O error with this output's name (and without the temporary file's:
+    /// tempfile names it in every error of its writer, a full disk's included).
     pub fn error(&self, source: io::Error) -> WriteError {
         WriteError {
             path: self.path.clone(),
-            source,
+            source: without_path(source),
         }
     }
 
@@ -174,8 +175,12 @@ impl Output {
             Sink::Stdout(mut w) => w.flush().map_err(fail),
             Sink::Direct(mut w) => w.flush().map_err(fail),
             Sink::Atomic { tmp, target } => {
-                let tmp = tmp.into_inner().map_err(|e| fail(e.into_error()))?;
-                tmp.as_file().sync_all().map_err(fail)?;
+                let tmp = tmp
+                    .into_inner()
+                    .map_err(|e| fail(without_path(e.into_error())))?;
+                tmp.as_file()
+                    .sync_all()
+                    .map_err(|e| fail(without_path(e)))?;
                 tmp.persist(&target)
                     .map_err(|e| fail(without_path(e.error)))?;
                 Ok(())
@@ -262,6 +267,167 @@ fn resolve_links(path: &Path) -> io::Result<PathBuf> {
     Err(io::Error::other(format!(
         "more than {MAX_LINKS} symlinks in a chain"
     )))
+}
+
+/// A file a command reads or writes, as the command line named it: `label` says which
+/// argument it came from (`the recording`, `-o`, `--report`), for the refusal's message.
+#[derive(Debug, Clone, Copy)]
+pub struct Named<'a> {
+    /// The argument, as a person reads it.
+    pub label: &'a str,
+    /// The path given (`-` is standard input or output).
+    pub path: &'a Path,
+}
+
+/// `label` names `path`.
+pub fn named<'a>(label: &'a str, path: &'a Path) -> Named<'a> {
+    Named { label, path }
+}
+
+/// Refuses, before any work, a command whose outputs would write over one of its
+/// inputs (the same path, or the same file through a symlink or a hard link) or over
+/// each other: replacing an input loses it, and two outputs in one file lose one of
+/// them. Devices, FIFOs and sockets are streams, not files a write replaces, so they
+/// never clash; `-` outputs (standard output) clash with each other. The error is a
+/// usage error (exit status 2) naming both files.
+pub fn refuse_overwrites(inputs: &[Named<'_>], outputs: &[Named<'_>]) -> anyhow::Result<()> {
+    use std::collections::HashMap;
+    // By identity, so that a batch of thousands is checked in linear time; the first
+    // input of an identity is the one named.
+    let mut by_id: HashMap<Identity, Named<'_>> = HashMap::new();
+    for n in inputs {
+        if let Some(id) = Identity::of_input(n.path) {
+            by_id.entry(id).or_insert(*n);
+        }
+    }
+    let mut written: HashMap<Identity, Named<'_>> = HashMap::new();
+    for out in outputs {
+        let Some(out_id) = Identity::of_output(out.path) else {
+            continue;
+        };
+        if let Some(input) = by_id.get(&out_id) {
+            return Err(super::usage(format!(
+                "{} {} is the same file as {} {}: writing it would destroy that input; \
+                 choose another output",
+                out.label,
+                shown(out.path),
+                input.label,
+                super::input_name(input.path),
+            )));
+        }
+        if let Some(other) = written.get(&out_id) {
+            return Err(super::usage(format!(
+                "{} {} and {} {} are the same file: one output would overwrite the other",
+                other.label,
+                shown(other.path),
+                out.label,
+                shown(out.path),
+            )));
+        }
+        written.insert(out_id, *out);
+    }
+    Ok(())
+}
+
+/// What makes two paths one file, for [`refuse_overwrites`].
+#[derive(Debug, PartialEq, Eq, Hash)]
+enum Identity {
+    /// Standard output.
+    Stdout,
+    /// An existing regular file: its device and inode on Unix, so that symlinks and
+    /// hard links are seen through; its canonical path elsewhere.
+    #[cfg(unix)]
+    File { dev: u64, ino: u64 },
+    /// A file by its absolute, normalised path: one that does not exist yet (an
+    /// output), or any existing file where inodes are not available.
+    Path(PathBuf),
+}
+
+impl Identity {
+    /// An input's identity; `None` for what cannot be written over: a stream, a
+    /// device, standard input that is not a regular file, a path that does not exist.
+    fn of_input(path: &Path) -> Option<Identity> {
+        if is_stdio(path) {
+            return Self::of_stdin();
+        }
+        let meta = std::fs::metadata(path).ok()?;
+        meta.is_file().then(|| Self::of_file(path, &meta))?
+    }
+
+    /// An output's identity; `None` for a device, FIFO or socket (written in place).
+    fn of_output(path: &Path) -> Option<Identity> {
+        if is_stdio(path) {
+            return Some(Identity::Stdout);
+        }
+        match std::fs::metadata(path) {
+            Ok(meta) if meta.is_file() => Self::of_file(path, &meta),
+            Ok(meta) if meta.is_dir() => Some(Identity::Path(normalised(path))),
+            Ok(_) => None,
+            // Not there yet (or a dangling link): where it would be created.
+            Err(_) => Some(Identity::Path(normalised(
+                &resolve_links(path).unwrap_or_else(|_| path.to_path_buf()),
+            ))),
+        }
+    }
+
+    #[cfg(unix)]
+    fn of_file(_path: &Path, meta: &std::fs::Metadata) -> Option<Identity> {
+        use std::os::unix::fs::MetadataExt;
+        Some(Identity::File {
+            dev: meta.dev(),
+            ino: meta.ino(),
+        })
+    }
+
+    #[cfg(not(unix))]
+    fn of_file(path: &Path, _meta: &std::fs::Metadata) -> Option<Identity> {
+        Some(Identity::Path(
+            std::fs::canonicalize(path).unwrap_or_else(|_| normalised(path)),
+        ))
+    }
+
+    /// Standard input when it is a regular file (`touchc inspect - < s.touch`).
+    #[cfg(unix)]
+    fn of_stdin() -> Option<Identity> {
+        use std::os::fd::AsFd;
+        let fd = io::stdin().as_fd().try_clone_to_owned().ok()?;
+        let meta = File::from(fd).metadata().ok()?;
+        meta.is_file()
+            .then(|| Self::of_file(Path::new("-"), &meta))?
+    }
+
+    #[cfg(not(unix))]
+    fn of_stdin() -> Option<Identity> {
+        None
+    }
+}
+
+/// `path` made absolute, its directory canonical where it exists, `.` and `..` folded
+/// otherwise: two spellings of a file that does not exist yet compare equal.
+fn normalised(path: &Path) -> PathBuf {
+    let absolute = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map(|d| d.join(path))
+            .unwrap_or_else(|_| path.to_path_buf())
+    };
+    if let (Some(dir), Some(name)) = (absolute.parent(), absolute.file_name()) {
+        if let Ok(dir) = std::fs::canonicalize(dir) {
+            return dir.join(name);
+        }
+    }
+    let mut out = PathBuf::new();
+    for part in absolute.components() {
+        match part {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    out
 }
 
 /// Mode 0666: the kernel filters it through the umask, as for any new file.

@@ -14,29 +14,53 @@ use std::sync::OnceLock;
 use anyhow::Context;
 use clap::{Arg, ArgMatches, FromArgMatches};
 use touchc::config::{CoarseToFine, Config, MetadataOverrides, Preset};
+use touchc::display::Shortest;
+
+/// `--help` heading of the recording's sampling flags.
+pub const INPUT_AND_SENSOR: &str = "Input and sensor";
+/// `--help` heading of the parameter flags.
+pub const PRESET_AND_KNOBS: &str = "Preset and knobs";
+/// `--help` heading of what a command writes.
+pub const OUTPUT: &str = "Output";
 
 /// Parameter and sampling flags: the same set on every command that runs the pipeline.
 /// Every knob is physical (its unit in its name); a flag not given keeps the preset's
 /// value.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ConfigArgs {
-    #[arg(long, value_enum, value_name = "PRESET", help = preset_help())]
+    #[arg(
+        long,
+        value_name = "HZ",
+        help = sampling_help("The recording's frame rate, Hz, 1 to 1000", "rate_hz"),
+        help_heading = INPUT_AND_SENSOR
+    )]
+    pub rate: Option<f64>,
+    #[arg(
+        long,
+        value_name = "MM",
+        help = sampling_help("The sensor's cell pitch, mm, 0.1 to 100", "pitch_mm"),
+        help_heading = INPUT_AND_SENSOR
+    )]
+    pub pitch_mm: Option<f64>,
+    #[arg(
+        long,
+        value_parser = super::help::PlainEnum::<Preset>::new(),
+        value_name = "PRESET",
+        help = preset_help(),
+        help_heading = PRESET_AND_KNOBS
+    )]
     pub preset: Option<Preset>,
     /// TOML file overriding the preset's parameters (missing keys keep the preset's).
-    #[arg(long)]
+    #[arg(long, help_heading = PRESET_AND_KNOBS)]
     pub config: Option<PathBuf>,
     /// Any parameter, as `SECTION.KEY=VALUE` in TOML syntax (for example
     /// `detect.sigma_k=1.5` or `input.baseline="robust"`); may be repeated. Applied
     /// after the config file, before the knob flags.
-    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE", help_heading = PRESET_AND_KNOBS)]
     pub set: Vec<String>,
     /// The knob flags of [`KNOBS`].
     #[command(flatten)]
     pub knobs: Knobs,
-    #[arg(long, value_name = "HZ", help = sampling_help("The recording's frame rate, Hz", "rate_hz"))]
-    pub rate: Option<f64>,
-    #[arg(long, value_name = "MM", help = sampling_help("The sensor's cell pitch, mm", "pitch_mm"))]
-    pub pitch_mm: Option<f64>,
 }
 
 /// `--preset`'s help, naming the real default ([`Preset::default`], whose parameters
@@ -223,6 +247,7 @@ impl Knob {
         let arg = Arg::new(self.flag)
             .long(self.flag)
             .value_name(self.value_name)
+            .help_heading(PRESET_AND_KNOBS)
             .help(format!("{} [default: {}]", self.help, self.default_text()));
         match self.kind {
             Kind::Count => arg.value_parser(clap::value_parser!(usize)),
@@ -308,8 +333,33 @@ impl ConfigArgs {
     }
 
     /// The config these flags describe, laid over `preset` whatever `--preset` says.
+    /// Every error is a usage error (exit status 2): the parameters are how the command
+    /// was called, the `--config` file included. So are `--rate` and `--pitch-mm`
+    /// outside the ranges any recording may have.
     pub fn resolve_on(&self, preset: Preset) -> anyhow::Result<Config> {
-        layered(preset, self.config.as_deref(), &self.set, &self.knobs)
+        let config = layered(preset, self.config.as_deref(), &self.set, &self.knobs)
+            .map_err(|e| super::usage(super::message(&e)))?;
+        self.check_sampling()?;
+        Ok(config)
+    }
+
+    /// `--rate` and `--pitch-mm` against the ranges a recording's own values must meet.
+    fn check_sampling(&self) -> anyhow::Result<()> {
+        use touchc::input::recording::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+        for (flag, value, range, unit) in [
+            ("--rate", self.rate, RATE_HZ_RANGE, "Hz"),
+            ("--pitch-mm", self.pitch_mm, PITCH_MM_RANGE, "mm"),
+        ] {
+            if let Some(v) = value.filter(|v| !range.contains(v)) {
+                return Err(super::usage(format!(
+                    "{flag} {} is out of range: must be {} to {} {unit}",
+                    Shortest(v),
+                    Shortest(*range.start()),
+                    Shortest(*range.end()),
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// The recording's sampling these flags give: over the file's own values (`.npz`
@@ -347,14 +397,14 @@ fn layered(
     for set in sets {
         let (key, value) = set
             .split_once('=')
-            .with_context(|| format!("--set {set}: expected SECTION.KEY=VALUE"))?;
+            .with_context(|| format!("--set {}: expected SECTION.KEY=VALUE", super::clip(set)))?;
         let (section, field) = key
             .trim()
             .split_once('.')
-            .with_context(|| format!("--set {set}: expected SECTION.KEY=VALUE"))?;
+            .with_context(|| format!("--set {}: expected SECTION.KEY=VALUE", super::clip(set)))?;
         let doc = format!("[{section}]\n{field} = {value}\n");
-        let over: toml::Table =
-            toml::from_str(&doc).with_context(|| format!("--set {set}: not a TOML value"))?;
+        let over: toml::Table = toml::from_str(&doc)
+            .with_context(|| format!("--set {}: not a TOML value", super::clip(set)))?;
         merge(&mut table, over);
     }
     for (section, key, value) in &knobs.0 {
@@ -369,6 +419,7 @@ fn layered(
         if sets.is_empty() {
             "invalid parameter".to_string()
         } else {
+            let sets: Vec<String> = sets.iter().map(|s| super::clip(s)).collect();
             format!("--set {}: invalid parameter", sets.join(" --set "))
         }
     })?;

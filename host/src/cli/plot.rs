@@ -34,6 +34,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.output.display()
         )));
     };
+    let (min, max) = plot::SIDE_PX;
+    for (flag, px) in [("--width", args.width), ("--height", args.height)] {
+        if !(min..=max).contains(&px) {
+            return Err(super::usage(format!(
+                "{flag} {px} is out of range: must be {min} to {max} px"
+            )));
+        }
+    }
+    crate::cli::output::refuse_overwrites(
+        &[crate::cli::output::named("the stimulus", &args.file)],
+        &[crate::cli::output::named("-o", &args.output)],
+    )?;
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
     let size = Size {

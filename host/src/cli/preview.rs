@@ -47,6 +47,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             )))
         }
     };
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut inputs = vec![named("the recording", args.recording.as_path())];
+        inputs.extend(args.config.config.as_deref().map(|p| named("--config", p)));
+        inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
+        refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
+    }
     if args.every == 0 {
         return Err(super::usage("--every must be at least 1"));
     }

@@ -45,6 +45,23 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ));
         }
     }
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut outputs = Vec::new();
+        outputs.extend(csv_out.as_deref().map(|p| named("-o", p)));
+        outputs.extend(args.wav.as_deref().map(|p| named("--wav", p)));
+        refuse_overwrites(&[named("the stimulus", &args.file)], &outputs)?;
+    }
+    if let Some(path) = &args.wav {
+        let (min, max) = wav::RATE_HZ;
+        if !(min..=max).contains(&args.rate) {
+            return Err(super::usage(format!(
+                "--wav {}: --rate {} Hz is out of range: must be {min} to {max} Hz",
+                crate::cli::output::shown(path),
+                args.rate
+            )));
+        }
+    }
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
     let device = DeviceConfig::default();
@@ -74,8 +91,21 @@ fn write_wav(
     path: &std::path::Path,
     rate: u32,
 ) -> anyhow::Result<Option<(usize, touch_protocol::player::Fault)>> {
-    let limit = wav::max_ticks(rate).saturating_add(1);
-    let ticks = play(stimulus, device).take(limit).count();
+    let most = wav::max_ticks(rate);
+    let ticks = play(stimulus, device).take(most.saturating_add(1)).count();
+    if ticks > most {
+        // Counting stopped at the limit: the header says how long the whole stimulus is.
+        let playback = u64::from(stimulus.header().playback_ms()) + 1;
+        let ms = usize::try_from(playback).unwrap_or(usize::MAX);
+        anyhow::bail!(
+            "the stimulus plays {:.1} s, {} sample frames at {rate} Hz, but a WAV holds at \
+             most {} frames (4 GiB), {:.1} s at this rate: use a lower --rate",
+            playback as f64 / 1000.0,
+            wav::frames_for(ms, rate),
+            wav::frames_for(most, rate),
+            most as f64 / 1000.0,
+        );
+    }
     let wav = wav::Wav::new(ticks, rate)?;
     let mut out = Output::create(path)?;
     let mut ticks = play(stimulus, device);

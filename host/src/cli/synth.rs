@@ -3,26 +3,32 @@
 
 use std::path::PathBuf;
 
+use super::help::PlainEnum;
 use crate::cli::output::write_atomic;
 use anyhow::Context;
+use touchc::display::Shortest;
 use touchc::input::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
+
+/// Most noise-only frames before and after the gestures: about 1.4 h at 20 Hz, a
+/// recording of 130 MB. More would ask for memory no test recording needs.
+const MAX_QUIET_FRAMES: usize = 100_000;
 
 /// Arguments of `touchc synth`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Gestures, played one after another (several make a combination; `rest` is two
     /// seconds of sensor noise alone).
-    #[arg(required = true, value_enum)]
+    #[arg(required = true, value_parser = PlainEnum::<Gesture>::new())]
     gestures: Vec<Gesture>,
     /// Seed of the random generator: the same arguments give the same file.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// The sensor imitated: `sleeve` (8 x 21 cells, 20 Hz) or `grid10` (10 x 10 cells,
     /// 54 Hz), one-inch cells both.
-    #[arg(long, value_enum, default_value = "sleeve")]
+    #[arg(long, value_parser = PlainEnum::<Sensor>::new(), default_value = "sleeve")]
     sensor: Sensor,
     /// Sleeve outline (NaN outside it; the sleeve only).
-    #[arg(long, value_enum, default_value = "cells142")]
+    #[arg(long, value_parser = PlainEnum::<Mask>::new(), default_value = "cells142")]
     mask: Mask,
     /// Sensor noise, psi (standard deviation).
     #[arg(long, default_value_t = 0.004)]
@@ -58,39 +64,72 @@ pub struct Args {
     /// Also write where each contact really was, frame by frame (JSON).
     #[arg(long)]
     truth: Option<PathBuf>,
-    /// The `.npy` file to write (`-`: standard output).
+    /// The file to write: a `.npz` (by its extension) carries the sensor's rate and
+    /// pitch beside the array; anything else is a `.npy` (`-`: standard output).
     #[arg(short, long)]
     output: PathBuf,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        args.noise.is_finite() && args.noise >= 0.0,
-        "--noise must be a finite, non-negative psi value"
-    );
-    anyhow::ensure!(
-        args.flicker.is_finite() && args.flicker >= 0.0,
-        "--flicker must be a finite, non-negative rate per second, got {}",
-        args.flicker
-    );
-    let positive = |name: &str, v: Option<f64>| -> anyhow::Result<()> {
-        if let Some(v) = v {
-            anyhow::ensure!(
-                v.is_finite() && v > 0.0,
-                "--{name} must be a finite, positive number, got {v}"
-            );
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut outputs = vec![named("-o", &args.output)];
+        outputs.extend(args.truth.as_deref().map(|p| named("--truth", p)));
+        refuse_overwrites(&[], &outputs)?;
+    }
+    // Every check is on a flag, so every refusal is a usage error (exit status 2).
+    let ensure = |ok: bool, message: String| -> anyhow::Result<()> {
+        if ok {
+            Ok(())
+        } else {
+            Err(super::usage(message))
         }
-        Ok(())
+    };
+    ensure(
+        args.noise.is_finite() && args.noise >= 0.0,
+        format!(
+            "--noise must be a finite, non-negative psi value, got {}",
+            Shortest(args.noise)
+        ),
+    )?;
+    ensure(
+        args.flicker.is_finite() && args.flicker >= 0.0,
+        format!(
+            "--flicker must be a finite, non-negative rate per second, got {}",
+            Shortest(args.flicker)
+        ),
+    )?;
+    ensure(
+        args.quiet_frames <= MAX_QUIET_FRAMES,
+        format!(
+            "--quiet-frames {} is out of range: must be 0 to {MAX_QUIET_FRAMES}",
+            args.quiet_frames
+        ),
+    )?;
+    let positive = |name: &str, v: Option<f64>| -> anyhow::Result<()> {
+        match v {
+            Some(v) => ensure(
+                v.is_finite() && v > 0.0,
+                format!(
+                    "--{name} must be a finite, positive number, got {}",
+                    Shortest(v)
+                ),
+            ),
+            None => Ok(()),
+        }
     };
     positive("speed", args.speed)?;
     positive("tap-ms", args.tap_ms)?;
     positive("shake-hz", args.shake_hz)?;
     positive("shake-mm", args.shake_mm)?;
     if let Some(g) = args.gap_ms {
-        anyhow::ensure!(
+        ensure(
             g.is_finite() && g >= 0.0,
-            "--gap-ms must be a finite, non-negative number, got {g}"
-        );
+            format!(
+                "--gap-ms must be a finite, non-negative number, got {}",
+                Shortest(g)
+            ),
+        )?;
     }
     let spec = SynthSpec {
         gestures: args.gestures.clone(),
@@ -111,8 +150,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         end_mid_touch: args.end_mid_touch,
     };
     let (recording, truth) = synth::generate_with_truth(&spec);
-    let bytes = synth::to_npy(&recording)
-        .with_context(|| format!("{}: cannot encode the recording", args.output.display()))?;
+    let (rate_hz, pitch_mm) = (spec.sensor.rate_hz(), spec.sensor.pitch_mm());
+    // A `.npz` carries the sensor's rate and pitch; a `.npy` holds the array alone.
+    let npz = args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npz"));
+    let bytes = if npz {
+        synth::to_npz(&recording, rate_hz, pitch_mm).map_err(anyhow::Error::from)
+    } else {
+        synth::to_npy(&recording).map_err(anyhow::Error::from)
+    }
+    .with_context(|| format!("{}: cannot encode the recording", args.output.display()))?;
     // The truth first: if it cannot be written, no recording appears either.
     if let Some(path) = &args.truth {
         let json = serde_json::to_vec_pretty(&truth)
@@ -122,10 +171,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     write_atomic(&args.output, &bytes)?;
     let (frames, rows, cols) = recording.dim();
     eprintln!(
-        "touchc: wrote {} ({frames} frames of {rows}x{cols} at {} Hz, {} contacts)",
+        "touchc: wrote {} ({frames} frames of {rows}x{cols} at {rate_hz} Hz, {} contacts)",
         super::escaped(&crate::cli::output::shown(&args.output)),
-        spec.sensor.rate_hz(),
         truth.contacts.len()
     );
+    // What `compile` assumes of a file that does not say (the published sleeve's).
+    let assumed = touchc::config::InputConfig::default();
+    if !npz && (rate_hz != assumed.rate_hz || pitch_mm != assumed.pitch_mm) {
+        eprintln!(
+            "touchc: note: a .npy holds no rate: compile it with --rate {rate_hz} \
+             --pitch-mm {pitch_mm} (or write a .npz, which carries both)"
+        );
+    }
     Ok(())
 }

@@ -44,6 +44,12 @@ struct TrajectoryReport {
 
 /// Runs the subcommand.
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut inputs = vec![named("the recording", args.recording.as_path())];
+        inputs.extend(args.config.config.as_deref().map(|p| named("--config", p)));
+        refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
+    }
     let cfg = args.config.resolve()?;
     let rec = Recording::load(&args.recording)?;
     let out = track_with(&rec, &cfg, &args.config.overrides())?;

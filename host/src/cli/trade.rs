@@ -2,7 +2,7 @@
 //! with `exact` (see [`touchc::measure::trade`]).
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::cli::output::write_atomic;
 use anyhow::Context;
@@ -63,9 +63,26 @@ const STAGES: [Stage; 8] = [
 ];
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    {
+        use crate::cli::output::{named, refuse_overwrites};
+        let mut inputs: Vec<_> = args
+            .recordings
+            .iter()
+            .map(|p| named("the recording", p))
+            .collect();
+        inputs.extend(args.truth.iter().map(|p| named("--truth", p)));
+        inputs.extend(args.config.config.as_deref().map(|p| named("--config", p)));
+        let mut outputs = vec![named("the table", Path::new("-"))];
+        outputs.extend(args.csv.as_deref().map(|p| named("--csv", p)));
+        outputs.extend(args.json.as_deref().map(|p| named("--json", p)));
+        outputs.extend(args.svg.as_deref().map(|p| named("--svg", p)));
+        refuse_overwrites(&inputs, &outputs)?;
+    }
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
-        anyhow::ensure!(n >= 1, "--threads must be at least 1");
+        if n == 0 {
+            return Err(super::usage("--threads must be at least 1"));
+        }
         builder = builder.num_threads(n);
     }
     let pool = builder.build().context("cannot start the worker threads")?;
@@ -197,9 +214,17 @@ fn lines(rows: &[TradeRow], split: bool) -> impl Iterator<Item = Vec<String>> + 
     })
 }
 
+/// A line for a terminal: the recording's name (from its path) escaped.
+fn shown(mut line: Vec<String>) -> Vec<String> {
+    if let Some(name) = line.first_mut() {
+        *name = super::escaped(name);
+    }
+    line
+}
+
 fn text(rows: &[TradeRow]) -> String {
     let table: Vec<Vec<String>> = std::iter::once(headers(false))
-        .chain(lines(rows, false))
+        .chain(lines(rows, false).map(shown))
         .collect();
     let widths: Vec<usize> = (0..table[0].len())
         .map(|c| table.iter().map(|l| l[c].len()).max().unwrap_or(0))
@@ -229,7 +254,7 @@ fn markdown(rows: &[TradeRow]) -> String {
             .map(|(i, _)| if i < 2 { "---|" } else { "---:|" })
             .collect::<String>()
     );
-    for line in lines(rows, false) {
+    for line in lines(rows, false).map(shown) {
         s += &format!("| {} |\n", line.join(" | "));
     }
     s

@@ -52,12 +52,7 @@ pub const MAX_GATE_PX: f64 = 4096.0;
 
 /// `v` as a user typed it: `1e308` and `5e-324` in exponent form rather than 300 digits.
 fn num(v: f64) -> String {
-    let a = v.abs();
-    if a != 0.0 && a.is_finite() && !(1e-4..1e9).contains(&a) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
+    crate::display::Shortest(v).to_string()
 }
 
 /// `knob` must be finite and within `[lo, hi]` (in `unit`).

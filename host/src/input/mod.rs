@@ -8,3 +8,4 @@
 pub mod recording;
 pub mod sanity;
 pub mod synth;
+pub mod warning;

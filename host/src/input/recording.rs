@@ -17,14 +17,16 @@ use std::path::Path;
 use ndarray::{Array2, Array3, ArrayView3, Axis};
 
 use crate::config::{Baseline, InputConfig, Sampling};
+use crate::input::warning::InputWarning;
 
 mod npy;
 mod npz;
 
-/// Frame rates a file may declare, in Hz: from a slow pressure mat to a fast tactile
-/// array. Outside this the value is more likely a unit mistake (a period, kHz) than a
-/// sensor.
-pub const RATE_HZ_RANGE: RangeInclusive<f64> = 1.0..=10_000.0;
+/// Frame rates a recording may have, in Hz: from a slow pressure mat up to the sleeve's
+/// 1 kHz output rate, which a recording's frames are resampled to (the player has no
+/// faster ticks to play more frames on). Outside this the value is more likely a unit
+/// mistake (a period, kHz) than a sensor.
+pub const RATE_HZ_RANGE: RangeInclusive<f64> = 1.0..=1_000.0;
 
 /// Cell pitches a file may declare, in mm: from e-skin taxels to a coarse seat mat.
 pub const PITCH_MM_RANGE: RangeInclusive<f64> = 0.1..=100.0;
@@ -138,7 +140,7 @@ pub enum RecordingError {
         found: String,
     },
     /// A metadata value is not finite or outside its plausible range.
-    #[error("{name}: {field} = {value} is outside the plausible range {} to {} {unit}", .range.start(), .range.end())]
+    #[error("{name}: {field} = {} is outside the plausible range {} to {} {unit}", crate::display::Shortest(*.value), .range.start(), .range.end())]
     MetadataRange {
         /// The file the recording came from.
         name: String,
@@ -374,8 +376,10 @@ impl Recording {
     /// NaN into 0. `sampling` turns the config's seconds into frames.
     ///
     /// The `leading` baseline (the paper) is each cell's mean over the first `tare_s`,
-    /// with numpy semantics: a cell that is NaN in any tare frame has a NaN mean and is
-    /// therefore 0 ("no cell") for the whole recording; a NaN reading elsewhere is 0 in
+    /// of the readings it has there: a missing (NaN) reading in the window does not
+    /// make the whole cell "no cell" (numpy's `mean` would), and a cell with no reading
+    /// in the window but some later is tared by its `baseline_quantile` over the whole
+    /// recording. A cell never read is 0 ("no cell"); a NaN reading elsewhere is 0 in
     /// that frame only. The `robust` baseline is each cell's `baseline_quantile` over
     /// the whole recording (NaN readings ignored; a cell with none is 0), so a recording
     /// may begin or end mid-touch.
@@ -384,6 +388,16 @@ impl Recording {
         cfg: &InputConfig,
         sampling: &Sampling,
     ) -> Result<Array3<f64>, RecordingError> {
+        self.tare_noting(cfg, sampling).map(|(tared, _)| tared)
+    }
+
+    /// [`Self::tare`], and what the tare had to work around: missing readings in the
+    /// leading baseline's window ([`InputWarning::NanInTareWindow`]).
+    pub fn tare_noting(
+        &self,
+        cfg: &InputConfig,
+        sampling: &Sampling,
+    ) -> Result<(Array3<f64>, Option<InputWarning>), RecordingError> {
         let tare = match cfg.baseline {
             Baseline::Leading => sampling.frames(cfg.tare_s),
             Baseline::Robust => 0,
@@ -399,9 +413,12 @@ impl Recording {
                 min,
             });
         }
-        let baseline = match cfg.baseline {
-            Baseline::Leading => leading_baseline(self.data.view(), tare),
-            Baseline::Robust => robust_baseline(self.data.view(), cfg.baseline_quantile),
+        let (baseline, note) = match cfg.baseline {
+            Baseline::Leading => leading_baseline(self.data.view(), tare, cfg.baseline_quantile),
+            Baseline::Robust => (
+                robust_baseline(self.data.view(), cfg.baseline_quantile),
+                None,
+            ),
         };
         let kept = self.data.slice(ndarray::s![trim..t - trim, .., ..]);
         let tared = |v: f64, m: f64| {
@@ -445,7 +462,7 @@ impl Recording {
                 }
             }
         }
-        Ok(out)
+        Ok((out, note))
     }
 }
 
@@ -453,18 +470,66 @@ impl Recording {
 /// the calling thread.
 const PARALLEL_TARE_VALUES: usize = 1 << 20;
 
-/// Each cell's mean over the first `frames` frames (0 when `frames` is 0), summed frame
-/// by frame as numpy reduces a non-contiguous axis.
-fn leading_baseline(data: ArrayView3<f64>, frames: usize) -> Array2<f64> {
+/// Each cell's mean over the readings it has in the first `frames` frames (0 when
+/// `frames` is 0), summed frame by frame as numpy reduces a non-contiguous axis: a cell
+/// read in every one of them gets numpy's `mean`, bit for bit. A cell with no reading
+/// there gets its `q`-quantile over the whole recording, or NaN ("no cell") when it is
+/// never read. The note counts the cells with missing readings in the window.
+fn leading_baseline(
+    data: ArrayView3<f64>,
+    frames: usize,
+    q: f64,
+) -> (Array2<f64>, Option<InputWarning>) {
     let (_, r, c) = data.dim();
     let mut baseline = Array2::<f64>::zeros((r, c));
-    if frames > 0 {
-        for frame in data.axis_iter(Axis(0)).take(frames) {
-            baseline += &frame;
-        }
-        baseline /= frames as f64;
+    if frames == 0 {
+        return (baseline, None);
     }
-    baseline
+    let mut read = Array2::<usize>::zeros((r, c));
+    for frame in data.axis_iter(Axis(0)).take(frames) {
+        ndarray::Zip::from(&mut baseline)
+            .and(&mut read)
+            .and(&frame)
+            .for_each(|sum, n, &v| {
+                if !v.is_nan() {
+                    *sum += v;
+                    *n += 1;
+                }
+            });
+    }
+    let (mut cells, mut readings, mut unread_cells) = (0, 0, 0);
+    for ((cell, sum), &n) in baseline.indexed_iter_mut().zip(&read) {
+        if n == frames {
+            *sum /= frames as f64;
+            continue;
+        }
+        if n > 0 {
+            *sum /= n as f64;
+        } else {
+            let mut series: Vec<f64> = data
+                .slice(ndarray::s![.., cell.0, cell.1])
+                .iter()
+                .copied()
+                .filter(|v| !v.is_nan())
+                .collect();
+            // NaN for a cell never read: "no cell", as the sleeve's padding.
+            *sum = quantile(&mut series, q);
+            if sum.is_nan() {
+                continue;
+            }
+            unread_cells += 1;
+        }
+        cells += 1;
+        readings += frames - n;
+    }
+    let note = (cells > 0).then_some(InputWarning::NanInTareWindow {
+        tare_frames: frames,
+        cells,
+        readings,
+        unread_cells,
+        quantile: q,
+    });
+    (baseline, note)
 }
 
 /// Each cell's `q`-quantile over every frame (linear interpolation between order
@@ -577,7 +642,7 @@ mod tests {
             ..InputConfig::default()
         };
         let tared = rec.tare(&cfg, &Sampling::PAPER).unwrap();
-        let base = leading_baseline(a.view(), 10);
+        let (base, _) = leading_baseline(a.view(), 10, 0.02);
         assert_eq!(tared.dim(), (t - 40, r, c));
         for ((f, i, j), &v) in tared.indexed_iter() {
             let x = a[[f + 20, i, j]] - base[[i, j]];

@@ -12,6 +12,7 @@ use ndarray::{ArrayView2, ArrayView3, Axis};
 
 use crate::config::{Baseline, Config, Sampling};
 use crate::input::recording::{map_cell_series, Recording};
+use crate::input::warning::{ErasedBy, InputWarning, TransposedBy};
 
 /// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
 /// and looks like raw ADC counts.
@@ -114,6 +115,17 @@ pub fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
 
 /// The dominant deviation from each cell's resting level (its median) is negative: a
 /// sensor whose reading falls with pressure (e.g. 10-bit counts near 1020 at rest).
+///
+/// A cell's median is its rest only while it is touched for less than half the
+/// recording: a press held longer makes its median the touch, and the quiet readings
+/// then look like falls. So the same question is also asked across each frame (a
+/// reading against the median of its frame, where untouched cells are the many): a
+/// long touch rises above its frame, touch on a falling sensor falls below it. The
+/// warning needs the frames to say "falls", and either the cells to say so too or the
+/// falls to be a small minority of their frames (a touch too small to be a frame's
+/// median: a contact covering most of the sleeve falls below nothing). A frame of
+/// fewer than [`MIN_FRAME_CELLS`] cells has no such median, and then the cells' answer
+/// stands alone.
 pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> {
     // Per cell: readings below and above its rest by more than `threshold`, and the
     // deepest fall.
@@ -140,15 +152,157 @@ pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> 
             (b + cb, a + ca, d.min(cd))
         });
     // Noise deviates both ways about equally; touch on a falling sensor only down.
-    (below > 2 * above && below >= 10).then(|| {
-        format!(
-            "pressure seems to fall with touch: {below} readings lie more than {threshold} \
-             below their cell's resting level (down to {deepest:.3}) against {above} above \
-             it; if the sensor's reading falls with pressure, convert it so that touch is \
-             positive psi (e.g. rest minus reading, scaled to psi)"
-        )
+    let falls = |below: usize, above: usize| below > 2 * above && below >= 10;
+    let across = frame_deviations(raw, threshold, 0..raw.dim().0);
+    let by_cells = falls(below, above);
+    let decided = if across.frames == 0 {
+        by_cells
+    } else {
+        let minority = (across.below as f64) < MINORITY * across.deviating_frame_cells as f64;
+        falls(across.below, across.above) && (by_cells || minority)
+    };
+    if !decided {
+        return None;
+    }
+    Some(format!(
+        "pressure seems to fall with touch: {below} readings lie more than {threshold} \
+         below their cell's resting level (down to {deepest:.3}) against {above} above \
+         it; if the sensor's reading falls with pressure, convert it so that touch is \
+         positive psi (e.g. rest minus reading, scaled to psi)"
+    ))
+}
+
+/// Fewest cells a frame needs for its median to stand for the untouched sleeve.
+pub const MIN_FRAME_CELLS: usize = 8;
+
+/// Readings that stand out from the rest of their frame, over some frames.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Deviations {
+    /// Frames with at least [`MIN_FRAME_CELLS`] cells, the ones counted.
+    frames: usize,
+    /// Readings more than the threshold above their frame's median.
+    above: usize,
+    /// Readings more than the threshold below it.
+    below: usize,
+    /// The largest excess above the median, psi.
+    highest: f64,
+    /// Cells in the frames with a reading that deviates, either way.
+    deviating_frame_cells: usize,
+}
+
+/// Share of a frame's cells below which its falls are a touch on a falling sensor
+/// whatever its length, not the rest beside a contact covering most of the sleeve.
+const MINORITY: f64 = 0.25;
+
+/// [`Deviations`] of `raw`'s frames in `range`, on the rayon pool. Touch covers a
+/// small part of a sleeve in any frame, so a frame's median is its untouched cells'
+/// level, however long the touch lasts.
+fn frame_deviations(
+    raw: ArrayView3<f64>,
+    threshold: f64,
+    range: std::ops::Range<usize>,
+) -> Deviations {
+    use rayon::prelude::*;
+    range
+        .into_par_iter()
+        .map_init(Vec::new, |values, f| {
+            let frame = raw.index_axis(Axis(0), f);
+            values.clear();
+            values.extend(frame.iter().copied().filter(|v| v.is_finite()));
+            if values.len() < MIN_FRAME_CELLS {
+                return Deviations::default();
+            }
+            let Some(rest) = median(values) else {
+                return Deviations::default();
+            };
+            let mut d = Deviations {
+                frames: 1,
+                ..Deviations::default()
+            };
+            for &v in values.iter() {
+                if v - rest > threshold {
+                    d.above += 1;
+                    d.highest = d.highest.max(v - rest);
+                } else if rest - v > threshold {
+                    d.below += 1;
+                }
+            }
+            if d.above + d.below > 0 {
+                d.deviating_frame_cells = values.len();
+            }
+            d
+        })
+        .reduce(Deviations::default, |a, b| Deviations {
+            frames: a.frames + b.frames,
+            above: a.above + b.above,
+            below: a.below + b.below,
+            highest: a.highest.max(b.highest),
+            deviating_frame_cells: a.deviating_frame_cells + b.deviating_frame_cells,
+        })
+}
+
+/// When the tared frames hold no touch: whether the raw frames did, and so the tare
+/// (not the recording) made the stimulus silent. Touch in the raw frames is a reading
+/// more than the touch threshold above its frame's median, counted in the frames the
+/// trim keeps; more than `input.min_touch_readings` of them is touch.
+pub fn erased_touch(rec: &Recording, cfg: &Config, sampling: &Sampling) -> Option<InputWarning> {
+    let raw = rec.data();
+    let frames = raw.dim().0;
+    let threshold = cfg.input.touch_threshold_psi;
+    let trim = sampling.frames(cfg.input.trim_s).min(frames / 2);
+    let kept = frame_deviations(raw, threshold, trim..frames - trim);
+    if kept.above <= cfg.input.min_touch_readings {
+        return None;
+    }
+    let tare = sampling.frames(cfg.input.tare_s).min(frames);
+    let cause = if frames < MIN_TARE_FRAMES {
+        ErasedBy::TooShort {
+            needed: MIN_TARE_FRAMES,
+        }
+    } else if cfg.input.baseline == Baseline::Leading
+        && frame_deviations(raw, threshold, 0..tare).above > 0
+    {
+        ErasedBy::TouchInTareWindow
+    } else {
+        ErasedBy::TouchThroughout
+    };
+    Some(InputWarning::TareErasedTouch {
+        baseline: cfg.input.baseline,
+        frames,
+        raw_touch_readings: kept.above,
+        highest_psi: kept.highest,
+        cause,
     })
 }
+
+/// A last axis this many times as long as each of the others reads as time.
+pub const TIME_LAST_RATIO: usize = 4;
+
+/// The shape of a recording saved as `[rows, cols, frames]` instead of `[frames,
+/// rows, cols]`: a last axis far longer than the other two (a recording holds more
+/// frames than its grid has cells a side, a grid is rarely that elongated), or the
+/// sleeve's grid in the first two axes. A warning, not a
+/// refusal: a short recording on an unusual grid can look the same, and its summary
+/// line shows the frames and grid read.
+pub fn transposed(shape: (usize, usize, usize)) -> Option<InputWarning> {
+    let (a, b, c) = shape;
+    let sleeve = (crate::input::synth::ROWS, crate::input::synth::COLS);
+    let reason = if c >= TIME_LAST_RATIO * a.max(b) {
+        TransposedBy::LastAxisLongest
+    } else if (a, b) == sleeve {
+        TransposedBy::SleeveGridFirst
+    } else {
+        return None;
+    };
+    Some(InputWarning::LikelyTransposed {
+        shape: [a, b, c],
+        reason,
+    })
+}
+
+/// Fewest frames in which a cell's rest can be told from its touch: one frame is its
+/// own baseline under either tare.
+pub const MIN_TARE_FRAMES: usize = 2;
 
 /// The paper's leading baseline averages the first `tare_s`: touch there is subtracted
 /// from the whole recording. Compares each cell's mean in that window with its low
@@ -166,11 +320,15 @@ pub fn touch_in_tare_window(
     let q = cfg.input.baseline_quantile.clamp(0.0, 1.0);
     // Per cell: how far its mean in the window lies above its rest, if it is read there.
     let excess = map_cell_series(raw, |values| {
-        let window = &values[..frames];
-        if window.iter().any(|v| !v.is_finite()) {
-            return None; // the leading baseline makes such a cell "no cell" anyway
+        // The leading baseline's zero: the mean of the readings the cell has there.
+        let (sum, read) = values[..frames]
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold((0.0, 0usize), |(sum, n), &v| (sum + v, n + 1));
+        if read == 0 {
+            return None; // tared by its quantile, not by this window
         }
-        let mean = window.iter().fold(0.0, |sum, &v| sum + v) / frames as f64;
+        let mean = sum / read as f64;
         values.retain(|v| v.is_finite());
         let at = (q * (values.len() - 1) as f64).round() as usize;
         let (_, &mut rest, _) = values.select_nth_unstable_by(at, f64::total_cmp);

@@ -170,7 +170,7 @@ pub enum LayoutError {
         value: f64,
     },
     /// A radius or weight is zero or negative.
-    #[error("{origin}: workspace #{index}: {field} = {value} must be positive")]
+    #[error("{origin}: workspace #{index}: {field} = {} must be positive", crate::display::Shortest(*.value))]
     NonPositive {
         /// File the layout came from.
         origin: String,

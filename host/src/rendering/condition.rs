@@ -82,7 +82,7 @@ pub enum ConditionError {
         rate_hz: f64,
     },
     /// A scalar parameter is out of its domain (negative, NaN or infinite).
-    #[error("signal parameter `{name}` = {value} is out of range")]
+    #[error("signal parameter `{name}` = {} is out of range", crate::display::Shortest(*.value))]
     InvalidParameter {
         /// Config field name.
         name: &'static str,

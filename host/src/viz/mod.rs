@@ -10,6 +10,7 @@
 pub mod palette;
 pub mod plot;
 pub mod preview;
+pub mod text;
 pub mod wav;
 
 use std::sync::OnceLock;

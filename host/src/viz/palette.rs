@@ -24,11 +24,18 @@ const HEAT_LEVELS: usize = 192;
 /// before" with it.
 pub(crate) const UNCHANGED: u8 = 255;
 
-/// The heat-scale colour of `x` in `[0, 1]` (clamped; NaN is 0): public so that a test
-/// or a script can check a picture's colour bar against the scale itself.
+/// The exponent between a value's share of the scale and its place on the ramp: a
+/// square root, so that touch at a fifth of the recording's peak (a light stroke beside
+/// a firm press, the blurred edge of a contact) is a clear magenta, not near black, while
+/// 0 stays black and the maximum pale.
+pub const HEAT_GAMMA: f64 = 0.5;
+
+/// The heat-scale colour of `x` in `[0, 1]` (clamped; NaN is 0), through
+/// [`HEAT_GAMMA`]: public so that a test or a script can check a picture's colour bar
+/// against the scale itself.
 pub fn heat(x: f64) -> [u8; 3] {
     let x = if x.is_finite() {
-        x.clamp(0.0, 1.0)
+        x.clamp(0.0, 1.0).powf(HEAT_GAMMA)
     } else {
         0.0
     };

@@ -121,7 +121,7 @@ pub fn plot(
             let mut svg = String::new();
             {
                 let root = SVGBackend::with_string(&mut svg, dims).into_drawing_area();
-                draw(&root, stimulus, &trace).map_err(draw_error)?;
+                draw(&root, stimulus, &trace, Joins::Polyline).map_err(draw_error)?;
                 root.present().map_err(draw_error)?;
             }
             Ok(svg.into_bytes())
@@ -130,7 +130,7 @@ pub fn plot(
             let mut rgb = vec![0u8; size.width as usize * size.height as usize * 3];
             {
                 let root = BitMapBackend::with_buffer(&mut rgb, dims).into_drawing_area();
-                draw(&root, stimulus, &trace).map_err(draw_error)?;
+                draw(&root, stimulus, &trace, Joins::Segments).map_err(draw_error)?;
                 root.present().map_err(draw_error)?;
             }
             encode_png(&rgb, size.width, size.height)
@@ -166,10 +166,24 @@ struct Traced {
     fault: Option<(usize, Fault)>,
 }
 
+/// How a wide trace is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Joins {
+    /// One polyline per channel: the SVG's renderer joins its segments (with a miter
+    /// limit) and the file stays small.
+    Polyline,
+    /// One path per segment, no joins: plotters' bitmap backend joins a wide polyline
+    /// with unlimited inner miters, and where a min/max-reduced trace turns back on
+    /// itself within a pixel or two (a long stimulus's spikes) the miter's point lies
+    /// hundreds of pixels away, across the neighbouring panels.
+    Segments,
+}
+
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     stimulus: &Stimulus<'_>,
     trace: &Traced,
+    joins: Joins,
 ) -> DrawResult<DB> {
     root.fill(&WHITE)?;
     let peak_a = f64::from(stimulus.limits().peak_ma) / 1000.0;
@@ -219,10 +233,19 @@ fn draw<DB: DrawingBackend>(
                 LIMIT.stroke_width(1),
             ))?;
         }
-        chart.draw_series(LineSeries::new(
-            trace.points[ch].iter().copied(),
-            TRACE.stroke_width(2),
-        ))?;
+        let style = TRACE.stroke_width(2);
+        match joins {
+            Joins::Polyline => {
+                chart.draw_series(LineSeries::new(trace.points[ch].iter().copied(), style))?;
+            }
+            Joins::Segments => {
+                chart.draw_series(
+                    trace.points[ch]
+                        .windows(2)
+                        .map(|w| PathElement::new([w[0], w[1]], style)),
+                )?;
+            }
+        }
     }
     Ok(())
 }

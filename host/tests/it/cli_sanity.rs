@@ -199,8 +199,8 @@ fn single_frame_touches_warn() {
     );
 }
 
-/// Issue 11 item 3: each knob that used to hang, allocate gigabytes or panic is refused
-/// with its name, the value and the range, exit 1, nothing written.
+/// Each knob that used to hang, allocate gigabytes or panic is refused with its name,
+/// the value and the range, as a usage error (exit 2), nothing written.
 #[test]
 fn knobs_out_of_range_are_refused_by_the_binary() {
     let dir = tempfile::tempdir().unwrap();
@@ -250,7 +250,7 @@ fn knobs_out_of_range_are_refused_by_the_binary() {
         ),
     ] {
         let (out, err, written, report) = compile(&rec, &["--set", set]);
-        assert_eq!(out.status.code(), Some(1), "{set}: {err}");
+        assert_eq!(out.status.code(), Some(2), "{set}: {err}");
         for w in want {
             assert!(err.contains(w), "{set}: want {w:?} in {err}");
         }
@@ -259,7 +259,7 @@ fn knobs_out_of_range_are_refused_by_the_binary() {
     }
     // Above the Nyquist frequency of the rate given on the command line, too.
     let (out, err, written, _) = compile(&rec, &["--rate", "6", "--set", "signal.lowpass_hz=4"]);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
         err.contains("below the Nyquist frequency, 3 Hz") && !written,
         "{err}"

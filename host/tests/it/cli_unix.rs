@@ -342,7 +342,7 @@ fn each_error_is_said_once_without_temporary_paths() {
         s(&dir.path().join("x.touch")),
     ]);
     let err = stderr(&out);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(out.status.code(), Some(2), "{err}");
     // A knob out of range names the knob, its value and its range, once.
     assert_eq!(err.matches("1000").count(), 1, "{err}");
     assert!(err.contains("upsample") && err.contains("32"), "{err}");

@@ -146,7 +146,12 @@ fn plot_reads_a_bank_slot_and_writes_svg() {
         "--width",
         "10",
     ]);
-    assert!(refused(&out).contains("10 x 800 px"));
+    assert_eq!(out.status.code(), Some(2), "a usage error");
+    let err = refused(&out);
+    assert!(
+        err.contains("--width 10") && err.contains("320 to 8000 px"),
+        "{err}"
+    );
     assert!(!tiny.exists());
 }
 

@@ -379,11 +379,11 @@ fn metadata_of_any_number_type_is_read() {
 fn metadata_out_of_range_names_the_file_the_field_the_value_and_the_range() {
     let dir = tempfile::tempdir().unwrap();
     for (field, value, range) in [
-        ("rate_hz", 0.0, "1 to 10000 Hz"),
-        ("rate_hz", -20.0, "1 to 10000 Hz"),
-        ("rate_hz", f64::NAN, "1 to 10000 Hz"),
-        ("rate_hz", f64::INFINITY, "1 to 10000 Hz"),
-        ("rate_hz", 54000.0, "1 to 10000 Hz"),
+        ("rate_hz", 0.0, "1 to 1000 Hz"),
+        ("rate_hz", -20.0, "1 to 1000 Hz"),
+        ("rate_hz", f64::NAN, "1 to 1000 Hz"),
+        ("rate_hz", f64::INFINITY, "1 to 1000 Hz"),
+        ("rate_hz", 54000.0, "1 to 1000 Hz"),
         ("pitch_mm", 0.0, "0.1 to 100 mm"),
         ("pitch_mm", 254.0, "0.1 to 100 mm"),
     ] {

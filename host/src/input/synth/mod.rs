@@ -371,6 +371,72 @@ pub fn to_npy(recording: &Array3<f64>) -> Result<Vec<u8>, ndarray_npy::WriteNpyE
     Ok(bytes)
 }
 
+/// Why a recording could not be encoded as a `.npz` archive.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum NpzWriteError {
+    /// An array could not be encoded as `.npy`.
+    #[error("cannot encode {member} as .npy")]
+    Npy {
+        /// The archive member.
+        member: &'static str,
+        /// What the encoder said.
+        #[source]
+        source: ndarray_npy::WriteNpyError,
+    },
+    /// The archive could not be written.
+    #[error("cannot write the zip archive")]
+    Zip(#[from] zip::result::ZipError),
+    /// The archive could not be written.
+    #[error("cannot write the zip archive")]
+    Io(#[from] std::io::Error),
+}
+
+/// The bytes of a numpy `.npz` archive (`np.savez`'s layout: stored members named
+/// `<key>.npy`) holding `recording` as `pressure` and the sampling as the scalars
+/// `rate_hz` and `pitch_mm`, where [`crate::input::recording::Recording::load`] and
+/// `np.load` find them: the file compiles at its own rate without `--rate`.
+pub fn to_npz(
+    recording: &Array3<f64>,
+    rate_hz: f64,
+    pitch_mm: f64,
+) -> Result<Vec<u8>, NpzWriteError> {
+    use ndarray_npy::WriteNpyExt;
+    use std::io::Write;
+    let npy =
+        |member: &'static str,
+         write: &dyn Fn(&mut Vec<u8>) -> Result<(), ndarray_npy::WriteNpyError>| {
+            let mut bytes = Vec::new();
+            write(&mut bytes)
+                .map(|()| bytes)
+                .map_err(|source| NpzWriteError::Npy { member, source })
+        };
+    let members = [
+        (
+            "pressure.npy",
+            npy("pressure", &|b| recording.write_npy(b))?,
+        ),
+        (
+            "rate_hz.npy",
+            npy("rate_hz", &|b| ndarray::arr0(rate_hz).write_npy(b))?,
+        ),
+        (
+            "pitch_mm.npy",
+            npy("pitch_mm", &|b| ndarray::arr0(pitch_mm).write_npy(b))?,
+        ),
+    ];
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    // Stored, as `np.savez`; zip64 only when a member needs it (numpy reads either).
+    let options = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Stored)
+        .large_file(members.iter().any(|(_, b)| b.len() >= u32::MAX as usize));
+    for (name, bytes) in &members {
+        zip.start_file(*name, options)?;
+        zip.write_all(bytes)?;
+    }
+    Ok(zip.finish()?.into_inner())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -98,7 +98,7 @@ pub enum LimitViolation {
         sample: usize,
     },
     /// A limit is negative, NaN or infinite.
-    #[error("limit `{name}` = {value} is not a finite, non-negative number")]
+    #[error("limit `{name}` = {} is not a finite, non-negative number", crate::display::Shortest(*.value))]
     InvalidLimits {
         /// Field name.
         name: &'static str,

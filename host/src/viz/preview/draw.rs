@@ -77,6 +77,24 @@ pub(super) fn scale_bar(px_per_mm: f64, max_px: f64) -> Option<(f64, i32)> {
     Some((mm, (mm * px_per_mm).round() as i32))
 }
 
+/// plotters' default text anchor.
+const TOP_LEFT: Pos = Pos {
+    h_pos: HPos::Left,
+    v_pos: VPos::Top,
+};
+
+/// `text` at `at`, evenly set (see [`crate::viz::text`]).
+fn label<'b>(
+    root: &Area<'b>,
+    text: &str,
+    at: (i32, i32),
+    size: f64,
+    colour: RGBColor,
+    pos: Pos,
+) -> DrawResult<'b> {
+    crate::viz::text::draw(root, text, at, size, colour, pos)
+}
+
 pub(super) type Area<'b> = DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>;
 pub(super) type DrawResult<'b> =
     Result<(), DrawingAreaErrorKind<<BitMapBackend<'b> as DrawingBackend>::ErrorType>>;
@@ -95,8 +113,9 @@ pub(super) fn overlay<'b>(
         .iter()
         .filter(|&&v| v == Cell::Unexplained)
         .count();
-    root.draw(&Text::new(
-        format!(
+    label(
+        root,
+        &format!(
             "{}  frame {}/{}  {:.2} s  unexplained touch now: {missed_now} cells",
             std::path::Path::new(&c.report.input)
                 .file_name()
@@ -106,11 +125,14 @@ pub(super) fn overlay<'b>(
             t as f64 / rate_hz.max(1.0),
         ),
         (PAD_PX as i32, 4),
-        (FAMILY, 16).into_font().color(&BLACK),
-    ))?;
+        16.0,
+        BLACK,
+        TOP_LEFT,
+    )?;
     let cov = &scene.coverage;
-    root.draw(&Text::new(
-        format!(
+    label(
+        root,
+        &format!(
             "coverage {:.0}%: touch more than {DEFAULT_RADIUS_CELLS} cells from every \
              contact is hatched red ({} of {} touch readings)",
             100.0 * cov.ratio(),
@@ -118,8 +140,10 @@ pub(super) fn overlay<'b>(
             cov.touch_cells
         ),
         (PAD_PX as i32, 24),
-        (FAMILY, 13).into_font().color(&BLACK),
-    ))?;
+        13.0,
+        BLACK,
+        TOP_LEFT,
+    )?;
     colour_bar_labels(scene, root)?;
     orientation(scene, root)?;
     legend(&l, rate_hz, root)?;
@@ -139,11 +163,14 @@ pub(super) fn overlay<'b>(
                 IDLE.stroke_width(1)
             };
             root.draw(&plotters::element::Circle::new(centre, radius, style))?;
-            root.draw(&Text::new(
-                format!("{ch}"),
+            label(
+                root,
+                &format!("{ch}"),
                 (centre.0 - 4, centre.1 - radius - 14),
-                (FAMILY, 12).into_font().color(&IDLE),
-            ))?;
+                12.0,
+                IDLE,
+                TOP_LEFT,
+            )?;
         }
     }
     if let Some(tracked) = &c.tracked {
@@ -168,7 +195,13 @@ pub(super) fn overlay<'b>(
             }
         }
     }
-    actuator_panel(scene, t, root)
+    actuator_panel(scene, t, rate_hz, root)
+}
+
+/// A value in its shortest form with at most two decimals (`0.77`, `0`, `6.7`).
+fn short(v: f64) -> String {
+    let s = format!("{v:.2}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 /// The colour bar's outline and its psi labels: the maximum at the top, 0 at the bottom,
@@ -180,24 +213,29 @@ pub(super) fn colour_bar_labels<'b>(scene: &Scene<'_>, root: &Area<'b>) -> DrawR
         [(x0 - 1, y0 - 1), (x1, y1)],
         BOX.stroke_width(1),
     ))?;
-    let font = (FAMILY, 12).into_font().color(&BLACK);
-    let left = font.pos(Pos::new(HPos::Left, VPos::Center));
+    let left = Pos::new(HPos::Left, VPos::Center);
     for (frac, y) in [(1.0, y0), (0.5, (y0 + y1) / 2), (0.0, y1 - 1)] {
         root.draw(&PathElement::new(
             vec![(x1, y), (x1 + 4, y)],
             BLACK.stroke_width(1),
         ))?;
-        root.draw(&Text::new(
-            format!("{:.2}", frac * scene.vmax),
+        label(
+            root,
+            &format!("{:.2}", frac * scene.vmax),
             (x1 + 6, y),
-            left.clone(),
-        ))?;
+            12.0,
+            BLACK,
+            left,
+        )?;
     }
-    root.draw(&Text::new(
+    label(
+        root,
         "psi",
         ((x0 + x1) / 2, y0 - 4),
-        font.pos(Pos::new(HPos::Center, VPos::Bottom)),
-    ))
+        12.0,
+        BLACK,
+        Pos::new(HPos::Center, VPos::Bottom),
+    )
 }
 
 /// Under the map: which end is the elbow and which the wrist (column 0 is nearest the
@@ -206,17 +244,22 @@ pub(super) fn orientation<'b>(scene: &Scene<'_>, root: &Area<'b>) -> DrawResult<
     let l = scene.layout;
     let (x0, y) = (l.map_origin.0 as i32, (l.orient_top + 6) as i32);
     let x1 = x0 + (l.map_px.1 as u32 * l.scale) as i32;
-    let font = (FAMILY, 13).into_font().color(&BLACK);
-    root.draw(&Text::new(
+    label(
+        root,
         "\u{2190} elbow (sensor column 0)",
         (x0, y),
-        font.pos(Pos::new(HPos::Left, VPos::Top)),
-    ))?;
-    root.draw(&Text::new(
+        13.0,
+        BLACK,
+        TOP_LEFT,
+    )?;
+    label(
+        root,
         "wrist \u{2192}",
         (x1, y),
-        font.pos(Pos::new(HPos::Right, VPos::Top)),
-    ))?;
+        13.0,
+        BLACK,
+        Pos::new(HPos::Right, VPos::Top),
+    )?;
     let px_per_mm = f64::from(l.scale) / scene.pitch_mm;
     let Some((mm, len)) = scale_bar(px_per_mm, f64::from(x1 - x0) / 4.0) else {
         return Ok(());
@@ -233,14 +276,14 @@ pub(super) fn orientation<'b>(scene: &Scene<'_>, root: &Area<'b>) -> DrawResult<
             BLACK.stroke_width(1),
         ))?;
     }
-    root.draw(&Text::new(
-        format!("{mm} mm"),
+    label(
+        root,
+        &format!("{mm} mm"),
         (mid, bar_y - 4),
-        (FAMILY, 12)
-            .into_font()
-            .color(&BLACK)
-            .pos(Pos::new(HPos::Center, VPos::Bottom)),
-    ))
+        12.0,
+        BLACK,
+        Pos::new(HPos::Center, VPos::Bottom),
+    )
 }
 
 /// One legend entry per marker, two per row, white on the dark band.
@@ -253,11 +296,10 @@ pub(super) fn legend<'b>(l: &FrameLayout, rate_hz: f64, root: &Area<'b>) -> Draw
         "actuator workspace, actuator at rest".to_string(),
         format!("touch no contact explains (> {DEFAULT_RADIUS_CELLS} cells away)"),
         "heat: blurred pressure, colour bar in psi".to_string(),
+        "actuator signal, psi: so far (blue), to come (grey)".to_string(),
+        "red line: now; bar: the actuator's intensity now".to_string(),
     ];
-    let font = (FAMILY, 12)
-        .into_font()
-        .color(&IDLE)
-        .pos(Pos::new(HPos::Left, VPos::Center));
+    let font = Pos::new(HPos::Left, VPos::Center);
     for (k, text) in (0u32..).zip(&entries) {
         let (x0, y0, x1, y1) = swatch_rect(l, k);
         let (x0, y0, x1, y1) = (x0 as i32, y0 as i32, x1 as i32, y1 as i32);
@@ -294,6 +336,34 @@ pub(super) fn legend<'b>(l: &FrameLayout, rate_hz: f64, root: &Area<'b>) -> Draw
                     UNEXPLAINED.stroke_width(2),
                 ))?;
             }
+            6 => {
+                let wave = |i: i32| ym + 4 - ((f64::from(i) * 0.5).sin().abs() * 9.0) as i32;
+                let mid = (x0 + x1) / 2;
+                root.draw(&PathElement::new(
+                    (x0..mid).map(|x| (x, wave(x - x0))).collect::<Vec<_>>(),
+                    SPARK_PAST.stroke_width(1),
+                ))?;
+                root.draw(&PathElement::new(
+                    (mid..x1).map(|x| (x, wave(x - x0))).collect::<Vec<_>>(),
+                    SPARK_AHEAD.stroke_width(1),
+                ))?;
+            }
+            7 => {
+                root.draw(&PathElement::new(
+                    vec![(x0 + 6, y0), (x0 + 6, y1 - 1)],
+                    CURSOR.stroke_width(1),
+                ))?;
+                let [r, g, b] = heat(0.8);
+                let bar = (x1 - 6 - BAR_PX, x1 - 6);
+                root.draw(&Rectangle::new(
+                    [(bar.0, ym - 2), (bar.1, y1 - 1)],
+                    RGBColor(r, g, b).filled(),
+                ))?;
+                root.draw(&Rectangle::new(
+                    [(bar.0, y0), (bar.1, y1 - 1)],
+                    BOX.stroke_width(1),
+                ))?;
+            }
             _ => {
                 for i in 0..(x1 - x0) {
                     let [r, g, b] = heat(f64::from(i) / f64::from(x1 - x0 - 1));
@@ -304,7 +374,7 @@ pub(super) fn legend<'b>(l: &FrameLayout, rate_hz: f64, root: &Area<'b>) -> Draw
                 }
             }
         }
-        root.draw(&Text::new(text.as_str(), (x1 + 8, ym), font.clone()))?;
+        label(root, text, (x1 + 8, ym), 12.0, IDLE, font)?;
     }
     Ok(())
 }
@@ -321,11 +391,14 @@ pub(super) fn actuator_box(l: &FrameLayout, ch: usize) -> (i32, i32, i32) {
     )
 }
 
+/// Room left of a signal trace for its psi labels, px.
+const STRIP_AXIS_PX: i32 = 30;
+
 /// The pixel rectangle `(x0, y0, x1, y1)` of actuator `ch`'s signal trace.
 pub(super) fn trace_rect(l: &FrameLayout, ch: usize) -> (i32, i32, i32, i32) {
     let (x0, y0, w) = actuator_box(l, ch);
     (
-        x0 + 6,
+        x0 + STRIP_AXIS_PX,
         y0 + 20,
         x0 + w - BAR_PX - 10,
         y0 + BOX_PX as i32 - 8,
@@ -361,7 +434,12 @@ pub(super) fn column(x0: i32, x1: i32, t: usize, n: usize) -> i32 {
 
 /// The eight actuators in the sleeve's layout: what each renders now (value, source,
 /// a heat-coloured bar) and its whole signal with a cursor at this frame.
-pub(super) fn actuator_panel<'b>(scene: &Scene<'_>, t: usize, root: &Area<'b>) -> DrawResult<'b> {
+pub(super) fn actuator_panel<'b>(
+    scene: &Scene<'_>,
+    t: usize,
+    rate_hz: f64,
+    root: &Area<'b>,
+) -> DrawResult<'b> {
     let l = &scene.layout;
     let Some(signals) = scene.compiled.signals.as_ref() else {
         return Ok(());
@@ -378,13 +456,38 @@ pub(super) fn actuator_panel<'b>(scene: &Scene<'_>, t: usize, root: &Area<'b>) -
             Source::Trajectory(_) => ", trajectory",
             Source::NeighbourFill => ", fill",
         };
-        root.draw(&Text::new(
-            format!("ch{ch}: {psi:.3} psi{why}"),
+        label(
+            root,
+            &format!("ch{ch}: {psi:.3} psi{why}"),
             (x0 + 6, y0 + 4),
-            (FAMILY, 12).into_font().color(&BLACK),
-        ))?;
-        // The signal so far over the whole signal in grey, and a cursor at this frame.
+            12.0,
+            BLACK,
+            TOP_LEFT,
+        )?;
+        // The axes: psi from 0 to the largest of any channel up the left, time from
+        // the first frame to the last along the bottom (its end labelled at the right).
         let (tx0, ty0, tx1, ty1) = trace_rect(l, ch);
+        root.draw(&PathElement::new(
+            vec![(tx0 - 1, ty0), (tx0 - 1, ty1), (tx1, ty1)],
+            BOX.stroke_width(1),
+        ))?;
+        let right = Pos::new(HPos::Right, VPos::Center);
+        for (y, v) in [(ty0, scene.psi_max), (ty1, 0.0)] {
+            root.draw(&PathElement::new(
+                vec![(tx0 - 4, y), (tx0 - 1, y)],
+                BOX.stroke_width(1),
+            ))?;
+            label(root, &short(v), (tx0 - 5, y), 10.0, BLACK, right)?;
+        }
+        label(
+            root,
+            &format!("{} s", short(scene.count() as f64 / rate_hz.max(1.0))),
+            (tx1, ty1 - 2),
+            10.0,
+            BLACK,
+            Pos::new(HPos::Right, VPos::Bottom),
+        )?;
+        // The signal so far over the whole signal in grey, and a cursor at this frame.
         let now = column(tx0, tx1, t, scene.count());
         let trace = &scene.traces[ch];
         root.draw(&PathElement::new(

@@ -31,7 +31,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::palette::{heat, Palette, UNCHANGED};
 use super::plot::{draw_error, encode_png};
-use super::{register_font, VizError, FAMILY};
+use super::{register_font, VizError};
 use crate::compile::Compiled;
 use crate::config::Sampling;
 use crate::geometry::Circle;
@@ -57,7 +57,7 @@ const ORIENT_PX: u32 = 32;
 /// Height of one legend row, px.
 const LEGEND_ROW_PX: u32 = 20;
 /// Legend rows (two entries each).
-const LEGEND_ROWS: u32 = 3;
+const LEGEND_ROWS: u32 = 4;
 /// Height of one actuator's box in the panel below the map, px.
 const BOX_PX: u32 = 64;
 /// Width of the intensity bar in an actuator's box, px.
