@@ -16,9 +16,7 @@
 
 use serde::Serialize;
 
-use super::{
-    fit_polyline, from_unit, polyline_at, round_to, to_unit, ErrorSum, ExportError, Pick, Playback,
-};
+use super::{from_unit, round_to, to_unit, unit_curve, ErrorSum, ExportError, Pick, Playback};
 
 /// Core Haptics' limit on a `HapticContinuous` event's duration, seconds.
 pub const MAX_EVENT_S: f64 = 30.0;
@@ -93,21 +91,16 @@ pub(crate) fn write(
     fit: &mut ErrorSum,
 ) -> Result<Vec<u8>, ExportError> {
     let fs = playback.full_scale_a;
-    let intensity: Vec<f64> = signal.iter().map(|&a| to_unit(a, fs).sqrt()).collect();
-    let mut points: Vec<(usize, f64)> = fit_polyline(&intensity, INTENSITY_TOLERANCE)
-        .into_iter()
-        .map(|(t, v)| (t, round_to(v.clamp(0.0, 1.0), 6)))
-        .collect();
-    if points.len() == 1 {
-        points.push((points[0].0 + 1, points[0].1));
-    }
-    let mut hint = 0;
-    for (t, s) in signal.iter().enumerate() {
-        let i = polyline_at(&points, t, &mut hint);
-        let e = (from_unit(i * i, fs) - s) / fs;
-        fit.add(e);
-        err.add(e);
-    }
+    // The reader's amplitude is the intensity squared.
+    let points = unit_curve(
+        signal,
+        fs,
+        INTENSITY_TOLERANCE,
+        |a| to_unit(a, fs).sqrt(),
+        |i| from_unit(i * i, fs),
+        err,
+        fit,
+    );
     let seconds = |t: usize| t as f64 / 1000.0;
     let total = seconds(points.last().map_or(0, |p| p.0));
     let mut pattern = Vec::new();

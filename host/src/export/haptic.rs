@@ -12,8 +12,7 @@
 use serde::Serialize;
 
 use super::{
-    fit_polyline, from_unit, polyline_at, round_to, to_unit, ErrorSum, ExportError, Pick, Playback,
-    CURVE_TOLERANCE_FS,
+    from_unit, to_unit, unit_curve, ErrorSum, ExportError, Pick, Playback, CURVE_TOLERANCE_FS,
 };
 
 #[derive(Serialize)]
@@ -61,34 +60,6 @@ struct Breakpoint {
     amplitude: f64,
 }
 
-/// The envelope of `signal` (amperes, 1 kHz) as breakpoints `(tick, 0..1)`, at least
-/// two, within `tol` of the full scale, and its errors (fractions of the full scale)
-/// added to `err` and `fit`.
-pub(crate) fn envelope(
-    signal: &[f64],
-    full_scale_a: f64,
-    tol: f64,
-    err: &mut ErrorSum,
-    fit: &mut ErrorSum,
-) -> Vec<(usize, f64)> {
-    let unit: Vec<f64> = signal.iter().map(|&a| to_unit(a, full_scale_a)).collect();
-    // One unit of amplitude is two of current: half the tolerance.
-    let mut points: Vec<(usize, f64)> = fit_polyline(&unit, tol / 2.0)
-        .into_iter()
-        .map(|(t, v)| (t, round_to(v.clamp(0.0, 1.0), 6)))
-        .collect();
-    if points.len() == 1 {
-        points.push((points[0].0 + 1, points[0].1));
-    }
-    let mut hint = 0;
-    for (t, s) in signal.iter().enumerate() {
-        let e = (from_unit(polyline_at(&points, t, &mut hint), full_scale_a) - s) / full_scale_a;
-        fit.add(e);
-        err.add(e);
-    }
-    points
-}
-
 /// One `.haptic` file for the signal `pick` chose.
 pub(crate) fn write(
     playback: &Playback,
@@ -97,7 +68,17 @@ pub(crate) fn write(
     err: &mut ErrorSum,
     fit: &mut ErrorSum,
 ) -> Result<Vec<u8>, ExportError> {
-    let points = envelope(signal, playback.full_scale_a, CURVE_TOLERANCE_FS, err, fit);
+    let fs = playback.full_scale_a;
+    // One unit of amplitude is two of current: half the tolerance.
+    let points = unit_curve(
+        signal,
+        fs,
+        CURVE_TOLERANCE_FS / 2.0,
+        |a| to_unit(a, fs),
+        |u| from_unit(u, fs),
+        err,
+        fit,
+    );
     let amplitude: Vec<Breakpoint> = points
         .iter()
         .map(|&(t, a)| Breakpoint {

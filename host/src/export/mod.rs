@@ -383,6 +383,39 @@ pub fn polyline_at(points: &[(usize, f64)], tick: usize, hint: &mut usize) -> f6
     }
 }
 
+/// The curve of a format that has no sign: `signal` (amperes, 1 kHz) mapped by `to`
+/// onto the format's 0..1 scale, fitted within `tol` of that scale, each breakpoint
+/// clamped to 0..1 and rounded to 6 decimals; at least two breakpoints, because these
+/// formats' readers want a start and an end even for a constant. What the format's
+/// reader rebuilds (`from` maps the scale back to amperes) is compared with `signal`
+/// at every tick, and the errors (fractions of the full scale) are added to `err` and
+/// `fit`.
+pub(crate) fn unit_curve(
+    signal: &[f64],
+    full_scale_a: f64,
+    tol: f64,
+    to: impl Fn(f64) -> f64,
+    from: impl Fn(f64) -> f64,
+    err: &mut ErrorSum,
+    fit: &mut ErrorSum,
+) -> Vec<(usize, f64)> {
+    let scaled: Vec<f64> = signal.iter().map(|&a| to(a)).collect();
+    let mut points: Vec<(usize, f64)> = fit_polyline(&scaled, tol)
+        .into_iter()
+        .map(|(t, v)| (t, round_to(v.clamp(0.0, 1.0), 6)))
+        .collect();
+    if points.len() == 1 {
+        points.push((points[0].0 + 1, points[0].1));
+    }
+    let mut hint = 0;
+    for (t, s) in signal.iter().enumerate() {
+        let e = (from(polyline_at(&points, t, &mut hint)) - s) / full_scale_a;
+        fit.add(e);
+        err.add(e);
+    }
+    points
+}
+
 /// Tolerance of the curves, fraction of the full scale: two output codes (1/1024),
 /// well inside the bounds the compiler meets (0.5% RMS, 2% max), so that a re-import
 /// still meets them after its own encoding.
