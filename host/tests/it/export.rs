@@ -854,6 +854,42 @@ fn every_shipped_recording_compiled_exports_to_every_format() {
 }
 
 #[test]
+fn export_and_import_read_standard_input_and_write_standard_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let piped = |args: &[&str], stdin: &Path| -> Vec<u8> {
+        let out = crate::bin::command()
+            .args(args)
+            .stdin(std::fs::File::open(stdin).unwrap())
+            .output()
+            .unwrap();
+        ok(&out);
+        out.stdout
+    };
+    let tact = dir.path().join("love.tact");
+    export_ok(&emoji("love"), "tact", &[], &tact);
+    assert_eq!(
+        piped(&["export", "-", "--to", "tact", "-o", "-"], &emoji("love")),
+        std::fs::read(&tact).unwrap()
+    );
+    // From standard input, a stimulus is named as `compile` names one: "stdin".
+    let hjif = dir.path().join("love.hjif");
+    export_ok(&emoji("love"), "hjif", &[], &hjif);
+    let back = dir.path().join("back.touch");
+    ok(&touchc(&[
+        "import",
+        s(&hjif),
+        "--name",
+        "stdin",
+        "-o",
+        s(&back),
+    ]));
+    assert_eq!(
+        piped(&["import", "-", "-o", "-"], &hjif),
+        std::fs::read(&back).unwrap()
+    );
+}
+
+#[test]
 fn a_missing_slot_or_another_layout_is_refused_with_no_output() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.hjif");
