@@ -16,7 +16,7 @@
 
 use serde::Serialize;
 
-use super::{from_unit, round_to, to_unit, unit_curve, ErrorSum, ExportError, Pick, Playback};
+use super::{from_unit, round_to, to_unit, ExportError, Pick, Playback, UnitScale};
 
 /// Core Haptics' limit on a `HapticContinuous` event's duration, seconds.
 pub const MAX_EVENT_S: f64 = 30.0;
@@ -82,25 +82,21 @@ struct ControlPoint {
     parameter_value: f64,
 }
 
-/// One AHAP file for the signal `pick` chose.
+/// The intensity: the square root of the current mapped onto 0..1 ([`to_unit`]), so
+/// the reader's amplitude is the intensity squared.
+pub(crate) const SCALE: UnitScale = UnitScale {
+    tol: INTENSITY_TOLERANCE,
+    to: |a, fs| to_unit(a, fs).sqrt(),
+    from: |i, fs| from_unit(i * i, fs),
+};
+
+/// One AHAP file of the intensity `points` ([`SCALE`]) of the signal `pick` chose.
 pub(crate) fn write(
     playback: &Playback,
     pick: Pick,
-    signal: &[f64],
-    err: &mut ErrorSum,
-    fit: &mut ErrorSum,
+    points: &[(usize, f64)],
 ) -> Result<Vec<u8>, ExportError> {
     let fs = playback.full_scale_a;
-    // The reader's amplitude is the intensity squared.
-    let points = unit_curve(
-        signal,
-        fs,
-        INTENSITY_TOLERANCE,
-        |a| to_unit(a, fs).sqrt(),
-        |i| from_unit(i * i, fs),
-        err,
-        fit,
-    );
     let seconds = |t: usize| t as f64 / 1000.0;
     let total = seconds(points.last().map_or(0, |p| p.0));
     let mut pattern = Vec::new();

@@ -11,9 +11,7 @@
 
 use serde::Serialize;
 
-use super::{
-    from_unit, to_unit, unit_curve, ErrorSum, ExportError, Pick, Playback, CURVE_TOLERANCE_FS,
-};
+use super::{from_unit, to_unit, ExportError, Pick, Playback, UnitScale, CURVE_TOLERANCE_FS};
 
 #[derive(Serialize)]
 struct DataModel<'a> {
@@ -60,25 +58,20 @@ struct Breakpoint {
     amplitude: f64,
 }
 
-/// One `.haptic` file for the signal `pick` chose.
+/// The envelope: the current mapped onto 0..1 ([`to_unit`]); one unit of amplitude is
+/// two of current, so half the tolerance.
+pub(crate) const SCALE: UnitScale = UnitScale {
+    tol: CURVE_TOLERANCE_FS / 2.0,
+    to: to_unit,
+    from: from_unit,
+};
+
+/// One `.haptic` file of the envelope `points` ([`SCALE`]) of the signal `pick` chose.
 pub(crate) fn write(
     playback: &Playback,
     pick: Pick,
-    signal: &[f64],
-    err: &mut ErrorSum,
-    fit: &mut ErrorSum,
+    points: &[(usize, f64)],
 ) -> Result<Vec<u8>, ExportError> {
-    let fs = playback.full_scale_a;
-    // One unit of amplitude is two of current: half the tolerance.
-    let points = unit_curve(
-        signal,
-        fs,
-        CURVE_TOLERANCE_FS / 2.0,
-        |a| to_unit(a, fs),
-        |u| from_unit(u, fs),
-        err,
-        fit,
-    );
     let amplitude: Vec<Breakpoint> = points
         .iter()
         .map(|&(t, a)| Breakpoint {
