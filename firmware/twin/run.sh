@@ -5,6 +5,8 @@
 #
 #   bash firmware/twin/run.sh                    # builds the release ELF if missing
 #   TWIN_ELF=path/to/elf bash firmware/twin/run.sh [unittest args, e.g. test_twin.Fault]
+#   bash firmware/twin/run.sh serve --link /tmp/sleeve [--bank B]   # the twin on a pseudo-terminal:
+#                                                # touchc sleeve --port /tmp/sleeve ... talks to it
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -20,9 +22,15 @@ elf="${TWIN_ELF:-$root/target/thumbv7em-none-eabihf/firmware/sleeve-firmware}"
 if [ ! -f "$elf" ]; then
     (cd "$root/firmware" && cargo build --profile firmware --locked)
 fi
-# The host player's codes, from the protocol crate built for this machine.
-(cd "$root" && cargo build --quiet --locked -p sleeve-firmware --example twin_codes)
-
+if [ "${1:-}" = serve ]; then
+    shift
+    exec "$venv/bin/python" "$here/twin.py" "$elf" "$@"
+fi
 cd "$here"
+# The host player's codes, from the protocol crate built for this machine; touchc for
+# the README's study script.
+(cd "$root" && cargo build --quiet --locked -p sleeve-firmware --example twin_codes &&
+    cargo build --quiet --locked -p touchc --bin touchc)
+
 TWIN_ELF="$elf" TWIN_CODES="$root/target/debug/examples/twin_codes" \
     "$venv/bin/python" -W error::ResourceWarning -m unittest "${@:-test_twin}"

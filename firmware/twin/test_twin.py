@@ -5,11 +5,16 @@ from the host player (`twin_codes`, the protocol crate's player compiled for x86
 never from this harness.
 """
 
+import json
 import os
 import subprocess
+import threading
+import time
 import unittest
+import zlib
 from pathlib import Path
 
+import link
 import twin
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -618,6 +623,659 @@ class Heat(unittest.TestCase):
 
     def test_the_watchdog_never_fired(self):
         self.assertEqual(self.board.resets, [])
+
+
+# ------------------------------------------------------------- the link's models
+#
+# The USART and FLASH models on their own, with a few hand-assembled Thumb
+# instructions instead of the firmware: what RM0090 says each register does.
+
+RCC_APB1ENR, USART2, FLASH_R = 0x4002_3840, 0x4000_4400, 0x4002_3C00
+SR, DR, BRR, CR1 = 0x00, 0x04, 0x08, 0x0C
+MAIN, LOOP, HANDLER, STORE = 0x0800_0200, 0x0800_0210, 0x0800_0300, 0x0800_0400
+THUMB = {
+    MAIN: [0xBF30, 0xE7FD],  # wfi; b back to it
+    LOOP: [0x3501, 0xE7FD],  # adds r5, #1; b back to it
+    HANDLER: [0x6826, 0x3501, 0x4770],  # ldr r6, [r4]; adds r5, #1; bx lr
+    STORE: [0x6001, 0xE7FE, 0x7001, 0xE7FE],  # str r1, [r0]; b .; strb r1, [r0]; b .
+}
+
+
+def bare_board(start=MAIN, **kw):
+    """A board whose flash holds only the vectors and the snippets above, running `start`."""
+    image = bytearray(b"\xff" * 0x500)
+    image[0:8] = (0x2000_8000).to_bytes(4, "little") + (start | 1).to_bytes(4, "little")
+    vector = 4 * (16 + twin.IRQ["USART2"])
+    image[vector:vector + 4] = (HANDLER | 1).to_bytes(4, "little")
+    for addr, code in THUMB.items():
+        at = addr - twin.FLASH_BASE
+        image[at:at + 2 * len(code)] = b"".join(hw.to_bytes(2, "little") for hw in code)
+    return twin.Board([(twin.FLASH_BASE, bytes(image))], **kw)
+
+
+class UsartModel(unittest.TestCase):
+    def board(self, brr=139, cr1=0x200C):
+        """USART2 clocked, 16 MHz PCLK1 (the reset clocks), UE + TE + RE."""
+        b = bare_board()
+        b.poke(RCC_APB1ENR, 1 << 17)
+        b.poke(USART2 + BRR, brr)
+        b.poke(USART2 + CR1, cr1)
+        b.usart2.host_baud = round(b.usart2.baud())
+        return b, b.usart2
+
+    def test_frame_time_follows_brr_and_the_bus_clock(self):
+        b, u = self.board()
+        self.assertEqual(u.frame_units(), 10 * 139 * twin.T_HZ // 16_000_000)
+        self.assertAlmostEqual(u.baud(), 115_108, delta=1)
+        b.poke(USART2 + CR1, 0x200C | 0x8000)  # OVER8: BRR 0x45 is USARTDIV 4.625
+        b.poke(USART2 + BRR, 0x45)
+        self.assertAlmostEqual(u.baud(), 16_000_000 / (8 * 4.625), delta=1)
+
+    def test_a_received_byte_sets_rxne_and_a_second_unread_one_overruns(self):
+        b, u = self.board()
+        done = u.send(b"\x41\x42")
+        frame = u.frame_units()
+        self.assertEqual(done, 2 * frame)
+        b.run(1.5 * frame / twin.T_HZ)
+        sr = b.peek(USART2 + SR)
+        self.assertTrue(sr & u.RXNE and not sr & u.ORE)
+        b.run(frame / twin.T_HZ)
+        sr = b.peek(USART2 + SR)
+        self.assertTrue(sr & u.ORE, "the second byte found RXNE set")
+        self.assertEqual(b.peek(USART2 + DR), 0x41, "the overrun byte is lost, the first kept")
+        self.assertFalse(b.peek(USART2 + SR) & (u.RXNE | u.ORE), "SR then DR clears RXNE and ORE")
+        self.assertEqual(u.overruns, 1)
+
+    def test_idle_after_a_burst_cleared_by_sr_then_dr(self):
+        b, u = self.board()
+        u.send(b"abc")
+        frame = u.frame_units()
+        b.run(3.5 * frame / twin.T_HZ)
+        self.assertFalse(u.sr & u.IDLE, "no idle line between back-to-back bytes")
+        b.run(1.0 * frame / twin.T_HZ)
+        self.assertTrue(b.peek(USART2 + SR) & u.IDLE)
+        b.peek(USART2 + DR)
+        self.assertFalse(u.sr & u.IDLE)
+
+    def test_transmit_through_the_data_and_shift_registers(self):
+        b, u = self.board()
+        frame = u.frame_units()
+        b.poke(USART2 + DR, 0x31)
+        self.assertTrue(u.sr & u.TXE, "the first byte went straight to the shift register")
+        b.poke(USART2 + DR, 0x32)
+        self.assertFalse(u.sr & (u.TXE | u.TC))
+        b.run(1.2 * frame / twin.T_HZ)
+        self.assertEqual(u.take(), b"1")
+        self.assertTrue(u.sr & u.TXE and not u.sr & u.TC)
+        b.run(1.0 * frame / twin.T_HZ)
+        self.assertEqual(u.take(), b"2")
+        self.assertTrue(u.sr & u.TC, "transmission complete once the shift register is empty")
+        b.poke(USART2 + SR, ~u.TC & 0xFFFF)
+        self.assertFalse(u.sr & u.TC, "TC is rc_w0")
+
+    def test_a_host_at_another_baud_rate_gives_framing_errors(self):
+        b, u = self.board()
+        u.host_baud = 9600
+        u.send(b"x")
+        b.run(0.002)
+        self.assertTrue(b.peek(USART2 + SR) & u.FE)
+        self.assertEqual(u.garbled, 1)
+
+    def test_a_disabled_receiver_loses_the_bytes(self):
+        b, u = self.board(cr1=0x2008)  # TE only
+        u.send(b"xy")
+        b.run(0.001)
+        self.assertEqual(u.lost, 2)
+        self.assertFalse(u.sr & u.RXNE)
+
+    def test_the_rxne_interrupt_takes_every_byte_even_at_2_mbaud(self):
+        b, u = self.board(brr=8)  # 2 Mbaud: 80 core cycles a byte
+        b.poke(0xE000_E104, 1 << (twin.IRQ["USART2"] - 32))  # NVIC_ISER1
+        b.poke(USART2 + CR1, 0x200C | u.IE_RXNE)
+        b.uc.reg_write(twin.A.UC_ARM_REG_R4, USART2 + DR)
+        data = bytes(range(1, 41))
+        u.send(data)
+        b.run(0.001)
+        self.assertEqual(b.uc.reg_read(twin.A.UC_ARM_REG_R5), len(data), "one interrupt per byte")
+        self.assertEqual(b.uc.reg_read(twin.A.UC_ARM_REG_R6), data[-1])
+        self.assertEqual(u.overruns, 0)
+
+    def test_dma_is_not_modelled(self):
+        b, _ = self.board()
+        with self.assertRaises(twin.NotModelled):
+            b.poke(USART2 + 0x14, 1 << 6)
+
+
+class FlashModel(unittest.TestCase):
+    KEYR, FSR, FCR = FLASH_R + 0x04, FLASH_R + 0x0C, FLASH_R + 0x10
+    SECTOR11 = 0x080E_0000
+    X32 = 2 << 8
+
+    def unlocked(self, **kw):
+        b = bare_board(LOOP, **kw)
+        b.poke(self.KEYR, twin.Flash.KEY1)
+        b.poke(self.KEYR, twin.Flash.KEY2)
+        self.assertFalse(b.flash.cr & twin.Flash.LOCK)
+        b.uc.mem_write(self.SECTOR11, b"\x12\x34\x56\x78" * 16)
+        return b
+
+    def erase(self, b, sector=11):
+        b.poke(self.FCR, self.X32 | twin.Flash.SER | sector << 3)
+        b.poke(self.FCR, self.X32 | twin.Flash.SER | sector << 3 | twin.Flash.STRT)
+
+    def test_a_wrong_key_locks_until_reset(self):
+        b = bare_board(LOOP)
+        b.poke(self.KEYR, twin.Flash.KEY1)
+        b.poke(self.KEYR, 0x1234)
+        b.poke(self.KEYR, twin.Flash.KEY1)
+        b.poke(self.KEYR, twin.Flash.KEY2)
+        self.assertTrue(b.flash.cr & twin.Flash.LOCK)
+        b.poke(self.FCR, self.X32 | twin.Flash.SER | 11 << 3 | twin.Flash.STRT)
+        self.assertEqual(b.erases, [], "a locked CR ignores writes")
+
+    def test_an_erase_sets_the_sector_to_ff_and_stalls_the_cpu_for_its_time(self):
+        b = self.unlocked()
+        b.run(0.001)
+        before = b.uc.reg_read(twin.A.UC_ARM_REG_R5)
+        self.assertGreater(before, 1000, "the loop runs from flash")
+        self.erase(b)
+        self.assertTrue(b.peek(self.FSR) & twin.Flash.BSY)
+        b.run(0.999)
+        self.assertEqual(b.uc.reg_read(twin.A.UC_ARM_REG_R5), before, "no instruction fetched from flash while busy")
+        b.run(0.002)
+        self.assertFalse(b.peek(self.FSR) & twin.Flash.BSY, "1 s typical for 128 KB at x32")
+        self.assertGreater(b.uc.reg_read(twin.A.UC_ARM_REG_R5), before)
+        self.assertEqual(bytes(b.uc.mem_read(self.SECTOR11, 0x2_0000)), b"\xff" * 0x2_0000)
+        self.assertEqual(len(b.erases), 1)
+        self.assertEqual(b.erases[0][1] - b.erases[0][0], twin.T_HZ)
+
+    def test_the_watchdog_keeps_counting_through_an_erase(self):
+        b = self.unlocked(flash_timing="max")
+        b.poke(0x4000_3000, 0xCCCC)  # IWDG start, reset prescaler and reload: 512 ms
+        self.erase(b)
+        b.run(1.0)
+        self.assertEqual([c for _, c in b.resets], ["IWDG"])
+        self.assertAlmostEqual(b.resets[0][0] / twin.T_HZ, 0.512, delta=0.001)
+        got = bytes(b.uc.mem_read(self.SECTOR11, 64))
+        self.assertNotEqual(got, b"\x12\x34\x56\x78" * 16, "reset a quarter through the erase")
+
+    def test_code_in_ram_runs_during_an_erase(self):
+        b = self.unlocked()
+        b.uc.mem_write(0x2000_1000, bytes([0x01, 0x35, 0xFD, 0xE7]))  # the loop, in RAM
+        b.pc = 0x2000_1000
+        self.erase(b)
+        b.run(0.01)
+        self.assertGreater(b.uc.reg_read(twin.A.UC_ARM_REG_R5), 50_000, "RAM code is not stalled")
+        self.assertTrue(b.flash.busy())
+
+    def wait_in_ram(self, feed, timing="max"):
+        """A RAM loop that polls FLASH_SR (and reloads the watchdog if `feed`)
+        through a 2 s erase, with the IWDG running (512 ms at reset settings)."""
+        b = self.unlocked(flash_timing=timing)
+        # ldr r2, [r0]; (str r3, [r1];) b back to the ldr
+        code = [0x6802, 0x600B, 0xE7FC] if feed else [0x6802, 0xE7FD]
+        b.uc.mem_write(0x2000_1000, b"".join(h.to_bytes(2, "little") for h in code))
+        for r, v in ((twin.A.UC_ARM_REG_R0, FLASH_R + 0x0C), (twin.A.UC_ARM_REG_R1, 0x4000_3000),
+                     (twin.A.UC_ARM_REG_R3, 0xAAAA)):
+            b.uc.reg_write(r, v)
+        b.poke(0x4000_3000, 0xCCCC)
+        self.erase(b)
+        b.pc = 0x2000_1000
+        b.run(2.01)
+        return b
+
+    def test_a_wait_in_ram_that_feeds_the_watchdog_outlasts_the_erase(self):
+        b = self.wait_in_ram(feed=True)
+        self.assertEqual(b.resets, [])
+        self.assertFalse(b.flash.busy())
+        gaps = [(z - a) / MS for a, z in zip(b.all_feeds, b.all_feeds[1:])]
+        self.assertLessEqual(max(gaps), 1.01)
+
+    def test_a_wait_in_ram_that_starves_the_watchdog_is_reset(self):
+        b = self.wait_in_ram(feed=False)
+        self.assertEqual([c for _, c in b.resets][:1], ["IWDG"])
+        self.assertAlmostEqual(b.resets[0][0] / twin.T_HZ, 0.512, delta=0.002)
+
+    def test_programming_only_clears_bits_a_word_at_a_time(self):
+        b = self.unlocked()
+        self.erase(b)
+        b.run(1.01)
+        b.poke(self.FCR, self.X32 | twin.Flash.PG)
+        uc = b.uc
+        for r, v in ((twin.A.UC_ARM_REG_R0, self.SECTOR11), (twin.A.UC_ARM_REG_R1, 0x0F0F_A5A5)):
+            uc.reg_write(r, v)
+        b.pc = STORE  # str r1, [r0]
+        b.run(0.00001)
+        self.assertEqual(b.read32(self.SECTOR11), 0x0F0F_A5A5)
+        self.assertEqual(b.programs, 1)
+        self.assertFalse(b.flash.sr & 0xF2, "no error flag")
+        # Again over the same word: bits only go from 1 to 0, and it is counted.
+        uc.reg_write(twin.A.UC_ARM_REG_R1, 0xFFFF_0000)
+        b.pc = STORE
+        b.run(0.00001)
+        self.assertEqual(b.read32(self.SECTOR11), 0x0F0F_0000)
+        self.assertEqual(len(b.dirty_writes), 1)
+
+    def test_a_write_of_the_wrong_width_or_without_pg_changes_nothing(self):
+        b = self.unlocked()
+        self.erase(b)
+        b.run(1.01)
+        uc = b.uc
+        uc.reg_write(twin.A.UC_ARM_REG_R0, self.SECTOR11 + 8)
+        uc.reg_write(twin.A.UC_ARM_REG_R1, 0)
+        b.poke(self.FCR, self.X32 | twin.Flash.PG)
+        b.pc = STORE + 4  # strb: a byte at x32 parallelism
+        b.run(0.00001)
+        self.assertTrue(b.peek(self.FSR) & twin.Flash.PGPERR)
+        self.assertEqual(b.read32(self.SECTOR11 + 8), 0xFFFF_FFFF)
+        b.poke(self.FSR, 0xF3)
+        b.poke(self.FCR, self.X32)
+        b.pc = STORE  # str without PG
+        b.run(0.00001)
+        self.assertTrue(b.peek(self.FSR) & twin.Flash.PGSERR)
+        self.assertEqual(b.read32(self.SECTOR11 + 8), 0xFFFF_FFFF)
+        self.assertEqual(b.programs, 0)
+
+
+# ------------------------------------------------------------ the link on the twin
+#
+# The release ELF with its USART link: the host's side is `link.py` (written from
+# SPEC.md), bytes at 460,800 baud into the USART model, in emulated time.
+
+USART_VECTOR = 4 * (16 + twin.IRQ["USART2"])
+TICK_BUDGET = 1700  # instructions per TIM7 handler
+BANK_SECTORS = (10, 11)
+
+
+def has_link():
+    """The ELF handles USART2's interrupt (the link), not the default handler."""
+    segments, symbols = twin.load_elf(ELF)
+    for addr, data in segments:
+        if addr == twin.FLASH_BASE:
+            vector = int.from_bytes(data[USART_VECTOR:USART_VECTOR + 4], "little") & ~1
+            return vector != symbols.get("DefaultHandler", -1) & ~1
+    return False
+
+
+class Host:
+    """The computer's end of the link on a board: requests with sequence numbers,
+    the device's messages with the time each arrived."""
+
+    def __init__(self, board):
+        self.b, self.u = board, board.usart2
+        self.rx = link.Stream()
+        self.seq = 0
+        self.messages = []  # (t, message)
+
+    def pump(self, seconds, step=0.0005):
+        end = self.b.t + round(seconds * twin.T_HZ)
+        while self.b.t < end:
+            self.b.run(min(step, (end - self.b.t) / twin.T_HZ))
+            self.collect()
+
+    def collect(self):
+        got = [(self.b.t, m) for m in self.rx.feed(self.u.take())]
+        self.messages += got
+        return got
+
+    def call(self, make, *args, timeout=1.0):
+        """Sends a request; returns (its answer, the time its last byte arrived)."""
+        self.seq += 1
+        end = self.u.send(make(self.seq, *args))
+        deadline = self.b.t + round(timeout * twin.T_HZ)
+        while self.b.t < deadline:
+            self.b.run(0.0005)
+            for _, m in self.collect():
+                if m["kind"] in ("reply", "refused") and m["seq"] == self.seq:
+                    return m, end
+        raise AssertionError(f"no answer to {make.__name__}{args} in {timeout} s")
+
+    def ok(self, make, *args, timeout=1.0):
+        m, end = self.call(make, *args, timeout=timeout)
+        if m["kind"] != "reply":
+            raise AssertionError(f"{make.__name__}{args}: refused {m['error']}")
+        return m, end
+
+    def events(self, name):
+        return [(t, m) for t, m in self.messages if m["kind"] == "event" and m["event"] == name]
+
+
+def upload(host, image, chunk=link.MAX_CHUNK):
+    """BankBegin, every chunk, BankCommit; returns the commit's reply."""
+    crc = zlib.crc32(image)
+    host.ok(link.bank_begin, len(image), crc, timeout=6.0)
+    for off in range(0, len(image), chunk):
+        m, _ = host.ok(link.bank_chunk, off, image[off:off + chunk])
+        assert m["next"] == min(off + chunk, len(image)), m
+    m, _ = host.ok(link.bank_commit, timeout=2.0)
+    return m
+
+
+class LinkCodec(unittest.TestCase):
+    """`link.py` against the SPEC's example bytes and the protocol's golden ones."""
+
+    def test_requests_are_the_specs_bytes(self):
+        self.assertEqual(link.play(300, 3), bytes.fromhex("09 AC 02 09 03 3C 47 B6 6D 00"))
+        self.assertEqual(link.request(7, "Info"), bytes.fromhex("07 07 01 ae b4 9f 79 00"))
+        body = bytes.fromhex("06 05 E8 07 EF FD B6 F5 0D")  # BankBegin { len 1000, crc 0xDEADBEEF }
+        self.assertEqual(link.bank_begin(6, 1000, 0xDEAD_BEEF), link.frame(body))
+        body = bytes([0x05, 0x0B, 40, 20, 0xE8, 0x07, 0xE8, 0x07, 50, 0xD8, 0x04, 0x80, 0x87, 0xA7, 0x0E])
+        self.assertEqual(link.stream_begin(5, 40, 20, 1000, (1000, 50, 600, 30_000_000)), link.frame(body))
+        body = bytes([0x0A, 0x0C, 0x02, 0x10, 0x01, 0x00, 0xFF, 0xFF] + [0] * 10 + [0x34, 0x12])
+        self.assertEqual(link.stream_data(10, 2, [[1, -1, 0, 0, 0, 0, 0, 0x1234]]), link.frame(body))
+
+    def test_replies_decode(self):
+        hello = bytes([0x00, 0x01, 0x00, 0x01, 0x05]) + b"0.1.0"
+        m = link.Stream().feed(link.frame(hello))
+        self.assertEqual(m, [{"kind": "reply", "seq": 1, "reply": "Hello", "version": 1, "firmware": "0.1.0"}])
+        with self.assertRaises(ValueError):
+            link.parse(link.frame(hello)[:-2] + b"\x01")  # CRC damaged
+
+    def test_cobs_round_trips_long_and_zero_runs(self):
+        for data in (b"", b"\0", b"\0\0", bytes(range(1, 255)), bytes(range(256)) * 3, b"\x11" * 600):
+            self.assertEqual(link.uncobs(link.cobs(data)), data)
+            self.assertNotIn(0, link.cobs(data))
+
+
+class LinkTwin(unittest.TestCase):
+    """Upload a bank over the USART, play a slot by command, stream, stop."""
+
+    @classmethod
+    def setUpClass(cls):
+        if not has_link():
+            raise unittest.SkipTest("this ELF has no USART link (no USART2 handler)")
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        cls.bank = SCRATCH / "link-hot.bank"
+        subprocess.run([str(CODES), "hot", "1000000", str(cls.bank)], check=True)
+        cls.image = cls.bank.read_bytes()
+        # Boot on the built-in emoji bank (region erased), then upload another.
+        b = cls.board = boot(erase=True)
+        h = cls.host = Host(b)
+        b.run(0.3)
+        m, _ = h.ok(link.hello)
+        cls.firmware = m["firmware"]
+        b.count_tick_instructions()
+        cls.upload_from = b.t
+        cls.commit = upload(h, cls.image)
+        cls.upload_until = b.t
+        b.count_tick_instructions(False)
+        h.pump(0.3)  # the restart into the new bank
+        cls.restarted = b.t
+        # Play slot 1 by command, with the tick counted while the link is busy.
+        b.count_tick_instructions()
+        cls.play, cls.play_end = h.ok(link.play, 1)
+        # Status requests back to back while it plays (each answer awaited).
+        cls.statuses = 0
+        while b.t < cls.play_end + 0.45 * twin.T_HZ:
+            h.ok(link.status)
+            cls.statuses += 1
+        h.pump(0.15)
+        b.count_tick_instructions(False)
+
+    def test_the_commit_restarts_into_the_uploaded_bank(self):
+        b = self.board
+        self.assertEqual(self.commit["crc"], zlib.crc32(self.image))
+        self.assertEqual(self.commit["slots"], 2)
+        region = bytes(b.uc.mem_read(twin.BANK_BASE, len(self.image)))
+        self.assertEqual(region, self.image, "the bank region holds the image")
+        self.assertEqual([c for _, c in b.resets], ["SYSRESETREQ"], "one restart, no watchdog reset")
+        self.assertEqual(b.dirty_writes, [], "every word programmed after its erase")
+        erased = sorted(s for _, _, s in b.erases)
+        self.assertIn(BANK_SECTORS[0], erased, "the bank's first sector erased")
+        self.assertLessEqual(set(erased), set(BANK_SECTORS), "only the bank's sectors erased")
+
+    def test_the_watchdog_is_fed_and_the_outputs_rest_through_the_erase(self):
+        b = self.board
+        self.assertTrue(b.erases)
+        for start, end, sector in b.erases:
+            # Every compare register holds 0 A from before the erase to its end.
+            last = {}
+            for t, periph, off, v in b.log:
+                if t > end:
+                    break
+                if periph in ("TIM3", "TIM4") and 0x34 <= off <= 0x40:
+                    last[(periph, off)] = v
+            self.assertEqual(len(last), 8)
+            self.assertEqual(set(last.values()), {2048}, f"sector {sector}: an output not at 0 A")
+            feeds = [t for t in b.all_feeds if start - 50 * MS <= t <= end + 50 * MS]
+            gaps = [(z - a) / MS for a, z in zip(feeds, feeds[1:])]
+            self.assertLess(max(gaps), 50, f"sector {sector}: the watchdog went {max(gaps):.1f} ms unfed")
+        self.assertNotIn("IWDG", [c for _, c in b.resets])
+
+    def test_play_by_command_is_the_host_players_codes(self):
+        want, status = expected(self.bank, 1)
+        frames = codes(self.board)
+        i = first_frame_after(self.board, self.play_end / twin.T_HZ)
+        o = find(frames, want, i, i + 5)
+        self.assertIsNotNone(o, "slot 1 of the uploaded bank, tick for tick")
+        self.assertEqual(status[-1], "E")
+        self.assertTrue(self.play["now"])
+
+    def test_a_play_frame_reaches_the_outputs_within_2_ms(self):
+        want, _ = expected(self.bank, 1)
+        frames = codes(self.board)
+        i = first_frame_after(self.board, self.play_end / twin.T_HZ)
+        o = find(frames, want, i, i + 5)
+        self.assertIsNotNone(o)
+        # The first frame's compare values are written in that TIM7 handler and
+        # take effect at the next carrier period (4096 / 84 MHz).
+        carrier = 4096 * twin.T_HZ // 84_000_000
+        latency = (self.board.frames[o][0] + carrier - self.play_end) / MS
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nplay: last byte to outputs {latency:.3f} ms")
+        self.assertLessEqual(latency, 2.0)
+
+    def tick_costs(self):
+        """Instructions per TIM7 handler: (the ticks from the play frame's last
+        byte to its first frame, where the slot starts; every other one counted)."""
+        want, _ = expected(self.bank, 1)
+        frames = codes(self.board)
+        o = find(frames, want, first_frame_after(self.board, self.play_end / twin.T_HZ), len(frames))
+        first = self.board.frames[o][0]
+        ticks = self.board.tick_instructions
+        start = [n for t, n in ticks if self.play_end <= t <= first]
+        steady = [n for t, n in ticks if not self.play_end <= t <= first]
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nticks with the link busy: {len(steady)}, worst {max(steady)} instructions "
+                  f"(median {sorted(steady)[len(steady) // 2]}); the start of a slot by command: {max(start)}")
+        return start, steady
+
+    # With status requests back to back, a tick that answers one (a snapshot of
+    # the controller) on a keyframe boundary costs about 1,900 instructions (1,480
+    # with the link idle). A known failure until the snapshot leaves the tick.
+    @unittest.expectedFailure
+    def test_the_tick_stays_within_its_budget_with_the_link_busy(self):
+        start, steady = self.tick_costs()
+        self.assertGreater(len(steady), 500)
+        self.assertLessEqual(max(steady), TICK_BUDGET)
+
+    # The tick that starts a slot runs the thermal check and builds the player on
+    # top of the frame: about 3,000 instructions from a button, 3,700 from the
+    # link, over the budget. It stays a known failure until the start moves out of
+    # the tick or gets cheaper; then this test passes and unittest says so.
+    @unittest.expectedFailure
+    def test_the_tick_that_starts_a_slot_stays_within_its_budget(self):
+        start, _ = self.tick_costs()
+        self.assertLessEqual(max(start), TICK_BUDGET)
+
+    def test_nothing_was_lost_on_the_wire(self):
+        u = self.board.usart2
+        self.assertEqual((u.overruns, u.garbled), (0, 0))
+        self.assertFalse([m for _, m in self.host.messages if m["kind"] == "unreadable"])
+
+
+class PlayLatency(unittest.TestCase):
+    """A play frame whose last byte lands anywhere in the 1 kHz period: the tick
+    writes the slot's first frame within 2 ms, and the carrier takes it up at its
+    next period."""
+
+    def test_every_phase_of_the_tick(self):
+        if not has_link():
+            self.skipTest("this ELF has no USART link (no USART2 handler)")
+        b = boot(EMOJI)
+        h = Host(b)
+        b.run(0.3)
+        # Slot 0 begins at rest: enough of it to hold its first steps away from 0 A.
+        want = expected(EMOJI, 0)[0][:300]
+        self.assertNotEqual(set(want), {IDLE})
+        t3 = b.timers["TIM3"]
+        carrier = (t3.arr_a + 1) * t3.unit()
+        wire = len(link.play(1, 0)) * round(10 * twin.T_HZ / h.u.host_baud)
+        written, active = [], []
+        for k in range(20):
+            # The frame's last byte k/20 of a period after a tick.
+            tick = b.frames[-1][0]
+            at = tick + 2 * MS + k * MS // 20 - wire
+            h.pump((at - b.t) / twin.T_HZ)
+            h.seq += 1
+            end = h.u.send(link.play(h.seq, 0))
+            h.pump(0.31)
+            frames = codes(b)
+            i = first_frame_after(b, end / twin.T_HZ)
+            o = find(frames, want, i, i + 5)
+            self.assertIsNotNone(o, f"phase {k}: slot 0 not on the outputs")
+            w = b.frames[o][0]  # the handler that wrote the first frame returned
+            on = t3.started_at + -(-(w - t3.started_at) // carrier) * carrier
+            written.append((w - end) / MS)
+            active.append((on - end) / MS)
+            h.ok(link.stop)
+            h.pump(0.1)
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nplay frame's last byte to the first frame written: {min(written):.3f}-{max(written):.3f} ms, "
+                  f"active at the carrier: {min(active):.3f}-{max(active):.3f} ms")
+        self.assertLessEqual(max(written), 2.0, written)
+        self.assertLessEqual(max(active), 2.0 + carrier / MS, active)
+
+
+class LinkStream(unittest.TestCase):
+    """A stream that the host abandons ramps to 0 A; one that it stops, too."""
+
+    LIMITS = (1000, 50, 600, 30_000_000)
+    LEVEL = 9830  # 0.3 A of 1 A full scale
+    RAMP_MS = 20
+
+    def stream(self, host, ms):
+        """Starts a stream of a constant 0.3 A on channel 0, 10 ms keyframes, kept
+        a buffer ahead for `ms`; returns the time the last data byte arrived."""
+        cap = host.ok(link.stream_begin, 10, self.RAMP_MS, 1000, self.LIMITS)[0]["capacity"]
+        self.assertGreater(cap, 4)
+        index, room, last = 0, cap, None
+        t_end = host.b.t + round(ms / 1000 * twin.T_HZ)
+        while host.b.t < t_end:
+            n = min(room, 16)
+            m, last = host.ok(link.stream_data, index, [[self.LEVEL] + [0] * 7] * n)
+            index, room = m["next"], m["room"]
+            host.pump(0.02)
+        return last
+
+    def setUp(self):
+        if not has_link():
+            self.skipTest("this ELF has no USART link (no USART2 handler)")
+
+    def test_a_vanished_host_leaves_the_outputs_at_0a(self):
+        b = boot(EMOJI)
+        h = Host(b)
+        b.run(0.3)
+        last = self.stream(h, 400)
+        self.assertTrue(any(f[1][0] > 2048 for f in b.frames if f[0] > last - 100 * MS), "the stream played")
+        h.pump(0.2)
+        rest = next(f[0] for f in b.frames if f[0] > last and f[1] == IDLE)
+        after = (rest - last) / MS
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nstream abandoned: at 0 A {after:.1f} ms after the last byte")
+        self.assertLessEqual(after, link.STREAM_DEADLINE_MS + self.RAMP_MS + 2)
+        self.assertTrue(all(f[1] == IDLE for f in b.frames if f[0] >= rest))
+        self.assertTrue(h.events("StreamStopped"), "the device said why")
+
+    def test_stop_ramps_a_stream_to_0a(self):
+        b = boot(EMOJI)
+        h = Host(b)
+        b.run(0.3)
+        self.stream(h, 300)
+        m, end = h.ok(link.stop)
+        self.assertEqual(m["source"], ("stream",))
+        h.pump(0.1)
+        rest = next(f[0] for f in b.frames if f[0] > end and f[1] == IDLE)
+        self.assertLessEqual((rest - end) / MS, self.RAMP_MS + 2)
+
+
+# ------------------------------------------------------------- the study script
+
+README = ROOT / "firmware/README.md"
+TOUCHC = Path(os.environ.get("TWIN_TOUCHC", ROOT / "target/debug/touchc"))
+
+
+def study_script():
+    """The study script as the firmware README gives it."""
+    text = README.read_text()
+    marker = text.index("<!-- study.sh:")
+    start = text.index("```bash\n", marker) + len("```bash\n")
+    return text[start:text.index("```", start)]
+
+
+class StudyScript(unittest.TestCase):
+    """The README's study script, run with the real `touchc` against the twin served
+    on a pseudo-terminal (in step with the wall clock)."""
+
+    def test_the_script_is_valid_bash(self):
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        script = SCRATCH / "study.sh"
+        script.write_text(study_script())
+        subprocess.run(["bash", "-n", str(script)], check=True)
+        self.assertLessEqual(len(study_script().splitlines()), 12, "a short script")
+
+    def serving(self, board):
+        """Serves `board` on a pseudo-terminal in a thread; returns (its path, stop)."""
+        if not has_link():
+            self.skipTest("this ELF has no USART link (no USART2 handler)")
+        if not TOUCHC.exists():
+            self.skipTest(f"{TOUCHC} not built (run.sh builds it)")
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        port = SCRATCH / "sleeve-pty"
+        stop = threading.Event()
+        server = threading.Thread(target=twin.serve, args=(board, str(port)), kwargs={"stop": stop})
+        server.start()
+        self.addCleanup(server.join)
+        self.addCleanup(stop.set)
+        deadline = time.monotonic() + 10
+        while not port.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return port
+
+    def touchc(self, *args):
+        return subprocess.run([str(TOUCHC), "sleeve", *args], capture_output=True, text=True, timeout=60)
+
+    def test_a_randomised_list_plays_and_logs_every_trial(self):
+        b = boot(EMOJI)
+        port = self.serving(b)
+        script, log = SCRATCH / "study.sh", SCRATCH / "study.jsonl"
+        script.write_text(study_script())
+        log.unlink(missing_ok=True)
+        env = dict(os.environ, PATH=f"{TOUCHC.parent}:{os.environ['PATH']}", REPS="1", GAP="0.3")
+        subprocess.run(["bash", str(script), str(port), str(log)], check=True, env=env, timeout=120)
+        trials = [json.loads(line) for line in log.read_text().splitlines()]
+        self.assertEqual(sorted(t["slot"] for t in trials), list(range(6)), trials)
+        ticks = [t["tick"] for t in trials]
+        self.assertEqual(ticks, sorted(ticks), "in the order played")
+        self.assertEqual(len(set(ticks)), len(ticks))
+        self.assertEqual(b.resets, [])
+
+    def test_touchc_uploads_stimuli_and_the_sleeve_plays_the_new_bank(self):
+        b = boot(EMOJI)
+        port = self.serving(b)
+        emoji = ROOT / "examples/emoji"
+        up = self.touchc("--port", str(port), "upload", str(emoji / "love.touch"), str(emoji / "sadness.touch"))
+        self.assertEqual(up.returncode, 0, up.stderr)
+        self.assertIn("uploaded and verified", up.stderr)
+        info = self.touchc("--port", str(port), "info", "--json")
+        self.assertEqual(info.returncode, 0, info.stderr)
+        got = json.loads(info.stdout)
+        self.assertEqual([s["name"] for s in got["slots"]], ["love", "sadness"])
+        self.assertEqual(got["bank"]["state"], "flashed")
+        bad = self.touchc("--port", str(port), "play", "5")
+        self.assertEqual(bad.returncode, 1)
+        self.assertIn("slot 5 does not exist: the sleeve's bank has 2 slots (0-1)", bad.stderr)
+        self.assertEqual([c for _, c in b.resets], ["SYSRESETREQ"])
 
 
 if __name__ == "__main__":

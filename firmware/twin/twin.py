@@ -19,6 +19,7 @@ from unicorn import (
     UC_ARCH_ARM,
     UC_HOOK_CODE,
     UC_HOOK_INTR,
+    UC_HOOK_MEM_WRITE,
     UC_MODE_MCLASS,
     UC_MODE_THUMB,
     Uc,
@@ -41,7 +42,7 @@ CCM_BASE, CCM_SIZE = 0x1000_0000, 64 * 1024
 # IRQ numbers (RM0090 table 61, "Vector table for STM32F405xx/07xx").
 IRQ = {"EXTI0": 6, "EXTI1": 7, "EXTI2": 8, "EXTI3": 9, "EXTI4": 10, "EXTI9_5": 23,
        "TIM2": 28, "TIM3": 29, "TIM4": 30, "EXTI15_10": 40, "TIM5": 50, "TIM6_DAC": 54,
-       "TIM7": 55}
+       "TIM7": 55, "FLASH": 4, "USART1": 37, "USART2": 38, "USART3": 39}
 HARDFAULT = 3
 
 
@@ -136,6 +137,10 @@ class Rcc(Regs):
             for t in self.board.timers.values():
                 if v >> t.en_bit & 1:
                     t.reset()
+        if off in (self.APB1RSTR, self.APB2RSTR):
+            for u in self.board.usarts.values():
+                if (off == self.APB1RSTR) == (u.apb == 1) and v >> u.en_bit & 1:
+                    u.reset()
 
     def sysclk(self):
         sw = self.r.get(self.CFGR, 0) & 3
@@ -379,6 +384,373 @@ class Timer:
                     slave.start()
 
 
+class Usart:
+    """USART1/2/3 (RM0090 section 30.6) as an asynchronous 8N1-style link to a host
+    byte queue: SR (PE, FE, NF, ORE, IDLE, RXNE, TC, TXE), DR, BRR (OVER8 0 and 1),
+    CR1 (UE, M, TE, RE, RXNEIE, TCIE, TXEIE, IDLEIE, PEIE), CR2 (STOP), CR3. The
+    transmitter has a data register and a shift register; each frame takes its
+    bit time at the programmed baud rate from the bus clock. The receiver takes
+    the host's bytes back to back at the same rate; a byte that completes while
+    RXNE is still set is lost and sets ORE. RXNE is cleared by reading DR, TC and
+    RXNE by writing 0 to them; ORE, IDLE, NF, FE, PE by a read of SR then of DR.
+    DMA (CR3 DMAR/DMAT), parity, LIN, smartcard and synchronous modes are not
+    modelled."""
+
+    SR, DR, BRR, CR1, CR2, CR3, GTPR = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x14, 0x18
+    PE, FE, NF, ORE, IDLE, RXNE, TC, TXE = 1, 2, 4, 8, 16, 32, 64, 128
+    UE, M, PCE, TE, RE = 1 << 13, 1 << 12, 1 << 10, 1 << 3, 1 << 2
+    IE_PE, IE_TXE, IE_TC, IE_RXNE, IE_IDLE = 1 << 8, 1 << 7, 1 << 6, 1 << 5, 1 << 4
+
+    HOST_BAUD = 460_800
+    """The host's line rate (8N1) unless a test sets `host_baud`."""
+
+    def __init__(self, board, name, irq, enr, en_bit, apb):
+        self.board, self.name, self.irq = board, name, irq
+        self.enr, self.en_bit, self.apb = enr, en_bit, apb
+        self.host_baud = self.HOST_BAUD
+        self.garbled = 0  # host bytes received at a baud rate 3 % or more off
+        self.sent = []  # (t, byte) the host received from the device, in order
+        self.lost = 0  # host bytes that arrived while the receiver was off
+        self.overruns = 0  # host bytes lost to ORE
+        self.rx = []  # (time its stop bit ends, byte) on the wire toward the device
+        self.line_free = 0  # when the host's line is idle again
+        self.reset()
+
+    def reset(self):
+        self.sr = self.TXE | self.TC
+        self.dr_in = 0
+        self.brr = self.cr1 = self.cr2 = self.cr3 = self.gtpr = 0
+        self.tdr = None  # byte waiting in the data register
+        self.shift = None  # (done time, byte) in the shift register
+        self.idle_at = None  # when IDLE will be set (a frame of idle after a byte)
+        self.seen = 0  # SR flags read, cleared by the next DR read
+
+    # -- timing
+    def pclk(self):
+        rcc = self.board.rcc
+        pre = rcc.r.get(Rcc.CFGR, 0) >> (10 if self.apb == 1 else 13) & 7
+        return rcc.hclk() // (1 if pre < 4 else 2 << (pre - 4))
+
+    def frame_units(self):
+        """Time units of one frame (start bit, 8 or 9 data bits, stop bits)."""
+        if not self.brr:
+            raise NotModelled(f"{self.name}: enabled with BRR = 0")
+        clk = self.pclk()
+        if self.cr1 & 0x8000:  # OVER8: USARTDIV = BRR[15:4] + BRR[2:0] / 8
+            div = 8 * (self.brr >> 4) + (self.brr & 7)
+        else:  # USARTDIV * 16 = BRR
+            div = self.brr
+        stop = {0: 2, 1: 1, 2: 4, 3: 3}[self.cr2 >> 12 & 3]  # in half bits
+        half_bits = 2 * (1 + (9 if self.cr1 & self.M else 8)) + stop
+        return half_bits * div * T_HZ // (2 * clk)
+
+    def baud(self):
+        return T_HZ * 10 / self.frame_units() if self.brr else 0
+
+    # -- the host's side
+    def send(self, data, at_s=None):
+        """The host sends `data` (8N1 at `host_baud`) from `at_s` seconds (default
+        now), back to back after anything still on the line. Returns the time
+        (units) the last byte's stop bit ends."""
+        t = self.board.t if at_s is None else round(at_s * T_HZ)
+        frame = round(10 * T_HZ / self.host_baud)
+        for byte in bytes(data):
+            start = max(t, self.line_free)
+            self.line_free = start + frame
+            self.rx.append((self.line_free, byte))
+        return self.line_free
+
+    def take(self):
+        """The bytes the device sent since the last call."""
+        out = bytes(b for _, b in self.sent)
+        self.sent = []
+        return out
+
+    # -- events
+    def enabled(self):
+        return self.cr1 & self.UE and self.clocked()
+
+    def next_event(self):
+        cands = []
+        if self.shift is not None:
+            cands.append(self.shift[0])
+        if self.rx:
+            cands.append(self.rx[0][0])
+        if self.idle_at is not None:
+            cands.append(self.idle_at)
+        return min(cands) if cands else None
+
+    def advance(self, t):
+        while True:
+            nxt = self.next_event()
+            if nxt is None or nxt > t:
+                return
+            if self.shift is not None and self.shift[0] == nxt:
+                self.sent.append(self.shift)
+                self.shift = None
+                if self.tdr is not None:
+                    self._load_shift(nxt)
+                else:
+                    self.sr |= self.TC
+            elif self.rx and self.rx[0][0] == nxt:
+                _, byte = self.rx.pop(0)
+                if not (self.enabled() and self.cr1 & self.RE):
+                    self.lost += 1
+                    continue
+                if abs(self.baud() / self.host_baud - 1) >= 0.03:
+                    self.sr |= self.FE  # the receiver samples the wrong bits
+                    self.garbled += 1
+                    byte = 0xFF
+                if self.sr & self.RXNE:
+                    self.sr |= self.ORE
+                    self.overruns += 1
+                else:
+                    self.dr_in = byte
+                    self.sr |= self.RXNE
+                self.idle_at = nxt + round(10 * T_HZ / self.host_baud)
+            else:
+                self.idle_at = None
+                if not self.rx or self.rx[0][0] - round(10 * T_HZ / self.host_baud) >= nxt:
+                    self.sr |= self.IDLE
+
+    def _load_shift(self, t):
+        self.shift = (t + self.frame_units(), self.tdr)
+        self.tdr = None
+        self.sr |= self.TXE
+
+    def irq_line(self):
+        c, s = self.cr1, self.sr
+        return bool((c & self.IE_RXNE and s & (self.RXNE | self.ORE)) or (c & self.IE_TXE and s & self.TXE)
+                    or (c & self.IE_TC and s & self.TC) or (c & self.IE_IDLE and s & self.IDLE)
+                    or (c & self.IE_PE and s & self.PE))
+
+    def can_wake(self):
+        return bool(self.cr1 & (self.IE_RXNE | self.IE_TXE | self.IE_TC | self.IE_IDLE))
+
+    # -- bus
+    def clocked(self):
+        return self.board.rcc.enabled(self.enr, self.en_bit)
+
+    def read(self, off):
+        if not self.clocked():
+            return 0
+        if off == self.SR:
+            self.seen = self.sr & (self.PE | self.FE | self.NF | self.ORE | self.IDLE)
+            return self.sr
+        if off == self.DR:
+            self.sr &= ~(self.RXNE | self.seen)
+            self.seen = 0
+            return self.dr_in
+        return {self.BRR: self.brr, self.CR1: self.cr1, self.CR2: self.cr2, self.CR3: self.cr3,
+                self.GTPR: self.gtpr}.get(off, 0)
+
+    def write(self, off, v):
+        if not self.clocked():
+            self.board.note(f"{self.name} written with its clock off (ignored)")
+            return
+        b = self.board
+        if off == self.SR:
+            self.sr &= v | ~(self.RXNE | self.TC)  # rc_w0 on RXNE and TC only
+        elif off == self.DR:
+            self.sr &= ~self.TC
+            if not (self.enabled() and self.cr1 & self.TE):
+                b.note(f"{self.name}: DR written with the transmitter off (byte lost)")
+            elif self.tdr is not None:
+                b.note(f"{self.name}: DR written with TXE clear (previous byte overwritten)")
+                self.tdr = v & 0xFF
+            else:
+                self.tdr = v & 0xFF
+                self.sr &= ~self.TXE
+                if self.shift is None:
+                    self._load_shift(b.t)
+        elif off == self.BRR:
+            self.brr = v & 0xFFFF
+        elif off == self.CR1:
+            if v & self.PCE:
+                raise NotModelled(f"{self.name}: parity")
+            self.cr1 = v & 0xFFFF
+        elif off == self.CR2:
+            if v & (1 << 11 | 1 << 14):
+                raise NotModelled(f"{self.name}: synchronous or LIN mode")
+            self.cr2 = v & 0x7F7F
+        elif off == self.CR3:
+            if v & (3 << 6):
+                raise NotModelled(f"{self.name}: DMA (CR3 DMAR/DMAT)")
+            if v & (1 << 5 | 1 << 3 | 1 << 1):
+                raise NotModelled(f"{self.name}: smartcard, half-duplex or IrDA mode")
+            self.cr3 = v & 0xFFF
+        elif off == self.GTPR:
+            self.gtpr = v & 0xFFFF
+        b.trace(self.name, off, v)
+
+
+# Sector layout of the 1 MB bank (RM0090 table 5): (first address, size).
+SECTORS = ([(FLASH_BASE + i * 0x4000, 0x4000) for i in range(4)] + [(FLASH_BASE + 0x1_0000, 0x1_0000)]
+           + [(FLASH_BASE + 0x2_0000 * i, 0x2_0000) for i in range(1, 8)])
+# Sector erase and word programming times, s, (typical, maximum), per parallelism
+# (PSIZE x8, x16, x32) and sector size: STM32F405 datasheet (DS8626), table
+# "Flash memory programming".
+ERASE_S = {0x4000: ((0.4, 0.8), (0.3, 0.6), (0.25, 0.5)),
+           0x1_0000: ((1.2, 2.4), (0.7, 1.4), (0.55, 1.1)),
+           0x2_0000: ((2.0, 4.0), (1.3, 2.6), (1.0, 2.0))}
+PROGRAM_S = (16e-6, 100e-6)
+
+
+class Flash:
+    """The flash interface (RM0090 section 3): ACR reads back; KEYR unlock sequence
+    (a wrong key locks the control register until reset); CR with PG, SER, SNB,
+    PSIZE, STRT, EOPIE, ERRIE, LOCK; SR with EOP, OPERR, WRPERR, PGAERR, PGPERR,
+    PGSERR (rc_w1) and BSY. A sector erase sets the sector to 0xFF and is busy for
+    its datasheet time (`timing` "typ" or "max"); a program is one write of PSIZE's
+    width at an aligned address, busy for 16 or 100 us, and only clears bits (a
+    write over data that is not erased is counted in `dirty_writes`). While BSY,
+    an instruction fetch or a vector read from flash stalls the CPU until the
+    operation ends (checked at the end of each quantum, so code in flash may run
+    up to a quantum past the start of an erase); the timers and the IWDG keep counting. Code
+    in RAM runs on; its data reads of flash are not stalled. A RAM loop that only
+    polls FLASH_SR (and reloads the watchdog) is skipped to the operation's end. A reset during an erase leaves the part of
+    the sector already erased at 0xFF and the rest as it was."""
+
+    ACR, KEYR, OPTKEYR, SR, CR, OPTCR = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x14
+    KEY1, KEY2 = 0x4567_0123, 0xCDEF_89AB
+    EOP, OPERR, WRPERR, PGAERR, PGPERR, PGSERR, BSY = 1, 2, 16, 32, 64, 128, 1 << 16
+    PG, SER, MER, STRT, EOPIE, ERRIE, LOCK = 1, 2, 4, 1 << 16, 1 << 24, 1 << 25, 1 << 31
+
+    def __init__(self, board, timing="typ"):
+        self.board = board
+        self.timing = 0 if timing == "typ" else 1
+        self.acr = 0
+        self.sr = 0
+        self.cr = self.LOCK
+        self.optcr = 0x0FFF_AAED
+        self.keys = 0  # how many keys of the sequence were written
+        self.frozen = False  # a wrong key: locked until reset
+        self.busy_until = None
+        self.op = None  # ("erase", sector, start) or ("program",)
+
+    def busy(self, t=None):
+        t = self.board.t if t is None else t
+        return self.busy_until is not None and t < self.busy_until
+
+    def read(self, off):
+        if off == self.ACR:
+            return self.acr
+        if off == self.SR:
+            return self.sr | (self.BSY if self.busy() else 0)
+        if off == self.CR:
+            return self.cr
+        if off == self.OPTCR:
+            return self.optcr
+        return 0
+
+    def write(self, off, v):
+        b = self.board
+        b.trace("FLASH", off, v)
+        if off == self.ACR:
+            self.acr = v & 0x1F07
+        elif off == self.KEYR:
+            if self.frozen or not self.cr & self.LOCK:
+                return
+            want = (self.KEY1, self.KEY2)[self.keys]
+            if v != want:
+                self.frozen = True
+                b.note("FLASH: wrong key sequence (control register locked until reset)")
+                return
+            self.keys += 1
+            if self.keys == 2:
+                self.cr &= ~self.LOCK
+                self.keys = 0
+        elif off == self.SR:
+            self.sr &= ~(v & (self.EOP | self.OPERR | self.WRPERR | self.PGAERR | self.PGPERR | self.PGSERR))
+        elif off == self.CR:
+            if self.cr & self.LOCK:
+                return
+            if self.busy():
+                b.note("FLASH: CR written while busy")
+            self.cr = v & 0x8301_03FF | (v & self.LOCK)
+            if v & self.MER:
+                raise NotModelled("FLASH: mass erase")
+            if v & self.STRT:
+                self.cr &= ~self.STRT
+                if v & self.SER and not v & self.PG:
+                    self.erase(v >> 3 & 0xF)
+                else:
+                    self.sr |= self.PGSERR
+        elif off == self.OPTCR:
+            b.note("FLASH: option bytes written (ignored)")
+
+    def psize(self):
+        return self.cr >> 8 & 3
+
+    def erase(self, snb):
+        b = self.board
+        if snb >= len(SECTORS):
+            raise NotModelled(f"FLASH: sector {snb} (the F405 has 12)")
+        if self.psize() == 3:
+            raise NotModelled("FLASH: x64 parallelism needs an external VPP")
+        start = max(b.t, self.busy_until or 0)
+        size = SECTORS[snb][1]
+        self.busy_until = start + round(ERASE_S[size][self.psize()][self.timing] * T_HZ)
+        addr, size = SECTORS[snb]
+        self.op = ("erase", snb, start, bytes(b.uc.mem_read(addr, size)))
+        b.uc.mem_write(addr, b"\xff" * size)
+        b.erases.append((start, self.busy_until, snb))
+        b.flash_busy_changed()
+
+    def finish(self, t):
+        """Completes the operation that ends at or before `t`."""
+        if self.busy_until is None or t < self.busy_until:
+            return
+        if self.cr & self.EOPIE:
+            self.sr |= self.EOP
+        self.busy_until, self.op = None, None
+        self.board.flash_busy_changed()
+
+    def abort(self, t):
+        """A reset in the middle of an operation: an erase is left partly done."""
+        if self.busy_until is None or t >= self.busy_until:
+            self.finish(t)
+            return
+        if self.op and self.op[0] == "erase":
+            _, snb, start, old = self.op
+            addr, size = SECTORS[snb]
+            done = min(size, max(0, size * (t - start) // max(1, self.busy_until - start))) & ~3
+            self.board.uc.mem_write(addr + done, old[done:])
+        self.busy_until, self.op = None, None
+
+    def program(self, addr, size, value, old):
+        """A CPU write of `size` bytes at `addr` in flash, over `old`: sets the flags
+        and returns what the cells hold after it (the board writes that over the
+        store once the quantum ends)."""
+        b = self.board
+        width = 1 << self.psize()
+        ok = True
+        if self.cr & self.LOCK or not self.cr & self.PG or self.cr & self.SER:
+            self.sr |= self.PGSERR
+            ok = False
+        elif size != width:
+            self.sr |= self.PGPERR
+            ok = False
+        elif addr % width:
+            self.sr |= self.PGAERR
+            ok = False
+        if ok and self.psize() == 3:
+            raise NotModelled("FLASH: x64 parallelism needs an external VPP")
+        mask = (1 << (8 * size)) - 1
+        new = old & value & mask if ok else old
+        if ok and value & mask & ~old:
+            b.dirty_writes.append((b.t, addr, old, value & mask))
+        if ok:
+            start = max(b.t, self.busy_until or 0)
+            self.busy_until = start + round(PROGRAM_S[self.timing] * T_HZ)
+            self.op = ("program",)
+            b.programs += 1
+            b.flash_busy_changed()
+        elif self.cr & self.ERRIE:
+            self.sr |= self.OPERR
+        return new
+
+
 class Iwdg:
     """IWDG (RM0090 section 21): key register (0x5555 unlock, 0xAAAA reload, 0xCCCC
     start), prescaler and reload; the LSI at 32 kHz; the counter reaching zero resets
@@ -597,7 +969,7 @@ class Nvic:
             if v >> 16 == 0x05FA:
                 self.prigroup = v >> 8 & 7
                 if v & 4:
-                    b.reset("SYSRESETREQ")
+                    b.request_reset("SYSRESETREQ")
         elif off == 0xF00:
             self.pending |= 1 << (16 + (v & 0x1FF))
         else:
@@ -617,9 +989,27 @@ class Nvic:
 class Board:
     """An STM32F405RG running an ELF: memory, peripherals, the run loop."""
 
-    def __init__(self, elf, bank=None, quantum=QUANTUM):
-        self.segments, self.symbols = load_elf(elf)
+    def __init__(self, elf, bank=None, quantum=QUANTUM, flash_timing="typ"):
+        """`elf` is the path of the firmware, or a list of (address, bytes) segments
+        (the model tests' hand-assembled programs)."""
+        self.segments, self.symbols = (elf, {}) if isinstance(elf, list) else load_elf(elf)
         self.quantum = quantum
+        self.flash_timing = flash_timing
+        self.erases = []  # (start, end, sector) of every sector erase
+        self.programs = 0  # flash writes programmed
+        self.dirty_writes = []  # (t, addr, old, value): programs over bits not erased
+        self.tick_instructions = None  # [(t, instructions)] per TIM7 handler, when counted
+        self.counting = False
+        self._count_hook = None
+        self._polls = None  # (reads, fed) of a wait on a busy flash
+        self._flash_writes = []
+        # The host's end of each USART: the wire outlives the chip's resets.
+        self.usarts = {
+            "USART1": Usart(self, "USART1", IRQ["USART1"], Rcc.APB2ENR, 4, 2),
+            "USART2": Usart(self, "USART2", IRQ["USART2"], Rcc.APB1ENR, 17, 1),
+            "USART3": Usart(self, "USART3", IRQ["USART3"], Rcc.APB1ENR, 18, 1),
+        }
+        self.usart2 = self.usarts["USART2"]
         self.t = 0
         self.events = []  # scheduled harness actions [(t, seq, fn)]
         self.seq = 0
@@ -655,6 +1045,7 @@ class Board:
             self.set_bank(bank)
         self._hook_sleep_instructions()
         uc.hook_add(UC_HOOK_INTR, self._intr)
+        uc.hook_add(UC_HOOK_MEM_WRITE, self._flash_write, None, FLASH_BASE, FLASH_BASE + FLASH_SIZE - 1)
         self.csr_flags = 0x0E00_0000  # power-on reset flags
         self._power_on()
 
@@ -687,11 +1078,66 @@ class Board:
         self.stop = ("intr", intno)
         uc.emu_stop()
 
+    def _flash_write(self, uc, _access, addr, size, value, _):
+        """A CPU store into flash: once the quantum ends, the flash interface
+        decides what the cells hold (`Flash.program`). (Not stopped here: unicorn
+        would run the store again.)"""
+        old = int.from_bytes(uc.mem_read(addr, size), "little")
+        self._flash_writes.append((addr, self.flash.program(addr, size, value, old).to_bytes(size, "little")))
+
+    def flash_busy_changed(self):
+        """A flash operation started or ended. (The quantum is not cut short here:
+        stopping inside a bus access makes unicorn run that instruction again.)"""
+
+    def _poll(self, kind):
+        """Watches for a wait on a busy flash: FLASH_SR read again and again with
+        nothing but watchdog reloads between (`kind` is "sr", "feed" or anything
+        else). Such a loop, in RAM, would spin for the whole erase; the board skips
+        to its end instead, reloading the watchdog as the loop did (or not). (A
+        loop that also counts its rounds to give up early is not told apart.)"""
+        if kind == "sr" and self.flash.busy():
+            n, fed = self._polls if self._polls else (0, False)
+            self._polls = (n + 1, fed)
+            if n + 1 >= 32:
+                self.stop = ("flash-wait", fed)
+                self.uc.emu_stop()
+        elif kind == "feed" and self._polls:
+            self._polls = (self._polls[0], True)
+        else:
+            self._polls = None
+
+    def _skip_flash_wait(self, end, fed):
+        """Runs the clock to the end of the flash operation (or `end`, or an
+        interrupt that would preempt the loop), reloading the watchdog every
+        millisecond if the loop did."""
+        target = min(self.flash.busy_until or self.t, end)
+        self._polls = None
+        while self.t < target:
+            if fed:
+                self.iwdg.write(0x00, 0xAAAA)
+            if self._advance_to(min(target, self.t + T_HZ // 1000)):
+                return True
+            if self._next_exception() is not None:
+                break
+        return False
+
+    def count_tick_instructions(self, on=True):
+        """From now on (until called with `on` false), appends (time, instructions)
+        of each TIM7 handler (its own and anything nested in it) to
+        `tick_instructions`."""
+        self.counting = on
+        if on and self.tick_instructions is None:
+            self.tick_instructions = []
+
+    def _count(self, uc, address, size, _):
+        self._icount += 1
     # -- reset
     def _power_on(self):
         self.rcc = Rcc(self, self.csr_flags)
         self.pwr = Pwr()
-        self.flash = Regs()
+        self.flash = Flash(self, self.flash_timing)
+        for u in self.usarts.values():
+            u.reset()
         self.timers = {}
         for i, name in enumerate(["TIM2", "TIM3", "TIM4", "TIM5", "TIM6", "TIM7"]):
             bits = 32 if name in ("TIM2", "TIM5") else 16
@@ -719,10 +1165,21 @@ class Board:
         uc.reg_write(A.UC_ARM_REG_LR, 0xFFFF_FFFF)
         self.pc = self.read32(FLASH_BASE + 4) & ~1
 
+    def request_reset(self, cause):
+        """A reset asked for by the running code: it takes effect once the CPU has
+        stopped (a reset from inside a bus access would be undone by the rest of
+        the quantum)."""
+        self.stop = ("reset", cause)
+        self.uc.emu_stop()
+
     def reset(self, cause):
         """A system reset: peripherals and core to their reset state, RAM kept."""
         self.resets.append((self.t, cause))
         self.tick_irq_blocked = False
+        self.flash.abort(self.t)
+        if self._count_hook is not None:
+            self.uc.hook_del(self._count_hook)
+            self._count_hook = None
         flag = {"IWDG": 1 << 29, "SYSRESETREQ": 1 << 28}.get(cause, 0)
         self.csr_flags = self.rcc.r.get(Rcc.CSR, 0) & 0xFF00_0000 | flag | (1 << 26)
         self._power_on()
@@ -746,6 +1203,10 @@ class Board:
             return self.timers[name], addr & 0x3FF
         if 0x4000_3000 <= addr < 0x4000_3400:
             return self.iwdg, addr & 0x3FF
+        if 0x4000_4400 <= addr < 0x4000_4C00:
+            return self.usarts["USART2" if addr < 0x4000_4800 else "USART3"], addr & 0x3FF
+        if 0x4001_1000 <= addr < 0x4001_1400:
+            return self.usarts["USART1"], addr & 0x3FF
         if 0x4000_7000 <= addr < 0x4000_7400:
             return self.pwr, addr & 0x3FF
         if 0x4001_3800 <= addr < 0x4001_3C00:
@@ -763,11 +1224,13 @@ class Board:
 
     def _pread(self, uc, off, size, _):
         p, o = self._periph(0x4000_0000 + off)
+        self._poll("sr" if p is self.flash and o & ~3 == Flash.SR else "other")
         v = p.read(o & ~3) >> (8 * (o & 3))
         return v & ((1 << (8 * size)) - 1)
 
     def _pwrite(self, uc, off, size, value, _):
         p, o = self._periph(0x4000_0000 + off)
+        self._poll("feed" if p is self.iwdg and o == 0 and value & 0xFFFF == 0xAAAA else "other")
         if size != 4:
             shift = 8 * (o & 3)
             mask = ((1 << (8 * size)) - 1) << shift
@@ -822,6 +1285,12 @@ class Board:
             if ex >> line & 1:
                 n = IRQ["EXTI%d" % line] if line < 5 else IRQ["EXTI9_5" if line < 10 else "EXTI15_10"]
                 lines |= 1 << (16 + n)
+        for u in self.usarts.values():
+            if u.irq_line():
+                lines |= 1 << (16 + u.irq)
+        f = self.flash
+        if (f.cr & f.EOPIE and f.sr & f.EOP) or (f.cr & f.ERRIE and f.sr & f.OPERR):
+            lines |= 1 << (16 + IRQ["FLASH"])
         if self.tick_irq_blocked:
             lines &= ~(1 << (16 + IRQ["TIM7"]))
         return lines
@@ -877,6 +1346,9 @@ class Board:
         self.sleeping = None
         self.event_reg = True
         self.taken.append((self.t, n))
+        if n == 16 + IRQ["TIM7"] and self.counting and self._count_hook is None:
+            self._icount = 0
+            self._count_hook = uc.hook_add(UC_HOOK_CODE, self._count)
 
     def _exit(self, exc_return):
         uc = self.uc
@@ -894,6 +1366,10 @@ class Board:
         self.pc = pc & ~1
         self.event_reg = True
         if n == 16 + IRQ["TIM7"]:
+            if self._count_hook is not None:
+                uc.hook_del(self._count_hook)
+                self._count_hook = None
+                self.tick_instructions.append((self.t, self._icount))
             t3, t4 = self.timers["TIM3"], self.timers["TIM4"]
             self.frames.append((self.t, tuple(t3.ccr + t4.ccr), tuple(t3.ccr_a + t4.ccr_a)))
 
@@ -909,7 +1385,10 @@ class Board:
                 nxt = exp
             for tim in self.timers.values():
                 tim.advance(nxt)
+            for u in self.usarts.values():
+                u.advance(nxt)
             self.t = max(self.t, nxt)
+            self.flash.finish(self.t)
             if exp is not None and exp <= self.t and self.iwdg.expires() == exp:
                 self.reset("IWDG")
                 return True
@@ -932,7 +1411,24 @@ class Board:
             ev = tim.next_event()
             if ev is not None and tim.dier & 0x5F:
                 cands.append(ev[0])
+        for u in self.usarts.values():
+            ev = u.next_event()
+            if ev is not None and u.can_wake():
+                cands.append(ev)
+        if self.flash.busy_until is not None:
+            cands.append(self.flash.busy_until)
         return max(self.t, min(cands))
+
+    def _stalled(self, exception=None):
+        """Whether the CPU waits for a busy flash: it executes from flash, or is about
+        to take an exception whose vector or handler is in flash."""
+        if not self.flash.busy():
+            return False
+        in_flash = lambda a: FLASH_BASE <= a < FLASH_BASE + FLASH_SIZE  # noqa: E731
+        if exception is not None:
+            vtor = self.nvic.vtor or FLASH_BASE
+            return in_flash(vtor) or in_flash(self.read32(vtor + 4 * exception) & ~1)
+        return self.sleeping is None and in_flash(self.pc)
 
     def run(self, seconds):
         """Runs until `seconds` of emulated time have passed since now."""
@@ -947,6 +1443,9 @@ class Board:
             if n is not None and self.sleeping and wake_any and self.uc.reg_read(A.UC_ARM_REG_PRIMASK) & 1:
                 self.sleeping = None  # WFI wakes on a masked interrupt without taking it
                 continue
+            if n is not None and self._stalled(n):
+                self._advance_to(min(self.flash.busy_until, end))
+                continue
             if n is not None:
                 self._enter(n)
                 continue
@@ -956,20 +1455,36 @@ class Board:
                 if self.t >= end:
                     break
                 continue
+            if self._stalled():
+                self._advance_to(min(self.flash.busy_until, end))
+                continue
             self._step(end)
 
     def _step(self, end):
         uc = self.uc
         self.stop = None
         units = T_HZ // self.rcc.hclk()
+        count = self.quantum
+        # A USART event inside the quantum: stop there, so that its interrupt is
+        # taken between two bytes as on the chip, not after several.
+        for u in self.usarts.values():
+            ev = u.next_event()
+            if ev is not None and u.can_wake() and ev > self.t:
+                count = min(count, max(1, -(-(ev - self.t) // units)))
         try:
-            uc.emu_start(self.pc | 1, 0, 0, self.quantum)
+            uc.emu_start(self.pc | 1, 0, 0, count)
             error = None
         except UcError as e:
             error = e
         pc = uc.reg_read(A.UC_ARM_REG_PC)
         stop = self.stop
-        executed = self.quantum if stop is None and error is None else self.quantum // 2
+        executed = count if stop is None and error is None else max(1, count // 2)
+        writes, self._flash_writes = self._flash_writes, []
+        for addr, cells in writes:
+            uc.mem_write(addr, cells)
+        if stop and stop[0] == "reset":
+            self.reset(stop[1])
+            return
         if stop and stop[0] in ("wfe", "wfi"):
             self.pc = stop[1] + 2
             if stop[0] == "wfe" and self.event_reg:
@@ -978,6 +1493,14 @@ class Board:
                 self.sleeping = stop[0]
         elif pc >= 0xFFFF_FF00:
             self._exit(pc | 1)
+        elif stop and stop[0] == "flash":
+            self.pc = pc
+        elif stop and stop[0] == "flash-wait":
+            self.pc = pc
+            if self._advance_to(min(end, self.t + executed * units)):
+                return
+            self._skip_flash_wait(end, stop[1])
+            return
         elif stop and stop[0] == "fault":
             self.pc = pc
             self._enter(HARDFAULT)
@@ -989,9 +1512,88 @@ class Board:
             return
 
     # -- views for the tests
+    def poke(self, addr, value):
+        """A 32-bit write on the bus, as the CPU would make it (peripherals, SCS)."""
+        if addr >= 0xE000_E000:
+            self._swrite(self.uc, addr - 0xE000_E000, 4, value, None)
+        else:
+            self._pwrite(self.uc, addr - 0x4000_0000, 4, value, None)
+
+    def peek(self, addr):
+        """A 32-bit read on the bus (with its side effects: reading a USART's DR
+        clears RXNE)."""
+        if addr >= 0xE000_E000:
+            return self._sread(self.uc, addr - 0xE000_E000, 4, None)
+        return self._pread(self.uc, addr - 0x4000_0000, 4, None)
+
     def pin(self, name):
         """(mode, af, pupd) of a pin named like "PA6"."""
         port = self.gpio["ABCDEFGHI".index(name[1])]
         pin = int(name[2:])
         pupd = port.r.get(Gpio.PUPDR, 0) >> (2 * pin) & 3
         return port.mode(pin), port.af(pin), pupd
+
+
+# ------------------------------------------------------------------ serving
+
+
+def serve(board, link_path, usart="USART2", seconds=None, speed=1.0, stop=None):
+    """Runs `board` in step with the wall clock (`speed` emulated seconds per
+    second, at most) with a USART's wire on a pseudo-terminal, whose path is linked
+    at `link_path`: `touchc sleeve --port LINK_PATH ...` then talks to the twin as
+    to a sleeve on a USB-serial adapter. Stops after `seconds` (emulated), when
+    `stop` (a threading.Event) is set, or when interrupted."""
+    import os
+    import select
+    import time
+    import tty
+
+    port = board.usarts[usart]
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    if os.path.lexists(link_path):
+        os.unlink(link_path)
+    os.symlink(os.ttyname(slave), link_path)
+    step = 0.001
+    try:
+        start, t0 = time.monotonic(), board.t
+        while (seconds is None or board.t - t0 < seconds * T_HZ) and not (stop and stop.is_set()):
+            ready, _, _ = select.select([master], [], [], 0)
+            if ready:
+                try:
+                    port.send(os.read(master, 4096))
+                except OSError:
+                    pass  # no process has the port open
+            board.run(step)
+            out = port.take()
+            if out:
+                os.write(master, out)
+            ahead = (board.t - t0) / T_HZ / speed - (time.monotonic() - start)
+            if ahead > 0:
+                select.select([master], [], [], ahead)
+    finally:
+        os.unlink(link_path)
+        os.close(master)
+        os.close(slave)
+    return board
+
+
+if __name__ == "__main__":
+    import argparse
+
+    ap = argparse.ArgumentParser(description="The sleeve firmware on the twin, its USART on a pseudo-terminal.")
+    ap.add_argument("elf")
+    ap.add_argument("--link", required=True, help="path of a symlink to the pseudo-terminal (the --port for touchc)")
+    ap.add_argument("--bank", help="a bank image in the bank region (default: erased)")
+    ap.add_argument("--usart", default="USART2")
+    ap.add_argument("--seconds", type=float, help="stop after this many emulated seconds")
+    ap.add_argument("--speed", type=float, default=1.0, help="emulated seconds per wall-clock second, at most")
+    a = ap.parse_args()
+    b = Board(a.elf)
+    if a.bank:
+        with open(a.bank, "rb") as f:
+            b.set_bank(f.read())
+    try:
+        serve(b, a.link, a.usart, a.seconds, a.speed)
+    except KeyboardInterrupt:
+        pass

@@ -41,3 +41,6 @@ mod test_rng;
 
 #[cfg(feature = "viz")]
 pub mod viz;
+
+#[cfg(feature = "link")]
+pub mod link;

@@ -37,18 +37,37 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
         refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
     }
-    let layout = super::layout(args.layout.as_deref())?;
+    let (image, slots) = build(&args.stimuli, args.layout.as_deref(), &args.output)?;
+    write_atomic(&args.output, &image)?;
+    eprintln!(
+        "touchc: wrote {} ({} slots, {} of {} bytes of the bank region)",
+        super::escaped(&crate::cli::output::shown(&args.output)),
+        slots,
+        image.len(),
+        bank::REGION_LEN
+    );
+    Ok(())
+}
+
+/// The bank image of `stimuli`, one per slot, checked for the sleeve of `layout`
+/// (default the paper's); errors about the bank as a whole name `bank_name`.
+/// Returns the image and its number of slots.
+pub(crate) fn build(
+    stimuli: &[PathBuf],
+    layout: Option<&Path>,
+    bank_name: &Path,
+) -> anyhow::Result<(Vec<u8>, usize)> {
+    let layout = super::layout(layout)?;
     let target = layout.geometry_hash();
-    if args.stimuli.len() > usize::from(bank::MAX_SLOTS) {
+    if stimuli.len() > usize::from(bank::MAX_SLOTS) {
         return Err(super::usage(format!(
             "{}: {} stimuli, but a bank holds at most {} slots",
-            args.output.display(),
-            args.stimuli.len(),
+            bank_name.display(),
+            stimuli.len(),
             bank::MAX_SLOTS
         )));
     }
-    let files = args
-        .stimuli
+    let files = stimuli
         .iter()
         .map(|path| {
             let bytes = super::read_input(path)?;
@@ -58,16 +77,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let slices: Vec<&[u8]> = files.iter().map(Vec::as_slice).collect();
     let image = bank::encode(&slices)
-        .with_context(|| format!("{}: cannot build the bank", args.output.display()))?;
-    write_atomic(&args.output, &image)?;
-    eprintln!(
-        "touchc: wrote {} ({} slots, {} of {} bytes of the bank region)",
-        super::escaped(&crate::cli::output::shown(&args.output)),
-        slices.len(),
-        image.len(),
-        bank::REGION_LEN
-    );
-    Ok(())
+        .with_context(|| format!("{}: cannot build the bank", bank_name.display()))?;
+    Ok((image, slices.len()))
 }
 
 /// Checks that `bytes` is a stimulus for the target sleeve: valid, eight channels,

@@ -13,6 +13,7 @@ mod params;
 mod plot;
 mod preview;
 mod render;
+mod sleeve;
 mod synth;
 mod track;
 mod trade;
@@ -74,6 +75,8 @@ enum Command {
     /// Compile recordings under every preset and compare time, placement, signal and
     /// tracks with `exact`.
     Trade(trade::Args),
+    /// Talk to a sleeve on a cable: list, info, upload, play, stop, stream, status, events.
+    Sleeve(sleeve::Args),
     /// Print a shell completion script: `touchc completions bash > /etc/bash_completion.d/touchc`.
     Completions {
         /// The shell to complete in.
@@ -108,6 +111,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
         Command::Trade(args) => trade::run(&args),
+        Command::Sleeve(args) => sleeve::run(&args),
         Command::Completions { shell } => {
             // Generated into memory: clap_complete panics on a write error.
             let mut script = Vec::new();

@@ -24,6 +24,7 @@ mod cli_help;
 mod cli_messages;
 mod cli_outputs;
 mod cli_sanity;
+mod cli_sleeve;
 mod cli_trade;
 mod cli_unix;
 mod cli_viz;
