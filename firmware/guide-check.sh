@@ -4,7 +4,9 @@
 # line names ("# in the workspace root" or "# in firmware/"; a block that names none
 # fails the check). Up to the probe itself: a command that needs a probe on a board is
 # not run and is named as skipped (probe-rs itself; `cargo run` in firmware/, whose
-# runner is probe-rs, runs as the `cargo build` it starts with; installing probe-rs).
+# runner is probe-rs, runs as the `cargo build` it starts with; installing probe-rs),
+# and so is one that needs a sleeve on a cable (`touchc sleeve`, which the twin runs
+# against the release firmware instead) or the USB-serial adapter (udevadm).
 # A `cargo install` of a tool already on PATH is skipped, said so.
 #
 # `bash firmware/ci.sh` (the Checks section) is not run again: scripts/check.sh runs it
@@ -83,6 +85,14 @@ for block in "${blocks[@]}"; do
                 ;;
             "bash firmware/ci.sh"*)
                 printf 'echo %q\n' "SKIPPED (scripts/check.sh runs it on this checkout): $line"
+                skipped=$((skipped + 1))
+                ;;
+            "sudo udevadm "*)
+                printf 'echo %q\n' "SKIPPED (needs the USB-serial adapter plugged in): $line"
+                skipped=$((skipped + 1))
+                ;;
+            "touchc sleeve "*)
+                printf 'echo %q\n' "SKIPPED (needs a sleeve on a cable; firmware/twin's StudyScript runs touchc sleeve against the release firmware): $line"
                 skipped=$((skipped + 1))
                 ;;
             "cargo install probe-rs-tools"*)
