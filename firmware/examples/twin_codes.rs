@@ -8,6 +8,8 @@
 //!   The device is the firmware's own (`output::device_config`).
 //! - `twin_codes limit BANK SLOT PEAK_MA OUT` writes a one-slot bank: that slot
 //!   re-encoded with its peak limit lowered to `PEAK_MA`, so that it trips.
+//! - `twin_codes device` prints the firmware's device: full scale (mA) and slew limit
+//!   (mA per ms), the numbers the twin derives its bound on the code steps from.
 //! - `twin_codes hot BUDGET_MA2S OUT` writes a bank that heats the coils: slot 0
 //!   holds near-1 A on most channels for [`HOT_MS`], slot 1 the same for
 //!   [`SHORT_MS`]; both carry the sleeve's limits with the I^2 t budget lowered to
@@ -42,7 +44,14 @@ fn main() -> ExitCode {
 
 fn run(args: &[String]) -> Result<(), String> {
     let usage = "usage: twin_codes play BANK SLOT [STOP_AFTER] | limit BANK SLOT PEAK_MA OUT \
-                 | hot BUDGET_MA2S OUT";
+                 | hot BUDGET_MA2S OUT | device";
+    if let [command] = args {
+        if command == "device" {
+            let d = device_config();
+            println!("{} {}", d.full_scale_ma, d.limits.slew_ma_per_ms);
+            return Ok(());
+        }
+    }
     if let [command, budget, out] = args {
         if command == "hot" {
             return hot(number(budget)?, out);

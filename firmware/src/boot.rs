@@ -2,8 +2,8 @@
 
 use touch_protocol::{Bank, Error};
 
-/// Why the bank in flash is not used. Nothing plays; the LED blinks
-/// [`BootError::blinks`] times, pauses, and repeats.
+/// Why the bank in flash is not used. Nothing plays; the LED shows a long light, then
+/// [`BootError::blinks`] short blinks, a pause, and repeats ([`crate::led`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(all(target_os = "none", feature = "hw"), derive(defmt::Format))]
 pub enum BootError {
@@ -21,8 +21,8 @@ pub enum BootError {
 }
 
 impl BootError {
-    /// LED blink count: 2 empty, 3 not a bank / wrong version, 4 CRC, 5 malformed,
-    /// 6 another layout.
+    /// LED blink count after the long light: 2 empty, 3 not a bank / wrong version,
+    /// 4 CRC, 5 malformed, 6 another layout.
     pub fn blinks(&self) -> u8 {
         match self {
             BootError::Empty => 2,

@@ -7,6 +7,7 @@
 //! - [`engine`]: the 1 kHz tick: write the frame computed last tick, then compute
 //!   the next one.
 //! - [`output`]: codes -> timer compare values; the compiled hard limits.
+//! - [`led`]: what the status LED shows, as patterns a person tells apart.
 //! - [`link`]: the computer's link: requests in, replies and events out, the bank
 //!   writer.
 //!
@@ -19,6 +20,7 @@ pub mod boot;
 pub mod button;
 pub mod control;
 pub mod engine;
+pub mod led;
 pub mod link;
 pub mod output;
 

@@ -24,6 +24,40 @@ pub fn avx2() -> bool {
     }
 }
 
+/// For the tests that compare the two builds: true when this CPU runs AVX2. Otherwise
+/// there is nothing to compare and the test returns early, which the harness would
+/// report as a pass: so the skip is said on the terminal (written to the process's
+/// stderr, past the harness's capture) with the number of skips so far, and with
+/// `TOUCHC_REQUIRE_AVX2` set (as `scripts/check.sh` does on a CPU that has AVX2) it
+/// fails instead.
+#[cfg(test)]
+pub(crate) fn avx2_or_skip(test: &str) -> bool {
+    // `eprintln!` would be captured with the passing test's output and never shown.
+    skip_unless(avx2(), test, &mut std::io::stderr())
+}
+
+/// How many comparisons [`avx2_or_skip`] skipped in this process.
+#[cfg(test)]
+static SKIPS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+#[cfg(test)]
+fn skip_unless(available: bool, test: &str, out: &mut impl std::io::Write) -> bool {
+    if available {
+        return true;
+    }
+    assert!(
+        std::env::var_os("TOUCHC_REQUIRE_AVX2").is_none(),
+        "{test}: TOUCHC_REQUIRE_AVX2 is set, but this CPU does not run AVX2"
+    );
+    let n = SKIPS.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+    let _ = writeln!(
+        out,
+        "SKIPPED {test}: this CPU does not run AVX2, so its AVX2 build is not compared \
+         with the baseline ({n} AVX2 comparison(s) skipped in this run)"
+    );
+    false
+}
+
 /// `kernel! { fn name / name_baseline / name_avx2 (args) -> R { body } }` defines
 /// `name`, which runs `body` in its AVX2 build (`name_avx2`) when [`avx2`] says so, else
 /// in its baseline build (`name_baseline`); the tests call both.
@@ -70,3 +104,30 @@ macro_rules! kernel {
 }
 
 pub(crate) use kernel;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A CPU without AVX2 skips, says so with the count, and is counted; one with
+    /// AVX2 compares, silently.
+    #[test]
+    fn a_skip_is_said_and_counted_and_a_cpu_with_avx2_compares() {
+        if std::env::var_os("TOUCHC_REQUIRE_AVX2").is_some() {
+            // The skip itself would fail, by design; the message is tested without it.
+            return;
+        }
+        let mut out = Vec::new();
+        assert!(skip_unless(true, "compares", &mut out));
+        assert!(out.is_empty());
+        let before = SKIPS.load(std::sync::atomic::Ordering::Relaxed);
+        assert!(!skip_unless(false, "some::test", &mut out));
+        let said = String::from_utf8(out).unwrap();
+        assert!(
+            said.starts_with("SKIPPED some::test: this CPU does not run AVX2"),
+            "{said}"
+        );
+        assert!(said.contains("skipped in this run"), "{said}");
+        assert!(SKIPS.load(std::sync::atomic::Ordering::Relaxed) > before);
+    }
+}

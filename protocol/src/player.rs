@@ -9,7 +9,7 @@
 //! 2. convert to microamperes and apply the ramp-in envelope (0 A to the signal
 //!    over `ramp_ms`);
 //! 3. enforce the limits, the stricter of the stimulus's and the device's: clamp to
-//!    the peak, clamp the change since the last tick to the slew bound (less one
+//!    the peak (rounded down to a whole output code), clamp the change since the last tick to the slew bound (less one
 //!    output step, so the step still fits after rounding to a code), and account
 //!    the thermal I^2 t budget in the device's [`Thermal`] state. Once the heat
 //!    leaves too little budget for one more tick and a ramp down, the next tick
@@ -267,7 +267,7 @@ impl<'a> Player<'a> {
         // One output step, rounded up: device full scale / 2048.
         let step_ua = ((device_ua + 2047) / 2048) as u32;
         let ramp_ms = u32::from(h.ramp_ms.max(1));
-        let peak_ua = i32::from(limits.peak_ma) * 1000;
+        let peak_ua = peak_bound_ua(limits.peak_ma, device_ua);
         let slew_ua = slew_bound_ua(limits.slew_ma_per_ms, step_ua);
         let half_step_ua = step_ua / 2 + 1;
         let mut player = Player {
@@ -294,7 +294,9 @@ impl<'a> Player<'a> {
             fault: None,
         };
         let (channel, heat) = thermal.hottest();
-        if heat > player.trip_ma2ms {
+        if heat > player.trip_ma2ms || budget_ma2ms(&limits) < player.reserve_ma2ms() {
+            // Too hot already, or a budget that cannot carry even one tick and the ramp
+            // down after it: the first tick is a thermal fault and nothing moves.
             player.hot = Some(channel);
         }
         if player.slew_ua == 0 || player.peak_ua == 0 {
@@ -367,7 +369,14 @@ impl<'a> Player<'a> {
                 channel,
             };
             self.fault.get_or_insert(f);
-            self.ramp_tick(self.out, 0);
+            if self.out == [0; CHANNELS] {
+                // Nothing to ramp down from (a start on a hot coil): every output is
+                // at 0 A already, so this tick is idle and the player is done.
+                self.cool();
+                self.mode = Mode::Done;
+            } else {
+                self.ramp_tick(self.out, 0);
+            }
             return Status::Fault(f);
         }
         // Ramp-in envelope, Q16: (t + 1) / ramp, reaching 1 after `ramp_ms` ticks.
@@ -484,6 +493,11 @@ impl<'a> Player<'a> {
         }
     }
 
+    /// The most one more tick and a ramp down can add, mA^2 ms (see [`trip_ma2ms`]).
+    fn reserve_ma2ms(&self) -> u64 {
+        ramp_down_ma2ms(self.peak_ua, self.slew_ua, self.ramp_ms, self.half_step_ua)
+    }
+
     /// One tick at 0 A.
     fn cool(&mut self) {
         for h in &mut self.thermal.heat {
@@ -532,6 +546,16 @@ pub fn slew_bound_ua(slew_ma_per_ms: u16, step_ua: u32) -> i32 {
     (i32::from(slew_ma_per_ms) * 1000 - step_ua as i32).max(0)
 }
 
+/// The peak bound the player enforces, uA: the limit rounded down to the current of
+/// a whole output code, so the code a value at the bound rounds to stands for no more
+/// than the limit (at 1 A full scale the sleeve's 1 A is a whole code already; a
+/// 10 mA peak on a 0.1 A scale would otherwise round to 8 codes, 0.39 mA over).
+pub fn peak_bound_ua(peak_ma: u16, device_full_scale_ua: i64) -> i32 {
+    let fs = device_full_scale_ua.max(1);
+    let codes = i64::from(peak_ma) * 1000 * 2048 / fs;
+    (codes * fs / 2048).min(i64::from(peak_ma) * 1000) as i32
+}
+
 /// Heat above which the player plays no further signal tick, mA^2 ms: the budget
 /// less the most that one more tick and then a ramp down can add.
 ///
@@ -541,12 +565,19 @@ pub fn slew_bound_ua(slew_ma_per_ms: u16, step_ua: u32) -> i32 {
 /// accounted (rounded-up) current; the threshold keeps one tick more as margin. A
 /// tick is played only when the heat before it is at most this, so a ramp down from
 /// any played tick stays within the budget.
+///
+/// A budget below that reserve cannot carry a single tick: the player does not start
+/// (see [`Player::with_thermal`]).
 fn trip_ma2ms(limits: &Limits, peak_ua: i32, slew_ua: i32, ramp_ms: u32, half_step_ua: u32) -> u64 {
+    budget_ma2ms(limits).saturating_sub(ramp_down_ma2ms(peak_ua, slew_ua, ramp_ms, half_step_ua))
+}
+
+/// The most one more tick, a ramp down and a tick of margin add, mA^2 ms.
+fn ramp_down_ma2ms(peak_ua: i32, slew_ua: i32, ramp_ms: u32, half_step_ua: u32) -> u64 {
     let peak = peak_ua.unsigned_abs();
     let acc = accounted_ma(peak, half_step_ua);
     let descent = u64::from(peak.div_ceil(slew_ua.unsigned_abs().max(1)));
-    let ramp_down = acc * acc * (u64::from(ramp_ms) + descent + 2);
-    budget_ma2ms(limits).saturating_sub(ramp_down)
+    acc * acc * (u64::from(ramp_ms) + descent + 2)
 }
 
 fn widen(k: [i16; CHANNELS]) -> [i32; CHANNELS] {

@@ -13,11 +13,12 @@ use embassy_executor::Spawner;
 use embassy_stm32::exti::ExtiInput;
 use embassy_stm32::gpio::Output;
 use embassy_stm32::mode::Async;
-use embassy_time::{with_timeout, Duration, Timer};
+use embassy_time::{with_deadline, with_timeout, Duration, Instant, Timer};
 use sleeve_firmware::boot::{bank_source, check_bank, BootError};
 use sleeve_firmware::button::{boot_events, Buttons, EdgeMailbox, DEBOUNCE_TICKS};
-use sleeve_firmware::control::{Controller, Report, StreamReport};
+use sleeve_firmware::control::{Controller, Report};
 use sleeve_firmware::engine::{Engine, Watchdog};
+use sleeve_firmware::led::{Led, Pattern};
 use sleeve_firmware::link::server::identity;
 use sleeve_firmware::link::{Channels, LinkServer};
 use sleeve_firmware::output::device_config;
@@ -48,6 +49,9 @@ fn bank_region() -> &'static [u8] {
 /// Boots: outputs at 0 A, bank check, then the 1 kHz tick and the button tasks.
 pub async fn run(spawner: Spawner) -> ! {
     let p = embassy_stm32::init(board::config());
+    let board = board::take(p);
+    #[cfg(feature = "usb")]
+    let usb_parts = board.usb;
     let board::Board {
         outputs,
         buttons,
@@ -55,9 +59,8 @@ pub async fn run(spawner: Spawner) -> ! {
         iwdg,
         tick: tim7,
         link: uart,
-        #[cfg(feature = "usb")]
-            usb: usb_parts,
-    } = board::take(p);
+        ..
+    } = board;
     info!("sleeve: outputs at 0 A");
     // The buttons next: their tasks arm EXTI at their first poll (the yield), so a
     // press during the rest of the boot is posted, and latched (see `boot_events`).
@@ -95,18 +98,33 @@ pub async fn run(spawner: Spawner) -> ! {
     }
     tick.start();
     if let Err(e) = checked {
-        blink_forever(&mut led, e).await
+        show_refused(&mut led, e).await
     }
     info!("ready: press to play slot 0, hold to select the next");
-    // What presses during boot did, shown like any other report (the tick runs, so
-    // the watchdog is fed while an LED pattern plays).
+    // Ready: the selected slot's blinks (one, slot 0), then what presses during boot
+    // did, like any other report (the tick runs, so the watchdog is fed meanwhile).
+    let mut status = Led::new();
+    status.show(Pattern::Selected(0), now_ms());
     for report in at_boot {
         info!("press during boot:");
-        show(report, &mut led).await;
+        log(report);
+        status.report(&report, now_ms());
     }
-
+    // The LED's level until it changes or a report comes, whichever is first. Every
+    // report goes through here, so the LED never misses one.
     loop {
-        show(tick::REPORTS.receive().await, &mut led).await;
+        let light = status.at(now_ms());
+        set(&mut led, light.on);
+        let report = match light.until_ms {
+            Some(t) => with_deadline(Instant::from_millis(t), tick::REPORTS.receive())
+                .await
+                .ok(),
+            None => Some(tick::REPORTS.receive().await),
+        };
+        if let Some(report) = report {
+            log(report);
+            status.report(&report, now_ms());
+        }
     }
 }
 
@@ -165,9 +183,20 @@ fn start(
     tick
 }
 
-/// Logs a report and shows it on the LED (on while a slot plays). Every report goes
-/// through here, those of presses during boot included, so the LED never misses one.
-async fn show(report: Report, led: &mut Output<'static>) {
+fn now_ms() -> u64 {
+    Instant::now().as_millis()
+}
+
+fn set(led: &mut Output<'static>, on: bool) {
+    if on {
+        led.set_high();
+    } else {
+        led.set_low();
+    }
+}
+
+/// Logs a report (the tick interrupt never logs itself).
+fn log(report: Report) {
     match report {
         Report::Fault(..) => warn!("limit hit, ramping to 0 A: {}", report),
         Report::BadSlot(slot, e) => error!("slot {}: refused, never played: {}", slot, e),
@@ -176,13 +205,6 @@ async fn show(report: Report, led: &mut Output<'static>) {
             slot, hot.channel, hot.permille, hot.cooldown_ms
         ),
         _ => info!("{}", report),
-    }
-    match report {
-        Report::Started(_) | Report::Stream(StreamReport::Started) => led.set_high(),
-        Report::Finished(_) | Report::Stream(StreamReport::Finished) => led.set_low(),
-        Report::TooHot(..) => flicker(led, 5, 60).await,
-        Report::BadSlot(..) => flicker(led, 2, 400).await,
-        _ => {}
     }
 }
 
@@ -219,30 +241,18 @@ async fn button_task(mut button: ExtiInput<'static, Async>, mailbox: &'static Ed
     }
 }
 
-/// A refused start: `n` flashes of `ms` on and `ms` off, then the LED off, as
-/// nothing plays. A hot coil is five quick flashes (60 ms), a slot for another
-/// layout two long ones (400 ms); both differ from the boot codes' steady rhythm.
-async fn flicker(led: &mut Output<'static>, n: u8, ms: u64) {
-    for _ in 0..n {
-        led.set_high();
-        Timer::after_millis(ms).await;
-        led.set_low();
-        Timer::after_millis(ms).await;
-    }
-}
-
-/// The refused-bank LED code: `blinks` short flashes, a pause, forever. The tick
-/// runs (every output at 0 A, nothing to play) and feeds the watchdog; the link
-/// answers, so a computer can upload a good bank.
-async fn blink_forever(led: &mut Output<'static>, e: BootError) -> ! {
+/// The refused bank's LED code (see `sleeve_firmware::led`), forever. The tick runs
+/// (every output at 0 A, nothing to play) and feeds the watchdog; the link answers, so
+/// a computer can read why and upload a good bank.
+async fn show_refused(led: &mut Output<'static>, e: BootError) -> ! {
+    let status = Led::refused(e, now_ms());
     loop {
-        for _ in 0..e.blinks() {
-            led.set_high();
-            Timer::after_millis(150).await;
-            led.set_low();
-            Timer::after_millis(250).await;
+        let light = status.at(now_ms());
+        set(led, light.on);
+        match light.until_ms {
+            Some(t) => Timer::at(Instant::from_millis(t)).await,
+            None => core::future::pending::<()>().await,
         }
-        Timer::after_millis(1200).await;
     }
 }
 

@@ -41,8 +41,9 @@ pub struct Args {
     /// The format to write.
     #[arg(long, value_enum)]
     to: To,
-    /// Where to write (default: beside FILE, with the format's extension). For .haptic
-    /// and .ahap without --channel or --mix, one file per actuator: OUT.ch0.haptic ...
+    /// Where to write (default: beside FILE, with the format's extension; `-`: standard
+    /// output). For .haptic and .ahap without --channel or --mix, one file per actuator:
+    /// OUT.ch0.haptic ...
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Which slot of a bank to export.

@@ -11,7 +11,7 @@ use touchc::config::KeyframeConfig;
 use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::export::hjif;
 
-use crate::cli::output::{named, refuse_overwrites, shown, write_atomic};
+use crate::cli::output::{is_stdio, named, refuse_overwrites, shown, write_atomic};
 
 /// The share of the compile's error bounds (0.5% RMS, 2% max of full scale) the
 /// re-encoding may use: the curves themselves are within 0.1% of the player's output,
@@ -23,10 +23,10 @@ const IMPORT_BOUND_SHARE: f64 = 0.8;
 pub struct Args {
     /// An `.hjif` file (`-`: standard input).
     file: PathBuf,
-    /// The stimulus to write.
+    /// The stimulus to write (`-`: standard output).
     #[arg(short, long)]
     output: PathBuf,
-    /// The stimulus's name (default: the file's stem).
+    /// The stimulus's name (default: the file's stem; `stdin` for standard input).
     #[arg(long)]
     name: Option<String>,
     /// The layout TOML of the sleeve (default: the paper's 2 x 4 sleeve); the file must
@@ -43,11 +43,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let layout = super::layout(args.layout.as_deref())?;
     let input = super::input_name(&args.file);
-    let name = args.name.clone().unwrap_or_else(|| {
-        args.file
+    // As `compile` names what it reads from standard input.
+    let name = args.name.clone().unwrap_or_else(|| match &args.file {
+        f if is_stdio(f) => "stdin".into(),
+        f => f
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "imported".into())
+            .unwrap_or_else(|| "imported".into()),
     });
     let name: String = name
         .char_indices()

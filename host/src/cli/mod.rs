@@ -28,11 +28,12 @@ use touch_protocol::{Bank, Stimulus};
 
 /// What `--help` says about exit codes, `-` and errors.
 const AFTER_HELP: &str = "\
-Files: `-` is standard input for `compile`, `inspect`, `render` and `plot`, and
-standard output wherever an output can be a stream (`compile -o`, `render`,
-`inspect -o`, `track -o`, `synth -o`). Outputs that are regular files appear whole or
-not at all; devices, pipes and symlinks are written through to their target. No output
-may be one of the command's inputs, or another of its outputs.
+Files: `-` is standard input for `compile`, `inspect`, `render`, `plot`, `export` and
+`import`, and standard output wherever an output can be a stream (`compile -o`,
+`render`, `inspect -o`, `track -o`, `synth -o`, `export -o` when it writes one file,
+`import -o`). Outputs that are regular files appear whole or not at all; devices,
+pipes and symlinks are written through to their target. No output may be one of the
+command's inputs, or another of its outputs.
 
 Exit status: 0 success (also when a reader such as `head` closes the pipe early),
 1 bad input, a failed compile or an output that cannot be written, 2 usage error

@@ -16,9 +16,7 @@
 
 use serde::Serialize;
 
-use super::{
-    fit_polyline, from_unit, polyline_at, round_to, to_unit, ErrorSum, ExportError, Pick, Playback,
-};
+use super::{from_unit, round_to, to_unit, ExportError, Pick, Playback, UnitScale};
 
 /// Core Haptics' limit on a `HapticContinuous` event's duration, seconds.
 pub const MAX_EVENT_S: f64 = 30.0;
@@ -84,30 +82,21 @@ struct ControlPoint {
     parameter_value: f64,
 }
 
-/// One AHAP file for the signal `pick` chose.
+/// The intensity: the square root of the current mapped onto 0..1 ([`to_unit`]), so
+/// the reader's amplitude is the intensity squared.
+pub(crate) const SCALE: UnitScale = UnitScale {
+    tol: INTENSITY_TOLERANCE,
+    to: |a, fs| to_unit(a, fs).sqrt(),
+    from: |i, fs| from_unit(i * i, fs),
+};
+
+/// One AHAP file of the intensity `points` ([`SCALE`]) of the signal `pick` chose.
 pub(crate) fn write(
     playback: &Playback,
     pick: Pick,
-    signal: &[f64],
-    err: &mut ErrorSum,
-    fit: &mut ErrorSum,
+    points: &[(usize, f64)],
 ) -> Result<Vec<u8>, ExportError> {
     let fs = playback.full_scale_a;
-    let intensity: Vec<f64> = signal.iter().map(|&a| to_unit(a, fs).sqrt()).collect();
-    let mut points: Vec<(usize, f64)> = fit_polyline(&intensity, INTENSITY_TOLERANCE)
-        .into_iter()
-        .map(|(t, v)| (t, round_to(v.clamp(0.0, 1.0), 6)))
-        .collect();
-    if points.len() == 1 {
-        points.push((points[0].0 + 1, points[0].1));
-    }
-    let mut hint = 0;
-    for (t, s) in signal.iter().enumerate() {
-        let i = polyline_at(&points, t, &mut hint);
-        let e = (from_unit(i * i, fs) - s) / fs;
-        fit.add(e);
-        err.add(e);
-    }
     let seconds = |t: usize| t as f64 / 1000.0;
     let total = seconds(points.last().map_or(0, |p| p.0));
     let mut pattern = Vec::new();

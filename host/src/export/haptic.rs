@@ -11,10 +11,7 @@
 
 use serde::Serialize;
 
-use super::{
-    fit_polyline, from_unit, polyline_at, round_to, to_unit, ErrorSum, ExportError, Pick, Playback,
-    CURVE_TOLERANCE_FS,
-};
+use super::{from_unit, to_unit, ExportError, Pick, Playback, UnitScale, CURVE_TOLERANCE_FS};
 
 #[derive(Serialize)]
 struct DataModel<'a> {
@@ -61,43 +58,20 @@ struct Breakpoint {
     amplitude: f64,
 }
 
-/// The envelope of `signal` (amperes, 1 kHz) as breakpoints `(tick, 0..1)`, at least
-/// two, within `tol` of the full scale, and its errors (fractions of the full scale)
-/// added to `err` and `fit`.
-pub(crate) fn envelope(
-    signal: &[f64],
-    full_scale_a: f64,
-    tol: f64,
-    err: &mut ErrorSum,
-    fit: &mut ErrorSum,
-) -> Vec<(usize, f64)> {
-    let unit: Vec<f64> = signal.iter().map(|&a| to_unit(a, full_scale_a)).collect();
-    // One unit of amplitude is two of current: half the tolerance.
-    let mut points: Vec<(usize, f64)> = fit_polyline(&unit, tol / 2.0)
-        .into_iter()
-        .map(|(t, v)| (t, round_to(v.clamp(0.0, 1.0), 6)))
-        .collect();
-    if points.len() == 1 {
-        points.push((points[0].0 + 1, points[0].1));
-    }
-    let mut hint = 0;
-    for (t, s) in signal.iter().enumerate() {
-        let e = (from_unit(polyline_at(&points, t, &mut hint), full_scale_a) - s) / full_scale_a;
-        fit.add(e);
-        err.add(e);
-    }
-    points
-}
+/// The envelope: the current mapped onto 0..1 ([`to_unit`]); one unit of amplitude is
+/// two of current, so half the tolerance.
+pub(crate) const SCALE: UnitScale = UnitScale {
+    tol: CURVE_TOLERANCE_FS / 2.0,
+    to: to_unit,
+    from: from_unit,
+};
 
-/// One `.haptic` file for the signal `pick` chose.
+/// One `.haptic` file of the envelope `points` ([`SCALE`]) of the signal `pick` chose.
 pub(crate) fn write(
     playback: &Playback,
     pick: Pick,
-    signal: &[f64],
-    err: &mut ErrorSum,
-    fit: &mut ErrorSum,
+    points: &[(usize, f64)],
 ) -> Result<Vec<u8>, ExportError> {
-    let points = envelope(signal, playback.full_scale_a, CURVE_TOLERANCE_FS, err, fit);
     let amplitude: Vec<Breakpoint> = points
         .iter()
         .map(|&(t, a)| Breakpoint {

@@ -280,6 +280,10 @@ pub struct ExportOptions {
     pub date: String,
 }
 
+/// A single-signal format's writer: one file of `points` (tick, 0..1 value), the
+/// [`UnitScale::curve`] of the signal `pick` chose.
+type Writer = fn(&Playback, Pick, &[(usize, f64)]) -> Result<Vec<u8>, ExportError>;
+
 /// Writes `playback` as `format`.
 pub fn export(
     playback: &Playback,
@@ -299,13 +303,15 @@ pub fn export(
             let mut files = Vec::new();
             let mut err = ErrorSum::default();
             let mut fit = ErrorSum::default();
+            let (scale, write): (UnitScale, Writer) = if format == Format::Haptic {
+                (haptic::SCALE, haptic::write)
+            } else {
+                (ahap::SCALE, ahap::write)
+            };
             for (suffix, pick) in picks {
                 let signal = playback.signal(pick)?;
-                let bytes = if format == Format::Haptic {
-                    haptic::write(playback, pick, &signal, &mut err, &mut fit)?
-                } else {
-                    ahap::write(playback, pick, &signal, &mut err, &mut fit)?
-                };
+                let points = scale.curve(&signal, playback.full_scale_a, &mut err, &mut fit);
+                let bytes = write(playback, pick, &points)?;
                 files.push(ExportFile { suffix, bytes });
             }
             Ok(Exported {
@@ -380,6 +386,49 @@ pub fn polyline_at(points: &[(usize, f64)], tick: usize, hint: &mut usize) -> f6
     match points.get(*hint + 1) {
         Some(&(t1, v1)) if tick > t0 => v0 + (v1 - v0) * (tick - t0) as f64 / (t1 - t0) as f64,
         _ => v0,
+    }
+}
+
+/// How a format that has no sign maps the current onto its 0..1 values, and back.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct UnitScale {
+    /// The fit's tolerance, in the format's 0..1 values.
+    pub(crate) tol: f64,
+    /// A current (amperes) and the full scale to the format's value.
+    pub(crate) to: fn(f64, f64) -> f64,
+    /// A format's value and the full scale to the current its reader rebuilds.
+    pub(crate) from: fn(f64, f64) -> f64,
+}
+
+impl UnitScale {
+    /// The curve of `signal` (amperes, 1 kHz) in this scale: fitted within
+    /// [`UnitScale::tol`], each breakpoint clamped to 0..1 and rounded to 6 decimals; at
+    /// least two breakpoints, because these formats' readers want a start and an end
+    /// even for a constant. What the reader rebuilds is compared with `signal` at every
+    /// tick, and the errors (fractions of the full scale) are added to `err` and `fit`.
+    pub(crate) fn curve(
+        &self,
+        signal: &[f64],
+        full_scale_a: f64,
+        err: &mut ErrorSum,
+        fit: &mut ErrorSum,
+    ) -> Vec<(usize, f64)> {
+        let scaled: Vec<f64> = signal.iter().map(|&a| (self.to)(a, full_scale_a)).collect();
+        let mut points: Vec<(usize, f64)> = fit_polyline(&scaled, self.tol)
+            .into_iter()
+            .map(|(t, v)| (t, round_to(v.clamp(0.0, 1.0), 6)))
+            .collect();
+        if points.len() == 1 {
+            points.push((points[0].0 + 1, points[0].1));
+        }
+        let mut hint = 0;
+        for (t, s) in signal.iter().enumerate() {
+            let v = polyline_at(&points, t, &mut hint);
+            let e = ((self.from)(v, full_scale_a) - s) / full_scale_a;
+            fit.add(e);
+            err.add(e);
+        }
+        points
     }
 }
 

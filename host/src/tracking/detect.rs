@@ -645,7 +645,7 @@ mod tests {
     /// ([`crate::wide`]), on frames with peaks, plateaus and flat zeros.
     #[test]
     fn the_avx2_build_finds_the_baseline_maxima() {
-        if !crate::wide::avx2() {
+        if !crate::wide::avx2_or_skip("detect::tests::the_avx2_build_finds_the_baseline_maxima") {
             return;
         }
         let mut rng = crate::test_rng::Xorshift::new(0x9e37_79b9_7f4a_7c15);

@@ -89,6 +89,76 @@ fn sampled(points: &[(f64, f64)], ticks: usize) -> Vec<f64> {
 
 // ---------------------------------------------------------------- MPEG-I HJIF
 
+/// `touchc export FILE --to FORMAT EXTRA... -o OUT`, which must succeed.
+fn export_ok(file: &Path, format: &str, extra: &[&str], out: &Path) {
+    let mut args = vec!["export", s(file), "--to", format];
+    args.extend_from_slice(extra);
+    args.extend(["-o", s(out)]);
+    ok(&touchc(&args));
+}
+
+/// The emoji as export cases: each file, slot 0.
+fn emoji_cases() -> Vec<(PathBuf, usize)> {
+    EMOJI.iter().map(|n| (emoji(n), 0)).collect()
+}
+
+/// The emoji files and every slot of the emoji bank.
+fn emoji_and_bank_cases() -> Vec<(PathBuf, usize)> {
+    let mut cases = emoji_cases();
+    cases.extend((0..EMOJI.len()).map(|slot| (bank(), slot)));
+    cases
+}
+
+/// Exports each `(file, slot)` of `cases` `--to format` into a fresh directory and
+/// calls `check(output, file, slot, played)`: the `-o` path (a single-signal format's
+/// files are its [`channel_file`]s) and the player's output from `touchc render`.
+fn for_each_export(
+    format: &str,
+    cases: &[(PathBuf, usize)],
+    mut check: impl FnMut(&Path, &Path, usize, &[Vec<f64>; 8]),
+) {
+    let dir = tempfile::tempdir().unwrap();
+    for (k, (file, slot)) in cases.iter().enumerate() {
+        let out = dir.path().join(format!("x{k}.{format}"));
+        export_ok(file, format, &["--slot", &slot.to_string()], &out);
+        check(&out, file, *slot, &rendered(file, *slot));
+    }
+}
+
+/// Where `touchc export -o out` writes actuator `c`'s file of a single-signal format.
+fn channel_file(out: &Path, c: usize) -> PathBuf {
+    let ext = out.extension().unwrap().to_str().unwrap();
+    out.with_extension(format!("ch{c}.{ext}"))
+}
+
+/// Exports `cases` `--to format`, rebuilds each actuator's current from the files
+/// alone (`rebuild(output, channel, ticks)`, amperes per tick) and asserts that every
+/// case is within the compile bounds of the player's output (0.5% RMS, 2% max of full
+/// scale); prints the worst case's figures under `label`.
+fn rebuilt_within_the_bounds(
+    format: &str,
+    label: &str,
+    cases: &[(PathBuf, usize)],
+    mut rebuild: impl FnMut(&Path, usize, usize) -> Vec<f64>,
+) {
+    let mut worst = (0.0f64, 0.0f64);
+    for_each_export(format, cases, |out, file, slot, played| {
+        let rebuilt: Vec<Vec<f64>> = (0..8).map(|c| rebuild(out, c, played[0].len())).collect();
+        let (rms, max) = error(played, &rebuilt);
+        assert!(
+            rms <= 0.005 && max <= 0.02,
+            "{} slot {slot}: {rms} {max}",
+            file.display()
+        );
+        worst = (worst.0.max(rms), worst.1.max(max));
+    });
+    eprintln!(
+        "{label} against the player: worst {:.3}% RMS / {:.3}% max of full scale",
+        100.0 * worst.0,
+        100.0 * worst.1
+    );
+}
+
 fn int(v: &Value, key: &str, at: &str) -> i64 {
     v.get(key)
         .and_then(Value::as_i64)
@@ -303,64 +373,29 @@ fn validate_hjif(doc: &Value) -> Vec<(i64, Vec<(f64, f64)>)> {
 
 #[test]
 fn hjif_follows_the_reference_loader_carries_the_layout_and_meets_the_bounds() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut worst = (0.0f64, 0.0f64);
-    let mut cases: Vec<(PathBuf, usize)> = EMOJI.iter().map(|n| (emoji(n), 0)).collect();
-    cases.extend((0..EMOJI.len()).map(|slot| (bank(), slot)));
-    for (file, slot) in cases {
-        let out = dir.path().join(format!("x{slot}.hjif"));
-        let slot_arg = slot.to_string();
-        ok(&touchc(&[
-            "export",
-            s(&file),
-            "--to",
-            "hjif",
-            "--slot",
-            &slot_arg,
-            "-o",
-            s(&out),
-        ]));
-        let doc = json(&out);
+    rebuilt_within_the_bounds("hjif", "hjif", &emoji_and_bank_cases(), |out, c, ticks| {
+        let doc = json(out);
         let curves = validate_hjif(&doc);
         // The sleeve: one pressure perception, eight channels in order, on the forearm
         // mask at their grid places.
         let p = &doc["perceptions"][0];
         assert_eq!(p["perception_modality"], "Pressure");
         assert_eq!(curves.len(), 8);
-        for (c, ch) in p["channels"].as_array().unwrap().iter().enumerate() {
-            assert_eq!(ch["id"], c as i64);
-            // A forearm bit of the mask (right 0x1000 or left 0x2000).
-            assert!(ch["body_part_mask"].as_u64().unwrap() & 0x3000 != 0);
-            assert_eq!(ch["actuator_target"][0]["X"], (c % 4) as i64);
-            assert_eq!(ch["actuator_target"][0]["Y"], (c / 4) as i64);
-        }
+        let ch = &p["channels"][c];
+        assert_eq!(ch["id"], c as i64);
+        // A forearm bit of the mask (right 0x1000 or left 0x2000).
+        assert!(ch["body_part_mask"].as_u64().unwrap() & 0x3000 != 0);
+        assert_eq!(ch["actuator_target"][0]["X"], (c % 4) as i64);
+        assert_eq!(ch["actuator_target"][0]["Y"], (c / 4) as i64);
         assert!(doc["description"]
             .as_str()
             .unwrap()
             .contains(&format!("{:08x}", touch_protocol::layout::SLEEVE_HASH)));
-        let played = rendered(&file, slot);
-        let rebuilt: Vec<Vec<f64>> = curves
-            .iter()
-            .map(|(_, pts)| {
-                sampled(pts, played[0].len())
-                    .into_iter()
-                    .map(|a| a * FULL_SCALE_A)
-                    .collect()
-            })
-            .collect();
-        let (rms, max) = error(&played, &rebuilt);
-        assert!(
-            rms <= 0.005 && max <= 0.02,
-            "{}: {rms} {max}",
-            file.display()
-        );
-        worst = (worst.0.max(rms), worst.1.max(max));
-    }
-    eprintln!(
-        "hjif against the player: worst {:.3}% RMS / {:.3}% max of full scale",
-        100.0 * worst.0,
-        100.0 * worst.1
-    );
+        sampled(&curves[c].1, ticks)
+            .into_iter()
+            .map(|a| a * FULL_SCALE_A)
+            .collect()
+    });
 }
 
 #[test]
@@ -369,14 +404,7 @@ fn an_hjif_round_trip_plays_within_the_compile_bounds_of_the_original() {
     for name in EMOJI {
         let hjif = dir.path().join(format!("{name}.hjif"));
         let back = dir.path().join(format!("{name}.touch"));
-        ok(&touchc(&[
-            "export",
-            s(&emoji(name)),
-            "--to",
-            "hjif",
-            "-o",
-            s(&hjif),
-        ]));
+        export_ok(&emoji(name), "hjif", &[], &hjif);
         ok(&touchc(&["import", s(&hjif), "-o", s(&back)]));
         let (rms, max) = error(&rendered(&emoji(name), 0), &rendered(&back, 0));
         eprintln!(
@@ -394,14 +422,7 @@ fn an_hjif_round_trip_plays_within_the_compile_bounds_of_the_original() {
 fn import_refuses_a_file_for_another_layout_and_what_is_not_hjif() {
     let dir = tempfile::tempdir().unwrap();
     let hjif = dir.path().join("love.hjif");
-    ok(&touchc(&[
-        "export",
-        s(&emoji("love")),
-        "--to",
-        "hjif",
-        "-o",
-        s(&hjif),
-    ]));
+    export_ok(&emoji("love"), "hjif", &[], &hjif);
     let other = dir.path().join("other.toml");
     std::fs::write(&other, moved_layout()).unwrap();
     let back = dir.path().join("back.touch");
@@ -486,39 +507,19 @@ fn validate_haptic(doc: &Value) -> Vec<(f64, f64)> {
 
 #[test]
 fn haptic_files_follow_the_lofelt_data_model_one_per_actuator() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut worst = (0.0f64, 0.0f64);
-    for name in EMOJI {
-        let out = dir.path().join(format!("{name}.haptic"));
-        ok(&touchc(&[
-            "export",
-            s(&emoji(name)),
-            "--to",
-            "haptic",
-            "-o",
-            s(&out),
-        ]));
-        let played = rendered(&emoji(name), 0);
-        let rebuilt: Vec<Vec<f64>> = (0..8)
-            .map(|c| {
-                let doc = json(&dir.path().join(format!("{name}.ch{c}.haptic")));
-                let points = validate_haptic(&doc);
-                // Times are seconds as f32 in the SDK: round to the tick.
-                let points: Vec<(f64, f64)> = points.iter().map(|&(t, a)| (t.round(), a)).collect();
-                sampled(&points, played[0].len())
-                    .into_iter()
-                    .map(|a| (2.0 * a - 1.0) * FULL_SCALE_A)
-                    .collect()
-            })
-            .collect();
-        let (rms, max) = error(&played, &rebuilt);
-        assert!(rms <= 0.005 && max <= 0.02, "{name}: {rms} {max}");
-        worst = (worst.0.max(rms), worst.1.max(max));
-    }
-    eprintln!(
-        ".haptic (amplitude = (I/FS + 1)/2) against the player: worst {:.3}% RMS / {:.3}% max",
-        100.0 * worst.0,
-        100.0 * worst.1
+    rebuilt_within_the_bounds(
+        "haptic",
+        ".haptic (amplitude = (I/FS + 1)/2)",
+        &emoji_cases(),
+        |out, c, ticks| {
+            let points = validate_haptic(&json(&channel_file(out, c)));
+            // Times are seconds as f32 in the SDK: round to the tick.
+            let points: Vec<(f64, f64)> = points.iter().map(|&(t, a)| (t.round(), a)).collect();
+            sampled(&points, ticks)
+                .into_iter()
+                .map(|a| (2.0 * a - 1.0) * FULL_SCALE_A)
+                .collect()
+        },
     );
 }
 
@@ -527,30 +528,9 @@ fn one_haptic_file_of_a_bank_slot_its_channel_or_its_mix() {
     let dir = tempfile::tempdir().unwrap();
     let played = rendered(&bank(), 4);
     let mix = dir.path().join("mix.haptic");
-    ok(&touchc(&[
-        "export",
-        s(&bank()),
-        "--slot",
-        "4",
-        "--to",
-        "haptic",
-        "--mix",
-        "-o",
-        s(&mix),
-    ]));
+    export_ok(&bank(), "haptic", &["--slot", "4", "--mix"], &mix);
     let one = dir.path().join("one.haptic");
-    ok(&touchc(&[
-        "export",
-        s(&bank()),
-        "--slot",
-        "4",
-        "--to",
-        "haptic",
-        "--channel",
-        "5",
-        "-o",
-        s(&one),
-    ]));
+    export_ok(&bank(), "haptic", &["--slot", "4", "--channel", "5"], &one);
     let ticks = played[0].len();
     let most_pressed: Vec<f64> = (0..ticks)
         .map(|t| played.iter().map(|c| c[t]).fold(f64::MIN, f64::max))
@@ -664,42 +644,22 @@ fn validate_ahap(doc: &Value) -> (Vec<(f64, f64)>, f64) {
 
 #[test]
 fn ahap_files_follow_core_haptics_limits_and_carry_each_actuator() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut worst = (0.0f64, 0.0f64);
-    for name in EMOJI {
-        let out = dir.path().join(format!("{name}.ahap"));
-        ok(&touchc(&[
-            "export",
-            s(&emoji(name)),
-            "--to",
-            "ahap",
-            "-o",
-            s(&out),
-        ]));
-        let played = rendered(&emoji(name), 0);
-        let rebuilt: Vec<Vec<f64>> = (0..8)
-            .map(|c| {
-                let doc = json(&dir.path().join(format!("{name}.ch{c}.ahap")));
-                let (points, end) = validate_ahap(&doc);
-                assert!(
-                    end + 1.0 >= points.last().unwrap().0,
-                    "curve outlives events"
-                );
-                // Intensity is the square root of the amplitude (Lofelt's mapping).
-                sampled(&points, played[0].len())
-                    .into_iter()
-                    .map(|i| (2.0 * i * i - 1.0) * FULL_SCALE_A)
-                    .collect()
-            })
-            .collect();
-        let (rms, max) = error(&played, &rebuilt);
-        assert!(rms <= 0.005 && max <= 0.02, "{name}: {rms} {max}");
-        worst = (worst.0.max(rms), worst.1.max(max));
-    }
-    eprintln!(
-        "AHAP (intensity = sqrt((I/FS + 1)/2)) against the player: worst {:.3}% RMS / {:.3}% max",
-        100.0 * worst.0,
-        100.0 * worst.1
+    rebuilt_within_the_bounds(
+        "ahap",
+        "AHAP (intensity = sqrt((I/FS + 1)/2))",
+        &emoji_cases(),
+        |out, c, ticks| {
+            let (points, end) = validate_ahap(&json(&channel_file(out, c)));
+            assert!(
+                end + 1.0 >= points.last().unwrap().0,
+                "curve outlives events"
+            );
+            // Intensity is the square root of the amplitude (Lofelt's mapping).
+            sampled(&points, ticks)
+                .into_iter()
+                .map(|i| (2.0 * i * i - 1.0) * FULL_SCALE_A)
+                .collect()
+        },
     );
 }
 
@@ -709,16 +669,7 @@ fn a_long_ahap_chains_its_events_and_curves() {
     let long = dir.path().join("long.touch");
     std::fs::write(&long, crate::stimuli::long("long", 75)).unwrap();
     let out = dir.path().join("long.ahap");
-    ok(&touchc(&[
-        "export",
-        s(&long),
-        "--to",
-        "ahap",
-        "--channel",
-        "0",
-        "-o",
-        s(&out),
-    ]));
+    export_ok(&long, "ahap", &["--channel", "0"], &out);
     let doc = json(&out);
     let (points, end) = validate_ahap(&doc);
     let events = doc["Pattern"]
@@ -821,65 +772,52 @@ fn tact_files_follow_the_sdk_structure_and_their_loss_is_measured() {
         [0.0, 2.0 / 3.0, 2.0 / 3.0, 0.0],
         [0.0, 0.0, 1.0 / 3.0, 1.0],
     ];
-    let dir = tempfile::tempdir().unwrap();
-    for (file, slot) in EMOJI
-        .iter()
-        .map(|n| (emoji(n), 0))
-        .chain((0..EMOJI.len()).map(|k| (bank(), k)))
-    {
-        let out = dir.path().join("x.tact");
-        ok(&touchc(&[
-            "export",
-            s(&file),
-            "--slot",
-            &slot.to_string(),
-            "--to",
-            "tact",
-            "-o",
-            s(&out),
-        ]));
-        let motors = validate_tact(&json(&out));
-        let played = rendered(&file, slot);
-        // What each motor should play: its weighted mean of the amplitudes it is fed.
-        let want: Vec<Vec<f64>> = (0..6)
-            .map(|m| {
-                let (row, col) = (m / 3, m % 3);
-                let total: f64 = share[col].iter().sum();
-                (0..played[0].len())
-                    .map(|t| {
-                        (0..4)
-                            .map(|c| share[col][c] * (played[row * 4 + c][t] + 1.0) / 2.0)
-                            .sum::<f64>()
-                            / total
-                    })
-                    .collect()
-            })
-            .collect();
-        // Each 20 ms frame plays the mean of its mix over the frame, to a whole percent.
-        let interval = 20;
-        for (m, (want, got)) in want.iter().zip(&motors).enumerate() {
-            for (k, frame) in want.chunks(interval).enumerate() {
-                let mean = frame.iter().sum::<f64>() / frame.len() as f64;
-                for (j, &v) in got[k * interval..k * interval + frame.len()]
-                    .iter()
-                    .enumerate()
-                {
-                    assert!(
-                        (v - mean).abs() <= 0.005 + 1e-6,
-                        "motor {m} tick {}: {v} for a frame mean of {mean}",
-                        k * interval + j
-                    );
+    for_each_export(
+        "tact",
+        &emoji_and_bank_cases(),
+        |out, file, slot, played| {
+            let motors = validate_tact(&json(out));
+            // What each motor should play: its weighted mean of the amplitudes it is fed.
+            let want: Vec<Vec<f64>> = (0..6)
+                .map(|m| {
+                    let (row, col) = (m / 3, m % 3);
+                    let total: f64 = share[col].iter().sum();
+                    (0..played[0].len())
+                        .map(|t| {
+                            (0..4)
+                                .map(|c| share[col][c] * (played[row * 4 + c][t] + 1.0) / 2.0)
+                                .sum::<f64>()
+                                / total
+                        })
+                        .collect()
+                })
+                .collect();
+            // Each 20 ms frame plays the mean of its mix over the frame, to a whole percent.
+            let interval = 20;
+            for (m, (want, got)) in want.iter().zip(&motors).enumerate() {
+                for (k, frame) in want.chunks(interval).enumerate() {
+                    let mean = frame.iter().sum::<f64>() / frame.len() as f64;
+                    for (j, &v) in got[k * interval..k * interval + frame.len()]
+                        .iter()
+                        .enumerate()
+                    {
+                        assert!(
+                            (v - mean).abs() <= 0.005 + 1e-6,
+                            "motor {m} tick {}: {v} for a frame mean of {mean}",
+                            k * interval + j
+                        );
+                    }
                 }
             }
-        }
-        let (rms, max) = error(&want, &motors);
-        eprintln!(
+            let (rms, max) = error(&want, &motors);
+            eprintln!(
             "{} slot {slot}: .tact motors against their mix {:.2}% RMS / {:.2}% max of amplitude (20 ms frames, whole percent)",
             file.display(),
             100.0 * rms,
             100.0 * max
         );
-    }
+        },
+    );
 }
 
 // ---------------------------------------------------------------- the command line
@@ -913,6 +851,42 @@ fn every_shipped_recording_compiled_exports_to_every_format() {
         }
         validate_tact(&json(&dir.path().join(format!("{rec}.tact"))));
     }
+}
+
+#[test]
+fn export_and_import_read_standard_input_and_write_standard_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let piped = |args: &[&str], stdin: &Path| -> Vec<u8> {
+        let out = crate::bin::command()
+            .args(args)
+            .stdin(std::fs::File::open(stdin).unwrap())
+            .output()
+            .unwrap();
+        ok(&out);
+        out.stdout
+    };
+    let tact = dir.path().join("love.tact");
+    export_ok(&emoji("love"), "tact", &[], &tact);
+    assert_eq!(
+        piped(&["export", "-", "--to", "tact", "-o", "-"], &emoji("love")),
+        std::fs::read(&tact).unwrap()
+    );
+    // From standard input, a stimulus is named as `compile` names one: "stdin".
+    let hjif = dir.path().join("love.hjif");
+    export_ok(&emoji("love"), "hjif", &[], &hjif);
+    let back = dir.path().join("back.touch");
+    ok(&touchc(&[
+        "import",
+        s(&hjif),
+        "--name",
+        "stdin",
+        "-o",
+        s(&back),
+    ]));
+    assert_eq!(
+        piped(&["import", "-", "-o", "-"], &hjif),
+        std::fs::read(&back).unwrap()
+    );
 }
 
 #[test]

@@ -38,6 +38,7 @@ mod knobs;
 mod layout_guess;
 mod placement_oracle;
 mod pictures;
+mod playback;
 mod placement_reference;
 mod plot_png;
 mod poisoned;

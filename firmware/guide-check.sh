@@ -1,0 +1,137 @@
+#!/usr/bin/env bash
+# Runs the maker's guide (firmware/README.md) as a maker would: every ```sh block, in
+# a fresh clone of this checkout's committed HEAD, from the folder the block's first
+# line names ("# in the workspace root" or "# in firmware/"; a block that names none
+# fails the check). Up to the probe itself: a command that needs a probe on a board is
+# not run and is named as skipped (probe-rs itself; `cargo run` in firmware/, whose
+# runner is probe-rs, runs as the `cargo build` it starts with; installing probe-rs),
+# and so is one that needs a sleeve on a cable (`touchc sleeve`, which the twin runs
+# against the release firmware instead) or the USB-serial adapter (udevadm).
+# A `cargo install` of a tool already on PATH is skipped, said so.
+#
+# `bash firmware/ci.sh` (the Checks section) is not run again: scripts/check.sh runs it
+# on this checkout just before.
+#
+#   bash firmware/guide-check.sh         # from anywhere; GUIDE_KEEP=1 keeps the clone
+#
+# The clone is made afresh each time; its builds (touchc in release, the firmware
+# profile) go to a target directory kept between runs, target/guide-check/ of this
+# checkout (GUIDE_TARGET_DIR to choose another, an empty one for a cold build), so only
+# the first run compiles the dependencies: a few minutes on two cores, then about one.
+set -euo pipefail
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$(cd "$here/.." && pwd)"
+work="$(mktemp -d)"
+cleanup() {
+    if [ "${GUIDE_KEEP:-}" = 1 ]; then
+        echo "clone kept in $work/clone"
+    else
+        rm -rf "$work"
+    fi
+}
+trap cleanup EXIT
+export CARGO_TARGET_DIR="${GUIDE_TARGET_DIR:-$root/target/guide-check}"
+
+head_commit="$(git -C "$root" rev-parse HEAD)"
+if [ -n "$(git -C "$root" status --porcelain -- firmware/README.md)" ]; then
+    echo "note: firmware/README.md has uncommitted changes; the clone checks the committed one" >&2
+fi
+git clone --quiet --no-hardlinks "$root" "$work/clone"
+git -C "$work/clone" checkout --quiet --detach "$head_commit"
+clone="$work/clone"
+guide="$clone/firmware/README.md"
+
+# The blocks, one file each: the lines between "```sh" and "```". A ```text block that
+# follows one directly (blank lines between at most) is its output as the guide shows
+# it: NN.out, compared with what the block prints.
+mkdir "$work/blocks"
+awk -v dir="$work/blocks" '
+    /^```sh[[:space:]]*$/ { n++; inside = 1; file = sprintf("%s/%02d", dir, n); printf "" > file; next }
+    /^```text[[:space:]]*$/ && after { out = 1; file = sprintf("%s/%02d.out", dir, n); printf "" > file; next }
+    /^```/ && (inside || out) { after = inside; inside = 0; out = 0; close(file); next }
+    inside || out { print > file; next }
+    /^[[:space:]]*$/ { next }
+    { after = 0 }
+' "$guide"
+blocks=("$work"/blocks/[0-9][0-9])
+if [ ! -e "${blocks[0]}" ]; then
+    echo "no sh blocks in firmware/README.md" >&2
+    exit 1
+fi
+
+skipped=0
+for block in "${blocks[@]}"; do
+    n="$(basename "$block")"
+    where="$(head -n1 "$block")"
+    case "$where" in
+    "# in the workspace root") dir="$clone" ;;
+    "# in firmware/") dir="$clone/firmware" ;;
+    *)
+        echo "firmware/README.md, sh block $n: its first line must say where it runs" \
+            "('# in the workspace root' or '# in firmware/'), not: $where" >&2
+        exit 1
+        ;;
+    esac
+    # The block as a script, with the probe's commands replaced by a line saying so.
+    script="$work/run-$n.sh"
+    {
+        echo "set -euo pipefail"
+        while IFS= read -r line; do
+            case "$line" in
+            "probe-rs "*)
+                printf 'echo %q\n' "SKIPPED (needs a probe on a board): $line"
+                skipped=$((skipped + 1))
+                ;;
+            "bash firmware/ci.sh"*)
+                printf 'echo %q\n' "SKIPPED (scripts/check.sh runs it on this checkout): $line"
+                skipped=$((skipped + 1))
+                ;;
+            "sudo udevadm "*)
+                printf 'echo %q\n' "SKIPPED (needs the USB-serial adapter plugged in): $line"
+                skipped=$((skipped + 1))
+                ;;
+            "touchc sleeve "*)
+                printf 'echo %q\n' "SKIPPED (needs a sleeve on a cable; firmware/twin's StudyScript runs touchc sleeve against the release firmware): $line"
+                skipped=$((skipped + 1))
+                ;;
+            "cargo install probe-rs-tools"*)
+                printf 'echo %q\n' "SKIPPED (probe-rs is for the board; CI does not need it): $line"
+                skipped=$((skipped + 1))
+                ;;
+            "cargo install "*)
+                tool="$(awk '{ print $3 }' <<<"$line")"
+                if command -v "$tool" >/dev/null; then
+                    printf 'echo %q\n' "SKIPPED ($tool is installed already): $line"
+                    skipped=$((skipped + 1))
+                else
+                    echo "$line"
+                fi
+                ;;
+            *"cargo run "*)
+                if [ "$dir" = "$clone/firmware" ]; then
+                    printf 'echo %q\n' "SKIPPED (flashing needs a probe; building instead): $line"
+                    echo "${line/cargo run /cargo build }"
+                    skipped=$((skipped + 1))
+                else
+                    echo "$line"
+                fi
+                ;;
+            *) echo "$line" ;;
+            esac
+        done <"$block"
+    } >"$script"
+    printf '\n== guide block %s, %s\n' "$n" "${where#\# }"
+    sed 's/^/   /' "$block"
+    echo "--"
+    if ! (cd "$dir" && bash "$script") | tee "$work/printed-$n"; then
+        echo "firmware/README.md, sh block $n failed as written (run in ${dir#"$work"/})" >&2
+        exit 1
+    fi
+    if [ -f "$block.out" ] && ! diff -u "$block.out" "$work/printed-$n"; then
+        echo "firmware/README.md, sh block $n printed other figures than the guide shows (diff above)" >&2
+        exit 1
+    fi
+done
+printf '\nguide check: %d blocks ran in a fresh clone; %d commands skipped (named above)\n' \
+    "${#blocks[@]}" "$skipped"
