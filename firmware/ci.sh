@@ -109,7 +109,7 @@ profile=firmware
 
 step "target: clippy, $profile build"
 cd "$here"
-for features in "" "dac-outputs" "button-per-slot" "dac-outputs,button-per-slot"; do
+for features in "" "dac-outputs" "button-per-slot" "dac-outputs,button-per-slot" "usb" "usb,dac-outputs,button-per-slot"; do
     cargo clippy --profile "$profile" --no-deps --locked --features "$features" -- -D warnings
 done
 cargo build --profile "$profile" --locked
