@@ -61,6 +61,11 @@ if [ ! -e "${blocks[0]}" ]; then
 fi
 
 skipped=0
+# Writes, into the block's script, a line that names `line` as not run and why ($1).
+skip() {
+    printf 'echo %q\n' "SKIPPED ($1): $line"
+    skipped=$((skipped + 1))
+}
 for block in "${blocks[@]}"; do
     n="$(basename "$block")"
     where="$(head -n1 "$block")"
@@ -79,40 +84,25 @@ for block in "${blocks[@]}"; do
         echo "set -euo pipefail"
         while IFS= read -r line; do
             case "$line" in
-            "probe-rs "*)
-                printf 'echo %q\n' "SKIPPED (needs a probe on a board): $line"
-                skipped=$((skipped + 1))
-                ;;
-            "bash firmware/ci.sh"*)
-                printf 'echo %q\n' "SKIPPED (scripts/check.sh runs it on this checkout): $line"
-                skipped=$((skipped + 1))
-                ;;
-            "sudo udevadm "*)
-                printf 'echo %q\n' "SKIPPED (needs the USB-serial adapter plugged in): $line"
-                skipped=$((skipped + 1))
-                ;;
+            "probe-rs "*) skip "needs a probe on a board" ;;
+            "bash firmware/ci.sh"*) skip "scripts/check.sh runs it on this checkout" ;;
+            "sudo udevadm "*) skip "needs the USB-serial adapter plugged in" ;;
             "touchc sleeve "*)
-                printf 'echo %q\n' "SKIPPED (needs a sleeve on a cable; firmware/twin's StudyScript runs touchc sleeve against the release firmware): $line"
-                skipped=$((skipped + 1))
+                skip "needs a sleeve on a cable; firmware/twin's StudyScript runs touchc sleeve against the release firmware"
                 ;;
-            "cargo install probe-rs-tools"*)
-                printf 'echo %q\n' "SKIPPED (probe-rs is for the board; CI does not need it): $line"
-                skipped=$((skipped + 1))
-                ;;
+            "cargo install probe-rs-tools"*) skip "probe-rs is for the board; CI does not need it" ;;
             "cargo install "*)
                 tool="$(awk '{ print $3 }' <<<"$line")"
                 if command -v "$tool" >/dev/null; then
-                    printf 'echo %q\n' "SKIPPED ($tool is installed already): $line"
-                    skipped=$((skipped + 1))
+                    skip "$tool is installed already"
                 else
                     echo "$line"
                 fi
                 ;;
             *"cargo run "*)
                 if [ "$dir" = "$clone/firmware" ]; then
-                    printf 'echo %q\n' "SKIPPED (flashing needs a probe; building instead): $line"
+                    skip "flashing needs a probe; building instead"
                     echo "${line/cargo run /cargo build }"
-                    skipped=$((skipped + 1))
                 else
                     echo "$line"
                 fi
