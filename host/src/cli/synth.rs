@@ -144,10 +144,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             shake_hz: args.shake_hz,
             shake_amplitude_mm: args.shake_mm,
             gap_s: args.gap_ms.map(|ms| ms / 1000.0),
+            ..Tuning::default()
         },
         flicker: args.flicker,
         begin_mid_touch: args.begin_mid_touch,
         end_mid_touch: args.end_mid_touch,
+        rate_hz: None,
     };
     let (recording, truth) = synth::generate_with_truth(&spec);
     let (rate_hz, pitch_mm) = (spec.sensor.rate_hz(), spec.sensor.pitch_mm());

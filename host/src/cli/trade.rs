@@ -10,6 +10,7 @@ use touchc::compile::CompileOptions;
 use touchc::config::Preset;
 use touchc::input::recording::Recording;
 use touchc::input::synth::Truth;
+use touchc::measure::cases::{run_case, CaseRow};
 use touchc::measure::trade::{plot_svg, trade, TradeRow};
 use touchc::stage::Stage;
 
@@ -20,8 +21,17 @@ use touchc::stage::Stage;
 )))]
 pub struct Args {
     /// Recordings, `.npy` `[frames, rows, cols]` in psi.
-    #[arg(required = true)]
+    #[arg(required_unless_present = "cases")]
     recordings: Vec<PathBuf>,
+    /// Instead of recordings: the synthetic cases of real touch (a flat hand with a
+    /// weaker heel, rubs, 15 strokes) on both sensors at 20 and 54 Hz, each measured
+    /// against its truth (recall, merges, splits, false contacts, coverage) under every
+    /// preset (`--preset P`: only P).
+    #[arg(long, conflicts_with_all = ["recordings", "truth", "svg"])]
+    cases: bool,
+    /// With `--cases`: draw each case with seeds 1 to this.
+    #[arg(long, default_value_t = 1, requires = "cases")]
+    seeds: u64,
     /// Compile each recording this many times per preset and keep the fastest run.
     #[arg(long, default_value_t = 3)]
     repeat: usize,
@@ -86,6 +96,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         builder = builder.num_threads(n);
     }
     let pool = builder.build().context("cannot start the worker threads")?;
+    if args.cases {
+        return pool.install(|| run_cases(args));
+    }
     if !args.truth.is_empty() && args.truth.len() != args.recordings.len() {
         return Err(super::Usage(format!(
             "--truth needs one file per recording: {} recordings, {} truth files",
@@ -152,6 +165,125 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     anyhow::ensure!(failed == 0, "{failed} recordings failed to compile");
     Ok(())
+}
+
+/// `touchc trade --cases`: every synthetic case under the presets, one row each, and
+/// how many rows of each preset pass the bar of [`CaseRow::passes`].
+fn run_cases(args: &Args) -> anyhow::Result<()> {
+    if args.seeds == 0 {
+        return Err(super::usage("--seeds must be at least 1"));
+    }
+    let presets: Vec<Preset> = match args.config.preset {
+        Some(p) => vec![p],
+        None => Preset::ALL.to_vec(),
+    };
+    let configs = presets
+        .into_iter()
+        .map(|p| Ok((p, args.config.resolve_on(p)?)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let base = CompileOptions::default();
+    let mut rows: Vec<CaseRow> = Vec::new();
+    for case in touchc::input::synth::cases::cases() {
+        for seed in 1..=args.seeds {
+            rows.extend(run_case(&case, seed, &base, &configs)?);
+        }
+    }
+    let header = [
+        "case",
+        "sensor",
+        "Hz",
+        "seed",
+        "preset",
+        "contacts",
+        "trajectories",
+        "recall",
+        "merges",
+        "splits",
+        "false",
+        "coverage",
+        "duration s",
+        "ms",
+        "passes",
+    ]
+    .map(String::from)
+    .to_vec();
+    let line = |r: &CaseRow| -> Vec<String> {
+        vec![
+            r.case.clone(),
+            r.sensor.to_string(),
+            format!("{}", r.rate_hz),
+            r.seed.to_string(),
+            r.preset.name().to_string(),
+            r.contacts.to_string(),
+            r.trajectories.to_string(),
+            format!("{:.2}", r.recall),
+            r.merges.to_string(),
+            r.splits.to_string(),
+            r.false_contacts.to_string(),
+            format!("{:.2}", r.coverage),
+            format!("{:.3}", r.duration_s),
+            format!("{:.1}", 1e3 * r.seconds),
+            if r.passes() { "yes" } else { "no" }.to_string(),
+        ]
+    };
+    let table: Vec<Vec<String>> = std::iter::once(header.clone())
+        .chain(rows.iter().map(line))
+        .collect();
+    let mut out = if args.markdown {
+        let mut s = format!("| {} |\n|", header.join(" | "));
+        s += &(0..header.len())
+            .map(|i| if i < 5 { "---|" } else { "---:|" })
+            .collect::<String>();
+        s.push('\n');
+        for l in &table[1..] {
+            s += &format!("| {} |\n", l.join(" | "));
+        }
+        s
+    } else {
+        aligned(&table, 5)
+    };
+    for (preset, _) in &configs {
+        let of: Vec<&CaseRow> = rows.iter().filter(|r| r.preset == *preset).collect();
+        let _ = writeln!(
+            out,
+            "\n{}: {} of {} pass (recall >= 0.95, coverage >= 0.9, splits <= 10% of contacts, no merge, no false contact)",
+            preset.name(),
+            of.iter().filter(|r| r.passes()).count(),
+            of.len()
+        );
+    }
+    write_atomic(Path::new("-"), out.as_bytes())?;
+    if let Some(path) = &args.csv {
+        let csv: String = table
+            .iter()
+            .map(|l| l.iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(",") + "\n")
+            .collect();
+        write_atomic(path, csv.as_bytes())?;
+    }
+    if let Some(path) = &args.json {
+        write_atomic(path, &serde_json::to_vec_pretty(&rows)?)?;
+    }
+    Ok(())
+}
+
+/// A table for a terminal: the first `left` columns left-aligned, the rest right.
+fn aligned(table: &[Vec<String>], left: usize) -> String {
+    let widths: Vec<usize> = (0..table.first().map_or(0, Vec::len))
+        .map(|c| table.iter().map(|l| l[c].len()).max().unwrap_or(0))
+        .collect();
+    let mut s = String::new();
+    for line in table {
+        for (c, cell) in line.iter().enumerate() {
+            let _ = if c < left {
+                write!(s, "{cell:<w$}  ", w = widths[c])
+            } else {
+                write!(s, "{cell:>w$}  ", w = widths[c])
+            };
+        }
+        s.truncate(s.trim_end().len());
+        s.push('\n');
+    }
+    s
 }
 
 /// Milliseconds of `stage`; 0 for a stage that did not run (no touch: no placement).
@@ -226,22 +358,7 @@ fn text(rows: &[TradeRow]) -> String {
     let table: Vec<Vec<String>> = std::iter::once(headers(false))
         .chain(lines(rows, false).map(shown))
         .collect();
-    let widths: Vec<usize> = (0..table[0].len())
-        .map(|c| table.iter().map(|l| l[c].len()).max().unwrap_or(0))
-        .collect();
-    let mut s = String::new();
-    for line in &table {
-        for (c, cell) in line.iter().enumerate() {
-            let _ = if c < 2 {
-                write!(s, "{cell:<w$}  ", w = widths[c])
-            } else {
-                write!(s, "{cell:>w$}  ", w = widths[c])
-            };
-        }
-        s.truncate(s.trim_end().len());
-        s.push('\n');
-    }
-    s
+    aligned(&table, 2)
 }
 
 fn markdown(rows: &[TradeRow]) -> String {

@@ -7,6 +7,9 @@
 //! * **recall**: the share of true contacts that one trajectory *follows* (lies within
 //!   [`FOLLOW_CELLS`] of the contact's centre) in more than half the frames of the
 //!   contact's life (the frames it presses above the touch threshold);
+//! * **splits**: times a followed contact is handed from one trajectory to another
+//!   (none of the trajectories that followed it in the last frame it was followed in
+//!   follows it now): a stroke cut into pieces, each a separate contact to the placement;
 //! * **merges**: trajectories that follow two or more true contacts (each point goes to
 //!   the nearest contact present in its frame, and a contact counts once it holds two of
 //!   the trajectory's points, or all of a shorter life);
@@ -44,6 +47,8 @@ pub struct ContactResult {
     pub life: usize,
     /// Most of those frames one trajectory follows it in.
     pub followed: usize,
+    /// Times it passes from one trajectory to another (see the module docs).
+    pub splits: usize,
 }
 
 impl ContactResult {
@@ -62,6 +67,8 @@ pub struct Evaluation {
     pub trajectories: usize,
     /// Trajectories that follow two or more true contacts.
     pub merges: usize,
+    /// Handovers between trajectories, summed over the true contacts.
+    pub splits: usize,
     /// Trajectories where nothing presses most of the time.
     pub false_contacts: usize,
     /// Coverage of the touch pressure by the trajectories.
@@ -83,14 +90,15 @@ impl Evaluation {
         }
     }
 
-    /// One line: recall, merges, false contacts, coverage.
+    /// One line: recall, merges, splits, false contacts, coverage.
     pub fn summary(&self) -> String {
         format!(
-            "recall {:.2} ({}/{}), merges {}, false {}, coverage {:.2}, {} trajectories",
+            "recall {:.2} ({}/{}), merges {}, splits {}, false {}, coverage {:.2}, {} trajectories",
             self.recall(),
             self.recalled(),
             self.contacts.len(),
             self.merges,
+            self.splits,
             self.false_contacts,
             self.coverage.ratio(),
             self.trajectories
@@ -176,25 +184,39 @@ pub fn evaluate(
                     .iter()
                     .find(|p| p.frame.checked_sub(offset) == Some(f))
             };
+            let follows = |p: &ContactPoint| {
+                life.contains(&(p.frame as i64))
+                    && at(p.frame).is_some_and(|q| dist2(p, q) <= follow2)
+            };
             let followed = tracks
                 .iter()
-                .map(|track| {
-                    track
-                        .iter()
-                        .filter(|p| life.contains(&(p.frame as i64)))
-                        .filter(|p| at(p.frame).is_some_and(|q| dist2(p, q) <= follow2))
-                        .count()
-                })
+                .map(|track| track.iter().filter(|p| follows(p)).count())
                 .max()
                 .unwrap_or(0);
+            // Which trajectories follow it in each frame of its life, in frame order.
+            let mut by_frame: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+            for (j, track) in tracks.iter().enumerate() {
+                for p in track.iter().filter(|p| follows(p)) {
+                    by_frame.entry(p.frame).or_default().push(j);
+                }
+            }
+            let mut splits = 0;
+            let mut last: Option<&Vec<usize>> = None;
+            for now in by_frame.values() {
+                if last.is_some_and(|l| !l.iter().any(|j| now.contains(j))) {
+                    splits += 1;
+                }
+                last = Some(now);
+            }
             ContactResult {
                 id: c.id,
                 gesture: c.gesture.name().to_string(),
                 life: life.len(),
                 followed,
+                splits,
             }
         })
-        .collect();
+        .collect::<Vec<_>>();
 
     let (mut merges, mut false_contacts) = (0, 0);
     for track in &tracks {
@@ -226,10 +248,12 @@ pub fn evaluate(
     }
     let all: Vec<ContactPoint> = tracks.into_iter().flatten().collect();
     let coverage = coverage::measure(tared, threshold_psi, &all, DEFAULT_RADIUS_CELLS);
+    let splits = contacts.iter().map(|c: &ContactResult| c.splits).sum();
     Evaluation {
         contacts,
         trajectories: trajectories.len(),
         merges,
+        splits,
         false_contacts,
         coverage,
     }
@@ -344,6 +368,24 @@ mod tests {
         let e = evaluate(&t, 0, tared(&t).view(), 0.08, &[traj(&both)], 1);
         assert_eq!(e.merges, 1);
         assert_eq!(e.recall(), 1.0);
+    }
+
+    #[test]
+    fn a_contact_handed_from_one_trajectory_to_the_next_is_a_split() {
+        let t = truth();
+        // A in two pieces (frames 0-1, then 2-4): one split; B followed by two
+        // trajectories side by side, one of which goes on: no split.
+        let a1 = traj(&[(0, 1, 0), (1, 1, 1)]);
+        let a2 = traj(&[(2, 1, 2), (3, 1, 3), (4, 1, 4)]);
+        let b1 = traj(&[(5, 1, 15), (6, 1, 16), (7, 1, 17), (8, 1, 18)]);
+        let b2 = traj(&[(5, 2, 15), (6, 2, 16)]);
+        let e = evaluate(&t, 0, tared(&t).view(), 0.08, &[a1, a2, b1, b2], 1);
+        assert_eq!((e.contacts[0].splits, e.contacts[1].splits), (1, 0));
+        assert_eq!(e.splits, 1);
+        // A frame nobody follows in between is no split by itself.
+        let gap = traj(&[(5, 1, 15), (6, 1, 16), (8, 1, 18), (9, 1, 19)]);
+        let e = evaluate(&t, 0, tared(&t).view(), 0.08, &[gap], 1);
+        assert_eq!(e.splits, 0);
     }
 
     #[test]

@@ -11,6 +11,8 @@ pub(super) const FLICKER_FACTOR: f64 = 0.03;
 pub(super) const FLICKER_S: (f64, f64) = (0.019, 0.037);
 /// Least time between two dropouts of one contact, seconds.
 pub(super) const FLICKER_SPACING_S: f64 = 0.1;
+/// Sweeps per second of `rub` (back and forth is one).
+pub(super) const RUB_HZ: f64 = 1.5;
 /// A contact's radius is where it falls to this share of its peak.
 pub(super) const RADIUS_LEVEL: f64 = 0.1;
 
@@ -37,6 +39,24 @@ pub(super) struct Contact {
     pub(super) ramp_s: Option<f64>,
     /// Centre (col, row) at relative time `u` in [0, 1], cell edges at integers.
     pub(super) path: Box<dyn Fn(f64) -> (f64, f64)>,
+    /// A broad, weaker region beside the peak that moves with it (the heel of a flat
+    /// hand); part of the same contact.
+    pub(super) lobe: Option<Lobe>,
+    /// Pressure that wavers while pressing: `(depth, hz)` dips the pressure to
+    /// `1 - depth` of the envelope `hz` times a second (a light stroke whose pressure
+    /// comes and goes).
+    pub(super) waver: Option<(f64, f64)>,
+}
+
+/// A Gaussian region of a contact, offset from its centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Lobe {
+    /// Offset from the contact's centre (along the arm, across it), cells.
+    pub(super) offset: (f64, f64),
+    /// Size along the arm and across it, cells.
+    pub(super) sigma: (f64, f64),
+    /// Its peak as a share of the contact's peak.
+    pub(super) share: f64,
 }
 
 impl Contact {
@@ -61,13 +81,25 @@ impl Contact {
         }
     }
 
+    /// The share of the peak pressed at time `t`, with the contact's wavering.
+    pub(super) fn level(&self, t: f64) -> f64 {
+        let envelope = self.envelope(t);
+        match self.waver {
+            Some((depth, hz)) => {
+                let phase = std::f64::consts::TAU * hz * (t - self.start);
+                envelope * (1.0 - depth * 0.5 * (1.0 - phase.cos()))
+            }
+            None => envelope,
+        }
+    }
+
     /// Centre (col, row) at time `t`, cell edges at integers.
     pub(super) fn centre(&self, t: f64) -> (f64, f64) {
         (self.path)(((t - self.start) / self.length).clamp(0.0, 1.0))
     }
 
     pub(super) fn pressure(&self, t: f64, r: usize, c: usize) -> f64 {
-        let envelope = self.envelope(t);
+        let envelope = self.level(t);
         if envelope == 0.0 {
             return 0.0;
         }
@@ -80,7 +112,12 @@ impl Contact {
             Profile::Gaussian => (-0.5 * d2).exp(),
             Profile::Flat => (-0.5 * d2 * d2).exp(),
         };
-        self.peak_psi * envelope * fall
+        let lobe = self.lobe.map_or(0.0, |l| {
+            let dx = (c as f64 + 0.5 - x - l.offset.0) / l.sigma.0;
+            let dy = (r as f64 + 0.5 - y - l.offset.1) / l.sigma.1;
+            l.share * (-0.5 * (dx * dx + dy * dy)).exp()
+        });
+        self.peak_psi * envelope * (fall + lobe)
     }
 
     /// Distance from the centre, in cells along the longer axis, where the pressure
@@ -91,7 +128,14 @@ impl Contact {
             Profile::Gaussian => d2.sqrt(),
             Profile::Flat => d2.sqrt().sqrt(),
         };
-        d * self.sigma.0.max(self.sigma.1)
+        let own = d * self.sigma.0.max(self.sigma.1);
+        // A lobe reaches a tenth of the contact's peak where its own fall reaches
+        // `RADIUS_LEVEL / share`.
+        self.lobe.map_or(own, |l| {
+            let level = (RADIUS_LEVEL / l.share).min(1.0);
+            let reach = (2.0 * (1.0 / level).ln()).sqrt() * l.sigma.0.max(l.sigma.1);
+            own.max(l.offset.0.hypot(l.offset.1) + reach)
+        })
     }
 }
 
@@ -140,11 +184,11 @@ pub(super) struct Frame {
 }
 
 impl Frame {
-    pub(super) fn of(sensor: Sensor) -> Frame {
+    pub(super) fn of(sensor: Sensor, rate_hz: f64) -> Frame {
         Frame {
             sx: sensor.cols() as f64 / COLS as f64,
             sy: sensor.rows() as f64 / ROWS as f64,
-            rate_hz: sensor.rate_hz(),
+            rate_hz,
             pitch_mm: sensor.pitch_mm(),
             cols: sensor.cols() as f64,
             rows: sensor.rows() as f64,
@@ -180,6 +224,8 @@ pub(super) fn gesture(
             profile: Profile::Gaussian,
             ramp_s: None,
             path,
+            lobe: None,
+            waver: None,
         };
     let length = match kind {
         Gesture::Stroke => {
@@ -333,29 +379,116 @@ pub(super) fn gesture(
                 profile: Profile::Flat,
                 ramp_s: Some(0.15),
                 path: Box::new(move |_| (x, y)),
+                lobe: None,
+                waver: None,
             });
             1.5
+        }
+        Gesture::Hand => {
+            // The flat, strong part (palm and fingers) with the heel of the hand beside
+            // it towards the wrist: broad and about a third as strong, well above the
+            // touch threshold but below half the peak, and a shoulder of the palm rather
+            // than a peak of its own (the pressure falls all the way from the palm).
+            let hold = tuning.hold_s.unwrap_or(3.0);
+            let (x, y) = (
+                fr.cols / 2.0 + 1.0 + rng.range(-0.5, 0.5),
+                fr.rows / 2.0 + rng.range(-0.5, 0.5),
+            );
+            contacts.push(Contact {
+                gesture: kind,
+                start: t0,
+                length: hold,
+                peak_psi: rng.range(0.6, 0.9),
+                sigma: (1.8, 2.2),
+                profile: Profile::Flat,
+                ramp_s: Some(0.2),
+                path: Box::new(move |_| (x, y)),
+                lobe: Some(Lobe {
+                    offset: (-2.8, 0.0),
+                    sigma: (1.5, 1.8),
+                    share: rng.range(0.3, 0.4),
+                }),
+                waver: None,
+            });
+            hold
+        }
+        Gesture::Rub => {
+            // A flat hand sliding back and forth along the arm at 1.5 Hz: its speed peaks
+            // at `stroke_speed_mps` in the middle of each sweep and falls to nothing at
+            // each turn, as a rubbing palm does.
+            let v = tuning.stroke_speed_mps.unwrap_or(0.45);
+            let hold = tuning.hold_s.unwrap_or(3.0);
+            let hz = RUB_HZ;
+            let amp = v * 1000.0 / (2.0 * std::f64::consts::PI * hz) / fr.pitch_mm;
+            let (x, y) = (
+                fr.cols / 2.0 + rng.range(-0.5, 0.5),
+                fr.rows / 2.0 + rng.range(-0.5, 0.5),
+            );
+            let phase0 = rng.range(0.0, std::f64::consts::TAU);
+            contacts.push(Contact {
+                gesture: kind,
+                start: t0,
+                length: hold,
+                peak_psi: rng.range(0.5, 0.8),
+                sigma: (1.6, 1.8),
+                profile: Profile::Flat,
+                ramp_s: Some(0.2),
+                path: Box::new(move |u| {
+                    let phase = std::f64::consts::TAU * hz * hold * u + phase0;
+                    (x + amp * (phase.sin() - phase0.sin()), y)
+                }),
+                lobe: None,
+                waver: None,
+            });
+            hold
         }
         Gesture::Strokes => {
             let v = tuning.stroke_speed_mps.unwrap_or(0.3);
             let gap = tuning.gap_s.unwrap_or(0.15);
+            let count = tuning.strokes.unwrap_or(3);
             let row = fr.rows / 2.0 + rng.range(-1.0, 1.0);
             let (a, b) = (fr.cols * 0.15, fr.cols * 0.85);
             let each = fr.travel_s(b - a, v);
-            for k in 0..3 {
+            // With a longest gap, each gap is drawn between the two, and each stroke
+            // changes speed along its way (half to one and a half times `v`) and
+            // presses lightly, its pressure wavering (real strokes: a median peak of
+            // about a quarter psi).
+            let varied = tuning.gap_max_s.map(|max| max.max(gap));
+            let mut t = t0;
+            for k in 0..count {
                 let (from, to) = if k % 2 == 0 { (a, b) } else { (b, a) };
+                let ease = if varied.is_some() { 0.5 } else { 0.0 };
+                let peak = match varied {
+                    Some(_) => rng.range(0.2, 0.4),
+                    None => rng.range(0.8, 1.2),
+                };
                 let mut c = blob(
                     kind,
-                    t0 + (each + gap) * k as f64,
+                    t,
                     each,
-                    rng.range(0.8, 1.2),
+                    peak,
                     (0.9, 0.8),
-                    Box::new(move |u| (from + (to - from) * u, row)),
+                    Box::new(move |u| {
+                        // Monotone for ease < 1: the stroke never turns back.
+                        let s =
+                            u + ease * (std::f64::consts::TAU * u).sin() / std::f64::consts::TAU;
+                        (from + (to - from) * s, row)
+                    }),
                 );
                 c.ramp_s = Some((0.04f64).min(each / 4.0));
+                if varied.is_some() {
+                    c.waver = Some((0.5, rng.range(2.0, 4.0)));
+                }
                 contacts.push(c);
+                t += each;
+                if k + 1 < count {
+                    t += match varied {
+                        Some(max) => rng.range(gap, max),
+                        None => gap,
+                    };
+                }
             }
-            3.0 * each + 2.0 * gap
+            t - t0
         }
         Gesture::Rest => 2.0,
     };

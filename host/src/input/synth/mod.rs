@@ -19,6 +19,7 @@
 use ndarray::Array3;
 use serde::{Deserialize, Serialize};
 
+pub mod cases;
 mod contacts;
 
 use contacts::*;
@@ -48,8 +49,15 @@ pub enum Gesture {
     /// A flat hand pressed and held: one large, flat-topped contact for 1.5 s.
     Palm,
     /// Three strokes back and forth along the arm, each lifted [`Tuning::gap_s`]
-    /// (150 ms by default) before the next touches down where it ended.
+    /// (150 ms by default) before the next touches down where it ended
+    /// ([`Tuning::strokes`] sets how many, [`Tuning::gap_max_s`] varies the gaps).
     Strokes,
+    /// A flat hand held for 3 s ([`Tuning::hold_s`]): a flat-topped strong region with a
+    /// broad heel about a third as strong beside it, towards the wrist.
+    Hand,
+    /// A flat hand rubbing back and forth along the arm at 1.5 Hz for 3 s, its speed
+    /// peaking at [`Tuning::stroke_speed_mps`] (0.45 m/s by default) mid-sweep.
+    Rub,
     /// Two seconds of nothing but sensor noise.
     Rest,
 }
@@ -65,6 +73,8 @@ impl Gesture {
             Gesture::Shake => "shake",
             Gesture::Palm => "palm",
             Gesture::Strokes => "strokes",
+            Gesture::Hand => "hand",
+            Gesture::Rub => "rub",
             Gesture::Rest => "rest",
         }
     }
@@ -162,6 +172,14 @@ pub struct Tuning {
     /// Time between lift-off and the next touch-down within `strokes`, seconds
     /// (default 0.15).
     pub gap_s: Option<f64>,
+    /// The longest such time: each gap is drawn between `gap_s` and this, and each
+    /// stroke changes speed along its way (half to one and a half times its speed) and
+    /// presses lightly (0.2-0.4 psi), its pressure dipping by half 2-4 times a second.
+    pub gap_max_s: Option<f64>,
+    /// Strokes in `strokes` (default 3).
+    pub strokes: Option<usize>,
+    /// How long `hand` and `rub` press, seconds (default 3).
+    pub hold_s: Option<f64>,
 }
 
 /// Everything that shapes a synthetic recording.
@@ -188,6 +206,9 @@ pub struct SynthSpec {
     pub begin_mid_touch: bool,
     /// End the recording in the middle of the last contact (no quiet frames after).
     pub end_mid_touch: bool,
+    /// Sample the touch at this rate instead of the sensor's own, Hz (the same touch at
+    /// another rate: the gestures and their random draws do not change).
+    pub rate_hz: Option<f64>,
 }
 
 impl Default for SynthSpec {
@@ -203,6 +224,7 @@ impl Default for SynthSpec {
             flicker: 0.0,
             begin_mid_touch: false,
             end_mid_touch: false,
+            rate_hz: None,
         }
     }
 }
@@ -214,6 +236,11 @@ impl SynthSpec {
             Sensor::Sleeve => self.mask.has_cell(r, c),
             Sensor::Grid10 => true,
         }
+    }
+
+    /// The rate the recording is sampled at, Hz.
+    pub fn rate_hz(&self) -> f64 {
+        self.rate_hz.unwrap_or(self.sensor.rate_hz())
     }
 }
 
@@ -279,7 +306,7 @@ pub fn generate(spec: &SynthSpec) -> Array3<f64> {
 /// Generates a recording and says where each contact was.
 pub fn generate_with_truth(spec: &SynthSpec) -> (Array3<f64>, Truth) {
     let sensor = spec.sensor;
-    let fr = Frame::of(sensor);
+    let fr = Frame::of(sensor, spec.rate_hz());
     let rate = fr.rate_hz;
     let mut rng = Rng(spec.seed);
     let mut contacts = Vec::new();
@@ -337,7 +364,7 @@ pub fn generate_with_truth(spec: &SynthSpec) -> (Array3<f64>, Truth) {
                 points: (first..end)
                     .filter_map(|f| {
                         let t = f as f64 / rate;
-                        let pressure = c.peak_psi * c.envelope(t) * amplitude(id, f);
+                        let pressure = c.peak_psi * c.level(t) * amplitude(id, f);
                         let inside = t >= c.start && t <= c.start + c.length;
                         inside.then(|| {
                             let (x, y) = c.centre(t);
@@ -629,5 +656,108 @@ mod tests {
                 "{p:?}"
             );
         }
+    }
+
+    #[test]
+    fn a_hand_presses_a_weaker_heel_beside_its_flat_top() {
+        for sensor in [Sensor::Sleeve, Sensor::Grid10] {
+            let spec = SynthSpec {
+                noise_psi: 0.0,
+                ..cases::spec(sensor, 20.0, &[Gesture::Hand], Tuning::default())
+            };
+            let (rec, truth) = generate_with_truth(&spec);
+            let p = truth.contacts[0].points[truth.contacts[0].points.len() / 2];
+            let frame = rec.index_axis(ndarray::Axis(0), p.frame);
+            let peak = frame.iter().fold(0.0f64, |m, &v| m.max(v));
+            // Cells three cells or more towards the wrist, yet above a fifth of the
+            // peak: the heel, a broad region of its own, weaker than the top.
+            let heel: Vec<f64> = frame
+                .indexed_iter()
+                .filter(|((_, c), _)| (*c as f64) <= p.col - 3.0)
+                .map(|(_, &v)| v)
+                .filter(|&v| v > 0.2 * peak)
+                .collect();
+            assert!(heel.len() >= 3, "{sensor:?}: {heel:?}");
+            assert!(heel.iter().all(|&v| v < 0.5 * peak), "{sensor:?}: {heel:?}");
+            assert!(p.radius_cells > 4.0, "{p:?}");
+        }
+    }
+
+    #[test]
+    fn a_rub_goes_back_and_forth_at_its_speed() {
+        for v in [0.3, 0.6] {
+            let t = Tuning {
+                stroke_speed_mps: Some(v),
+                ..Tuning::default()
+            };
+            let (_, truth) =
+                generate_with_truth(&cases::spec(Sensor::Grid10, 54.0, &[Gesture::Rub], t));
+            let pts = &truth.contacts[0].points;
+            let speeds: Vec<f64> = pts
+                .windows(2)
+                .map(|w| (w[1].x_mm - w[0].x_mm).abs() / (w[1].t_s - w[0].t_s) / 1000.0)
+                .collect();
+            let top = speeds.iter().fold(0.0f64, |m, &s| m.max(s));
+            assert!((top - v).abs() < 0.05 * v, "{v}: {top}");
+            // Back and forth: the direction turns at least six times in 3 s.
+            let turns = pts
+                .windows(3)
+                .filter(|w| (w[1].x_mm - w[0].x_mm) * (w[2].x_mm - w[1].x_mm) < 0.0)
+                .count();
+            assert!(turns >= 6, "{v}: {turns}");
+        }
+    }
+
+    #[test]
+    fn fifteen_strokes_with_varied_gaps() {
+        let case = cases::cases_on(Sensor::Sleeve, 54.0)
+            .into_iter()
+            .find(|c| c.name.starts_with("15 strokes"))
+            .unwrap();
+        let (_, truth) = generate_with_truth(&case.spec);
+        assert_eq!(truth.contacts.len(), 15);
+        let gaps: Vec<f64> = truth
+            .contacts
+            .windows(2)
+            .map(|w| w[1].points[0].t_s - w[0].points[w[0].points.len() - 1].t_s)
+            .collect();
+        // Frame times: within a frame of the drawn 150-400 ms.
+        let frame = 1.0 / 54.0;
+        assert!(
+            gaps.iter()
+                .all(|&g| g > 0.15 - frame && g < 0.4 + 2.0 * frame),
+            "{gaps:?}"
+        );
+        assert!(
+            gaps.iter().any(|&g| g > 0.3) && gaps.iter().any(|&g| g < 0.25),
+            "{gaps:?}"
+        );
+        // Each stroke keeps its direction.
+        for c in &truth.contacts {
+            let dir: Vec<f64> = c.points.windows(2).map(|w| w[1].x_mm - w[0].x_mm).collect();
+            assert!(dir.iter().all(|d| d * dir[0] > 0.0), "{dir:?}");
+        }
+    }
+
+    #[test]
+    fn another_rate_samples_the_same_touch() {
+        let spec = |rate| SynthSpec {
+            noise_psi: 0.0,
+            ..cases::spec(Sensor::Grid10, rate, &[Gesture::Rub], Tuning::default())
+        };
+        let (_, a) = generate_with_truth(&spec(20.0));
+        let (_, b) = generate_with_truth(&spec(54.0));
+        assert_eq!((a.rate_hz, b.rate_hz), (20.0, 54.0));
+        // 1 s = 20 frames = 54 frames past the 1.5 s of quiet: the same place.
+        let at = |t: &Truth, s: f64| {
+            *t.contacts[0]
+                .points
+                .iter()
+                .find(|p| (p.t_s - s).abs() < 1e-9)
+                .unwrap()
+        };
+        let (p, q) = (at(&a, 2.5), at(&b, 2.5));
+        assert!((p.x_mm - q.x_mm).abs() < 1e-9 && (p.y_mm - q.y_mm).abs() < 1e-9);
+        assert!((p.pressure_psi - q.pressure_psi).abs() < 1e-12);
     }
 }
