@@ -167,6 +167,10 @@ impl Config {
                         cost_per_missing: 0.5,
                     }),
                 },
+                signal: SignalConfig {
+                    ring_out: RingOut::Seconds,
+                    ..paper.signal
+                },
                 ..paper
             },
             Preset::Fast => paper.upsampled(4).with_placement(PlacementConfig {
@@ -423,6 +427,10 @@ pub struct SignalConfig {
     pub lowpass_hz: f64,
     /// Filter forward and backward (zero phase) instead of causally from zero state.
     pub zero_phase: bool,
+    /// How long the silence the low-pass rings out into lasts (paper: until the filter
+    /// at the frame rate settles, in whole frames; real touch: in seconds, the same at
+    /// every frame rate).
+    pub ring_out: RingOut,
     /// Resting (pre-indented) current, in amperes; the signal spans `[pre_dent, peak]`.
     pub pre_dent_a: f64,
     /// Current at the strongest pressure of the scene, in amperes.
@@ -444,12 +452,32 @@ impl Default for SignalConfig {
             lowpass_order: 5,
             lowpass_hz: 4.0,
             zero_phase: false,
+            ring_out: RingOut::Frames,
             pre_dent_a: -0.9,
             peak_a: 1.0,
             ramp_s: 0.5,
             fit_thermal_share: 0.96,
         }
     }
+}
+
+/// How long the low-pass rings out after the recording (`signal.ring_out`), and how
+/// much silence leads into it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RingOut {
+    /// The paper's: until the impulse response of the filter at the frame rate falls
+    /// below 1e-6 of its peak, in whole frames, with one frame of silence before the
+    /// recording (all of the ring-out's length before it, zero phase). The same touch
+    /// then lasts longer at 20 Hz than at 54 Hz (the bilinear design settles later at a
+    /// low rate, and frames are coarser).
+    #[default]
+    Frames,
+    /// The settling time of the same Butterworth at the 1 kHz output rate (where it is
+    /// the analog filter's), in seconds, and 50 ms of silence before the recording (the
+    /// paper's one frame at 20 Hz; zero phase: the settling time): the stimulus is cut
+    /// at those instants, on 1 kHz ticks, whatever the frame rate.
+    Seconds,
 }
 
 /// Stage 7 parameters: how faithful the keyframes must be, and what to try.

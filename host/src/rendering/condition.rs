@@ -12,7 +12,11 @@
 //!    peak), so the filter rings out inside the stimulus instead of being cut off; as
 //!    many go before it for the zero-phase pass, and one for the causal filter (from
 //!    zero state, more silence in front would only come out as more silence). Zero padding (not scipy's odd extension) is the truth here: before and
-//!    after the recording nothing touches the arm.
+//!    after the recording nothing touches the arm. With [`RingOut::Seconds`] the
+//!    ring-out and the lead are times, not frames (the settling time of the filter at
+//!    the 1 kHz output rate; 50 ms before, the paper's one frame at 20 Hz): the padding
+//!    covers them and the 1 kHz signal starts and ends at those instants, so the same
+//!    touch lasts as long at any frame rate.
 //! 4. **Low-pass** ([`design_lowpass`], [`lowpass`]): 5th-order 4 Hz Butterworth at the
 //!    frame rate, as second-order sections, causal from zero state (the paper) or
 //!    forward-backward (`zero_phase`).
@@ -46,7 +50,7 @@ use sci_rs::signal::filter::design::{
 use sci_rs::signal::filter::sosfilt_dyn;
 use thiserror::Error;
 
-use crate::config::SignalConfig;
+use crate::config::{RingOut, SignalConfig};
 use crate::rendering::signals::CHANNELS;
 
 /// Update rate of the sleeve's outputs, Hz (docs/hardware.md): the rate of
@@ -59,6 +63,10 @@ const MAX_ORDER: usize = 16;
 
 /// Longest accepted ramp, s.
 const MAX_RAMP_S: f64 = 60.0;
+
+/// Silence before the recording under [`RingOut::Seconds`] with the causal filter, s:
+/// the paper's one frame at 20 Hz.
+const LEAD_S: f64 = 0.05;
 
 /// The impulse response counts as settled below this share of its peak.
 const SETTLE_TOLERANCE: f64 = 1e-6;
@@ -129,6 +137,10 @@ pub struct Conditioned {
     pub pad_frames: usize,
     /// Silent frames added after the recording for the filter to ring out.
     pub tail_frames: usize,
+    /// Position of `output`'s first sample after the ramp, in frames of `frames_a`: 0
+    /// under [`RingOut::Frames`]; under [`RingOut::Seconds`] the instant the lead starts
+    /// (`pad_frames - lead * rate`), between frames.
+    pub start_frame: f64,
     /// Currents at the frame rate, amperes, after normalisation, before the ramps:
     /// `pad_frames + T + tail_frames` entries.
     pub frames_a: Vec<[f64; CHANNELS]>,
@@ -145,7 +157,8 @@ impl Conditioned {
     /// Index into `output` of the sample at frame-rate frame `k` of `frames_a` (rounded
     /// down when the rates are not multiples), so plots and keyframes line up.
     pub fn output_index_of_frame(&self, k: usize) -> usize {
-        self.ramp_samples + (k as f64 * OUTPUT_RATE_HZ / self.frame_rate_hz).floor() as usize
+        let from_start = (k as f64 - self.start_frame).max(0.0);
+        self.ramp_samples + (from_start * OUTPUT_RATE_HZ / self.frame_rate_hz).floor() as usize
     }
 }
 
@@ -463,9 +476,9 @@ pub fn condition(
 
     // 3-4. Pad with silence, filter. The causal filter starts from zero state, so
     // silence before the recording would come out as exact silence: one frame of it
-    // is enough, and the stimulus does not make the wearer wait for nothing.
-    let tail = settle_frames(&sos);
-    let pad = if cfg.zero_phase { tail } else { 1 };
+    // (or 50 ms) is enough, and the stimulus does not make the wearer wait for nothing.
+    let span = Span::new(cfg, &sos, frame_rate_hz, frames)?;
+    let (pad, tail) = (span.pad, span.tail);
     let filtered: Vec<Vec<f64>> = work
         .iter()
         .map(|x| {
@@ -511,9 +524,10 @@ pub fn condition(
         });
     };
     let ramp = (cfg.ramp_s * OUTPUT_RATE_HZ).round() as usize;
-    let body = resampled_len(len, frame_rate_hz, OUTPUT_RATE_HZ);
+    let body = span.body;
+    let start = span.start;
     let at = |j: usize| -> [f64; CHANNELS] {
-        let u = resampled_position(j, frame_rate_hz, OUTPUT_RATE_HZ);
+        let u = start + resampled_position(j, frame_rate_hz, OUTPUT_RATE_HZ);
         eval_channels(&curves, u)
     };
     let (first, last) = (at(0), at(body.saturating_sub(1)));
@@ -529,11 +543,69 @@ pub fn condition(
         frame_rate_hz,
         pad_frames: pad,
         tail_frames: tail,
+        start_frame: start,
         frames_a,
         full_scale_psi: top * unit,
         ramp_samples: ramp,
         output,
     })
+}
+
+/// Where the stimulus starts and ends around a recording of `frames` frames: the
+/// silence padded before (`pad`) and after it (`tail`), in frames, and the 1 kHz body
+/// between: `body` samples from position `start` (in frames of the padded signal).
+struct Span {
+    pad: usize,
+    tail: usize,
+    start: f64,
+    body: usize,
+}
+
+impl Span {
+    fn new(
+        cfg: &SignalConfig,
+        sos: &[Sos<f64>],
+        rate_hz: f64,
+        frames: usize,
+    ) -> Result<Span, ConditionError> {
+        match cfg.ring_out {
+            RingOut::Frames => {
+                let tail = settle_frames(sos);
+                let pad = if cfg.zero_phase { tail } else { 1 };
+                Ok(Span {
+                    pad,
+                    tail,
+                    start: 0.0,
+                    body: resampled_len(pad + frames + tail, rate_hz, OUTPUT_RATE_HZ),
+                })
+            }
+            RingOut::Seconds => {
+                // At 1 kHz the bilinear design is the analog filter to within its
+                // warping of 4 Hz at 1 kHz (0.05 %): a time that is the filter's own.
+                let at_output = design_lowpass(cfg.lowpass_order, cfg.lowpass_hz, OUTPUT_RATE_HZ)?;
+                let settle_ticks = settle_frames(&at_output);
+                let settle_s = settle_ticks as f64 / OUTPUT_RATE_HZ;
+                let lead_s = if cfg.zero_phase { settle_s } else { LEAD_S };
+                // Frames that cover a time; the tolerance keeps 1 s at 20 Hz 20 frames.
+                let cover = |s: f64| (s * rate_hz - 1e-9).ceil().max(0.0) as usize;
+                let pad = cover(lead_s).max(1);
+                // One frame more than the ring-out, so that its end lies inside the
+                // interpolated samples.
+                let tail = cover(settle_s) + 1;
+                let start = pad as f64 - lead_s * rate_hz;
+                let lead_ticks = (lead_s * OUTPUT_RATE_HZ).round() as usize;
+                // A frame stands for 1 / rate of time: T frames last T / rate (not
+                // (T - 1) / rate, which would make the same touch shorter at 20 Hz).
+                let recording_ticks = (frames as f64 * OUTPUT_RATE_HZ / rate_hz).round() as usize;
+                Ok(Span {
+                    pad,
+                    tail,
+                    start,
+                    body: lead_ticks + recording_ticks + settle_ticks,
+                })
+            }
+        }
+    }
 }
 
 /// Weight `j / n` of the way along a raised-cosine ramp: 0 at `j = 0`, 1 at `j = n`, with

@@ -108,3 +108,46 @@ fn the_default_renders_every_case_on_both_sensors() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// Compiles `case` (seed 1) under the default preset and measures it.
+fn run_default(case: &synth::cases::Case) -> (Evaluation, Compiled) {
+    run(
+        &Case {
+            name: case.name.clone(),
+            spec: case.spec.clone(),
+        },
+        Preset::Touch,
+        1,
+    )
+}
+
+/// The same touch at 20 and at 54 Hz, under the default preset: the same stimulus
+/// length within one 1 kHz tick (the recordings last equally long: 1.5 s of quiet on
+/// each side of 3 s of touch), and coverage within 0.02.
+#[test]
+fn the_same_touch_gives_the_same_stimulus_at_any_rate() {
+    for sensor in [Sensor::Sleeve, Sensor::Grid10] {
+        for name in ["hand with heel", "rub 0.45 m/s"] {
+            let at = |rate: f64| {
+                let case = synth::cases::cases_on(sensor, rate)
+                    .into_iter()
+                    .find(|c| c.name == name)
+                    .expect("the case");
+                run_default(&case)
+            };
+            let ((e20, c20), (e54, c54)) = (at(20.0), at(54.0));
+            let (d20, d54) = (c20.report.duration_s, c54.report.duration_s);
+            assert!(
+                (d20 - d54).abs() <= 0.001 + 1e-9,
+                "{} {name}: {d20} s at 20 Hz, {d54} s at 54 Hz",
+                sensor.name()
+            );
+            let (v20, v54) = (e20.coverage.ratio(), e54.coverage.ratio());
+            assert!(
+                (v20 - v54).abs() <= 0.02,
+                "{} {name}: coverage {v20:.3} at 20 Hz, {v54:.3} at 54 Hz",
+                sensor.name()
+            );
+        }
+    }
+}

@@ -859,3 +859,76 @@ fn settle_frames_stops_early_at_the_whole_horizons_answer() {
         }
     }
 }
+
+/// One channel pressed 1 psi for `press_s` seconds, with `quiet_s` of silence on each
+/// side, at `rate` Hz.
+fn press(rate: f64, quiet_s: f64, press_s: f64) -> [Vec<f64>; CHANNELS] {
+    let quiet = (quiet_s * rate).round() as usize;
+    let on = (press_s * rate).round() as usize;
+    let mut psi = silent(2 * quiet + on);
+    psi[3][quiet..quiet + on].fill(1.0);
+    psi
+}
+
+#[test]
+fn ring_out_in_seconds_lasts_as_long_at_any_rate() {
+    let seconds = SignalConfig {
+        ring_out: RingOut::Seconds,
+        ..cfg()
+    };
+    for zero_phase in [false, true] {
+        let cfg = SignalConfig {
+            zero_phase,
+            ..seconds.clone()
+        };
+        // 0.5 + 1 + 0.5 s: 40 frames at 20 Hz, 108 at 54 Hz, 100 at 50 Hz.
+        let runs: Vec<Conditioned> = [20.0, 54.0, 50.0]
+            .iter()
+            .map(|&rate| condition(&press(rate, 0.5, 1.0), &cfg, rate).unwrap())
+            .collect();
+        let lens: Vec<usize> = runs.iter().map(|c| c.output.len()).collect();
+        assert!(
+            lens.iter().all(|&n| n.abs_diff(lens[0]) <= 1),
+            "zero phase {zero_phase}: {lens:?}"
+        );
+        for c in &runs {
+            // Starts and ends at rest, the pre-dent on either side of the ramps.
+            let n = c.output.len();
+            assert_eq!((c.output[0], c.output[n - 1]), ([0.0; 8], [0.0; 8]));
+            let (a, b) = (c.output[c.ramp_samples], c.output[n - 1 - c.ramp_samples]);
+            assert!(
+                (a[3] - PRE).abs() < 1e-6 && (b[3] - PRE).abs() < 1e-6,
+                "{a:?} {b:?}"
+            );
+            // The press reaches full scale (between frames, the 1 kHz ticks may miss
+            // the frame that holds it by a little).
+            let top = c.output.iter().map(|s| s[3]).fold(f64::MIN, f64::max);
+            assert!(top <= PEAK && top > PEAK - 0.01, "{top}");
+        }
+    }
+    // The paper's frames differ by rate: its filter settles later at 20 Hz, in
+    // coarser frames.
+    let paper: Vec<usize> = [20.0, 54.0]
+        .iter()
+        .map(|&rate| {
+            condition(&press(rate, 0.5, 1.0), &cfg(), rate)
+                .unwrap()
+                .output
+                .len()
+        })
+        .collect();
+    assert!(paper[0] > paper[1] + 100, "{paper:?}");
+}
+
+#[test]
+fn ring_out_in_frames_is_the_papers() {
+    // Unchanged: the body runs from the padding frame to the last frame of the tail,
+    // through every frame-rate sample.
+    let c = run(&press(20.0, 0.5, 1.0), false);
+    assert_eq!(c.start_frame, 0.0);
+    assert_eq!(c.pad_frames, 1);
+    assert_eq!(c.output.len(), 2 * 500 + (c.frames_a.len() - 1) * 50 + 1);
+    for k in [0, 7, c.frames_a.len() - 1] {
+        assert_eq!(c.output[c.output_index_of_frame(k)], c.frames_a[k]);
+    }
+}
