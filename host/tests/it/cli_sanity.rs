@@ -303,12 +303,13 @@ fn one_touch_at_20_and_54_hz_lasts_as_long() {
     let tolerance = period(&r20).max(period(&r54));
     // The stimulus is the recording's 8 s (the default preset trims nothing; `paper`'s
     // trim is in seconds too), plus what conditioning adds around them: the
-    // ramps, and the silence the digital low-pass rings out in, whose length depends on
-    // the rate (the same 4 Hz Butterworth decays differently at 20 and at 54 Hz).
-    // `conditioning(rate)` is that addition, measured on one silent frame.
+    // ramps, and the silence the low-pass rings out in (under the default preset a
+    // time, the same at every rate). `conditioning(rate)` is that addition, measured on
+    // one silent frame under the default preset's signal config.
     let conditioning = |rate: f64| {
         let psi: [Vec<f64>; 8] = std::array::from_fn(|_| vec![0.0; 1]);
-        let c = touchc::rendering::condition::condition(&psi, &Default::default(), rate).unwrap();
+        let signal = touchc::config::Config::default().signal;
+        let c = touchc::rendering::condition::condition(&psi, &signal, rate).unwrap();
         (c.output.len() - 1) as f64 / 1000.0 - 1.0 / rate
     };
     let kept = |r: &serde_json::Value, rate: f64| d(r) - conditioning(rate);
