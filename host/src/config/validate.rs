@@ -141,6 +141,12 @@ impl Config {
             0.999_999,
             "",
         )?;
+        if let Some(split) = &d.split {
+            within("detect.split.level", split.level, 1e-6, 1.0, "")?;
+            if let Some(extent) = split.extent {
+                within("detect.split.extent", extent, 1e-6, split.level, "")?;
+            }
+        }
         let t = &self.track;
         within("track.entry_cost", t.entry_cost, 0.0, 1000.0, "")?;
         within("track.exit_cost", t.exit_cost, 0.0, 1000.0, "")?;

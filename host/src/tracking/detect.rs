@@ -386,6 +386,11 @@ pub struct Split {
     /// Lattice pitch, in cells: cells whose row and column are multiples of it. With 2,
     /// every cell of the top lies within 1.5 cells of a lattice cell.
     pub spacing_cells: usize,
+    /// Share of a flat contact's peak down to which the lattice covers it (absent: its
+    /// top, `level`). Below `level` it reaches the broad, weaker regions a flat hand
+    /// presses beside its top (the heel), which are touch the actuators there should play.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extent: Option<f64>,
 }
 
 /// The lattice detections of one blurred frame (`[R k, C k]` pixels, `k = upsample`):
@@ -400,6 +405,22 @@ pub fn lattice_points(
     split: &Split,
     min_value: f64,
 ) -> Vec<(usize, usize, f64)> {
+    lattice_points_of_contacts(frame, upsample, split, min_value)
+        .into_iter()
+        .map(|(p, _)| p)
+        .collect()
+}
+
+/// [`lattice_points`], each with the peak of the contact it lies in: the evidence its
+/// detection cost is computed from. A lattice point is part of a contact whose peak
+/// shows it is there; scored by its own value, a point on a broad, weaker region (a
+/// hand's heel) would cost more than leaving it out, and the region would go untracked.
+pub fn lattice_points_of_contacts(
+    frame: ArrayView2<f64>,
+    upsample: usize,
+    split: &Split,
+    min_value: f64,
+) -> Vec<((usize, usize, f64), f64)> {
     let k = upsample.max(1);
     let (h, w) = frame.dim();
     let (rows, cols) = (h / k, w / k);
@@ -443,16 +464,17 @@ pub fn lattice_points(
         if cells.iter().filter(|(_, v)| *v >= top).count() < split.min_cells {
             continue;
         }
+        let floor = split.extent.map_or(top, |e| e * peak);
         out.extend(
             cells
                 .iter()
                 .filter(|&&(i, v)| {
-                    v >= top && (i / cols) % spacing == 0 && (i % cols) % spacing == 0
+                    v >= floor && (i / cols) % spacing == 0 && (i % cols) % spacing == 0
                 })
-                .map(|&(i, v)| (centre(i / cols), centre(i % cols), v)),
+                .map(|&(i, v)| ((centre(i / cols), centre(i % cols), v), peak)),
         );
     }
-    out.sort_by_key(|&(r, c, _)| (r, c));
+    out.sort_by_key(|&((r, c, _), _)| (r, c));
     out
 }
 
@@ -479,14 +501,35 @@ pub fn frame_points(
     split: Option<&Split>,
     upsample: usize,
 ) -> Vec<(usize, usize, f64)> {
+    frame_candidates(frame, cfg, split, upsample)
+        .into_iter()
+        .map(|(p, _)| p)
+        .collect()
+}
+
+/// [`frame_points`], each with the value its detection cost is computed from: its own
+/// for a local maximum, its contact's peak for a lattice point (see
+/// [`lattice_points_of_contacts`]). A pixel that is both is a local maximum.
+pub fn frame_candidates(
+    frame: ArrayView2<f64>,
+    cfg: &DetectConfig,
+    split: Option<&Split>,
+    upsample: usize,
+) -> Vec<((usize, usize, f64), f64)> {
     let maxima = local_maxima(frame, cfg.min_value_psi);
-    match split {
-        Some(s) => with_lattice(
-            maxima,
-            lattice_points(frame, upsample, s, cfg.min_value_psi),
-        ),
-        None => maxima,
+    let Some(s) = split else {
+        return maxima.into_iter().map(|p| (p, p.2)).collect();
+    };
+    let lattice = lattice_points_of_contacts(frame, upsample, s, cfg.min_value_psi);
+    if lattice.is_empty() {
+        return maxima.into_iter().map(|p| (p, p.2)).collect();
     }
+    // Maxima first, so that the stable sort and dedup keep a maximum's own evidence.
+    let mut all: Vec<((usize, usize, f64), f64)> = maxima.into_iter().map(|p| (p, p.2)).collect();
+    all.extend(lattice);
+    all.sort_by_key(|&((r, c, _), _)| (r, c));
+    all.dedup_by_key(|p| (p.0 .0, p.0 .1));
+    all
 }
 
 /// Finds and scores the detections of every frame.
@@ -505,12 +548,11 @@ pub fn detect(blurred: &Blurred, cfg: &DetectConfig) -> Detections {
 /// [`detect`], with the lattice points of flat contacts when `cfg.split` asks for them
 /// (frames upsampled `upsample` times; see [`Split`]).
 pub fn detect_with(blurred: &Blurred, cfg: &DetectConfig, upsample: usize) -> Detections {
-    let points = blurred
-        .frames
-        .outer_iter()
-        .map(|f| frame_points(f, cfg, cfg.split.as_ref(), upsample))
-        .collect();
-    score(points, blurred.mean, blurred.std, cfg)
+    let mut candidates = Candidates::with_frames(blurred.frames.dim().0);
+    for f in blurred.frames.outer_iter() {
+        candidates.push_frame_with(frame_candidates(f, cfg, cfg.split.as_ref(), upsample));
+    }
+    score_candidates(&candidates, blurred.mean, blurred.std, cfg)
 }
 
 /// Scores per-frame local maxima (`maxima[t]` as returned by [`local_maxima`] for frame
@@ -535,6 +577,8 @@ pub fn score(
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Candidates {
     points: Vec<(usize, usize, f64)>,
+    /// Per point, the value its detection cost is computed from (see [`frame_candidates`]).
+    evidence: Vec<f64>,
     /// `starts[t]..starts[t + 1]` indexes frame `t`'s points.
     starts: Vec<usize>,
 }
@@ -546,13 +590,26 @@ impl Candidates {
         starts.push(0);
         Candidates {
             points: Vec::new(),
+            evidence: Vec::new(),
             starts,
         }
     }
 
     /// Appends the next frame's points.
     pub fn push_frame(&mut self, found: impl IntoIterator<Item = (usize, usize, f64)>) {
-        self.points.extend(found);
+        for p in found {
+            self.points.push(p);
+            self.evidence.push(p.2);
+        }
+        self.starts.push(self.points.len());
+    }
+
+    /// Appends the next frame's points, each with the value its cost is computed from.
+    pub fn push_frame_with(&mut self, found: impl IntoIterator<Item = ((usize, usize, f64), f64)>) {
+        for (p, e) in found {
+            self.points.push(p);
+            self.evidence.push(e);
+        }
         self.starts.push(self.points.len());
     }
 
@@ -560,6 +617,7 @@ impl Candidates {
     pub fn append(&mut self, other: &Candidates) {
         let base = self.points.len();
         self.points.extend_from_slice(&other.points);
+        self.evidence.extend_from_slice(&other.evidence);
         self.starts
             .extend(other.starts.iter().skip(1).map(|&s| base + s));
     }
@@ -586,6 +644,7 @@ impl Candidates {
             for i in a..b {
                 if keep(t, &self.points[i]) {
                     self.points[kept] = self.points[i];
+                    self.evidence[kept] = self.evidence[i];
                     kept += 1;
                 }
             }
@@ -593,6 +652,7 @@ impl Candidates {
         let last = self.starts.len() - 1;
         self.starts[last] = kept;
         self.points.truncate(kept);
+        self.evidence.truncate(kept);
     }
 }
 
@@ -608,9 +668,9 @@ pub fn score_candidates(
     // Each cost on its own (an hour holds millions of candidates), so on every core.
     let costs: Vec<f64> = if usable {
         candidates
-            .points
+            .evidence
             .par_iter()
-            .map(|&(_, _, value)| detection_cost((value - mean) / std, cfg))
+            .map(|&value| detection_cost((value - mean) / std, cfg))
             .collect()
     } else {
         Vec::new()
@@ -764,6 +824,39 @@ mod tests {
     }
 
     #[test]
+    fn the_lattice_reaches_a_weaker_shoulder_down_to_its_extent() {
+        // 4 x 10 cells: a flat 4 x 4 top at 1 psi, beside it a 4 x 4 shoulder at 0.3.
+        let mut f = ndarray::Array2::<f64>::zeros((4, 10));
+        for r in 0..4 {
+            for c in 0..8 {
+                f[[r, c]] = if c < 4 { 1.0 } else { 0.3 };
+            }
+        }
+        let mut split = Split {
+            min_cells: 8,
+            level: 0.5,
+            spacing_cells: 2,
+            extent: None,
+        };
+        let cols = |s: &Split| {
+            let mut c: Vec<usize> = lattice_points(f.view(), 1, s, 0.05)
+                .iter()
+                .map(|p| p.1)
+                .collect();
+            c.dedup();
+            c.sort_unstable();
+            c.dedup();
+            c
+        };
+        assert_eq!(cols(&split), vec![0, 2]);
+        split.extent = Some(0.25);
+        assert_eq!(cols(&split), vec![0, 2, 4, 6]);
+        // Below the extent, nothing.
+        split.extent = Some(0.35);
+        assert_eq!(cols(&split), vec![0, 2]);
+    }
+
+    #[test]
     fn a_flat_contact_gets_lattice_points_a_fingertip_none() {
         // 6 x 8 cells at upsampling 1: a flat 4 x 5 top and a one-cell fingertip.
         let mut f = ndarray::Array2::<f64>::zeros((6, 8));
@@ -777,6 +870,7 @@ mod tests {
             min_cells: 8,
             level: 0.5,
             spacing_cells: 2,
+            extent: None,
         };
         let pts = lattice_points(f.view(), 1, &split, 0.05);
         let cells: Vec<(usize, usize)> = pts.iter().map(|p| (p.0, p.1)).collect();

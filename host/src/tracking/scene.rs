@@ -28,7 +28,7 @@ use crate::placement::Placement;
 use crate::rendering::signals::{self, ChannelSignals};
 use crate::stage::{Shares, Stage};
 use crate::tracking::detect::{
-    detection_cost, frame_points, score_candidates, Candidates, Detections,
+    detection_cost, frame_candidates, score_candidates, Candidates, Detections,
 };
 use crate::tracking::flow::FlowError;
 use crate::tracking::preprocess::{blur_chunks, Blur, BlurOperator, Blurred};
@@ -202,7 +202,7 @@ pub fn track_cropped(
                 movie.index_axis_mut(Axis(0), f - run.first).assign(&frame);
             }
             let clock = Instant::now();
-            run.candidates.push_frame(frame_points(
+            run.candidates.push_frame_with(frame_candidates(
                 frame,
                 &cfg.detect,
                 cfg.detect.split.as_ref(),
