@@ -14,6 +14,7 @@ use crate::encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOpti
 use crate::input::recording::{Recording, RecordingError};
 use crate::input::warning::InputWarning;
 use crate::measure::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
+use crate::measure::rendered::{self, Shortfall};
 use crate::placement::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
 use crate::rendering::condition::{self, ConditionError, LimitViolation};
@@ -153,6 +154,13 @@ pub struct Report {
     pub coverage_detail: Coverage,
     /// Where the unexplained touch lies (absent without touch).
     pub misses: Option<Misses>,
+    /// Share of the touch pressure a driven actuator plays, within its workspace circle
+    /// (1 without touch, 0 when the tare removed it; see [`crate::measure::rendered`]).
+    pub rendered_coverage: f64,
+    /// The figures behind `rendered_coverage` (`explained_psi` is the played pressure).
+    pub rendered_detail: Coverage,
+    /// The sleeve plays much less of the touch than the tracker follows.
+    pub shortfall: Option<Shortfall>,
     /// Things the user should know.
     pub warnings: Vec<String>,
     /// The input stage's warnings with their figures (each also worded in `warnings`).
@@ -397,6 +405,32 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
         warnings.push("no trajectory passes through an actuator's workspace: silent".into());
     }
+    let rendered = match &placement {
+        Some(p) => rendered::measure(
+            tared.view(),
+            cfg.input.touch_threshold_psi,
+            sampling.pitch_mm,
+            &p.circles,
+            &signals,
+        ),
+        None => Coverage {
+            explained_psi: 0.0,
+            ..covered.0
+        },
+    };
+    let shortfall = Shortfall::of(covered.0.ratio(), rendered.ratio());
+    if let Some(s) = &shortfall {
+        warnings.push(format!(
+            "the sleeve plays {:.0}% of the touch pressure (rendered coverage {:.2}) where \
+             the tracked contacts explain {:.0}% (coverage {:.2}): most of the tracked touch \
+             falls outside every driven actuator's workspace; try another placement grid \
+             (--grid) or a layout with more or larger workspaces (--layout)",
+            100.0 * s.rendered,
+            s.rendered,
+            100.0 * s.tracked,
+            s.tracked
+        ));
+    }
     // The tared copy of the recording is not read after stage 5.
     drop(tared);
     clock.stage(Stage::Signals);
@@ -423,6 +457,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         signals,
         crop,
         covered,
+        rendered: (rendered, shortfall),
     };
     finish(
         (&input_name, shape),
@@ -443,6 +478,7 @@ struct Scene {
     signals: ChannelSignals,
     crop: Crop,
     covered: (Coverage, Misses),
+    rendered: (Coverage, Option<Shortfall>),
 }
 
 /// Coverage below this share of the touch pressure is a warning.
@@ -515,16 +551,20 @@ fn finish(
     scene: Option<Scene>,
 ) -> Result<Compiled, CompileError> {
     let no_touch = scene.is_none();
-    let (tracked, placement, signals, crop, covered) = match scene {
+    let (tracked, placement, signals, crop, covered, rendered) = match scene {
         Some(s) => (
             Some(s.tracked),
             s.placement,
             Some(s.signals),
             Some(s.crop),
             Some(s.covered),
+            Some(s.rendered),
         ),
-        None => (None, None, None, None, None),
+        None => (None, None, None, None, None, None),
     };
+    let tare_erased = input_warnings
+        .iter()
+        .any(|w| matches!(w, InputWarning::TareErasedTouch { .. }));
     let name = stimulus_name(&opts.name);
     let fields = HeaderFields {
         name,
@@ -613,6 +653,13 @@ fn finish(
         },
         coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
         misses: covered.map(|c| c.1),
+        rendered_coverage: match &rendered {
+            Some(r) => r.0.ratio(),
+            None if tare_erased => 0.0,
+            None => 1.0,
+        },
+        rendered_detail: rendered.map_or_else(Coverage::default, |r| r.0),
+        shortfall: rendered.and_then(|r| r.1),
         warnings,
         input_warnings,
         metadata: *metadata,

@@ -117,10 +117,6 @@ impl Preset {
     }
 }
 
-/// The `touch` preset's `detect.split.extent`: the lattice of a flat contact reaches down
-/// to a quarter of its peak (a flat hand's heel presses about a third of it).
-const EXTENT: f64 = 0.25;
-
 impl Config {
     /// The parameters of `preset` (see [`Preset`] for what each gives up).
     ///
@@ -158,7 +154,7 @@ impl Config {
                         min_cells: 8,
                         level: 0.5,
                         spacing_cells: 2,
-                        extent: Some(EXTENT),
+                        extent: None,
                     }),
                     ..paper.detect
                 },

@@ -201,6 +201,7 @@ fn run_cases(args: &Args) -> anyhow::Result<()> {
         "splits",
         "false",
         "coverage",
+        "played",
         "duration s",
         "ms",
         "passes",
@@ -221,6 +222,7 @@ fn run_cases(args: &Args) -> anyhow::Result<()> {
             r.splits.to_string(),
             r.false_contacts.to_string(),
             format!("{:.2}", r.coverage),
+            format!("{:.2}", r.rendered),
             format!("{:.3}", r.duration_s),
             format!("{:.1}", 1e3 * r.seconds),
             if r.passes() { "yes" } else { "no" }.to_string(),
@@ -307,6 +309,7 @@ fn cells(r: &TradeRow, split: bool) -> Vec<String> {
     out.push(format!("{:.1}", r.tracks_agree_pct));
     out.push(r.bytes.to_string());
     out.push(format!("{:.2}", r.coverage));
+    out.push(format!("{:.2}", r.rendered));
     out.push(
         r.recall
             .map_or_else(|| "-".to_string(), |v| format!("{v:.2}")),
@@ -330,6 +333,7 @@ fn headers(split: bool) -> Vec<String> {
             "tracks agree %",
             "bytes",
             "coverage",
+            "played",
             "recall",
         ]
         .map(String::from),

@@ -37,6 +37,8 @@ pub struct CaseRow {
     pub false_contacts: usize,
     /// Share of the touch pressure within two cells of a tracked contact.
     pub coverage: f64,
+    /// Share of the touch pressure a driven actuator plays (see [`crate::measure::rendered`]).
+    pub rendered: f64,
     /// The stimulus's length, seconds.
     pub duration_s: f64,
     /// Wall seconds of the compile.
@@ -132,6 +134,7 @@ pub fn run_case(
                 splits: e.splits,
                 false_contacts: e.false_contacts,
                 coverage: e.coverage.ratio(),
+                rendered: r.rendered_coverage,
                 duration_s: r.duration_s,
                 seconds: r.seconds.get("total").copied().unwrap_or(0.0),
             })

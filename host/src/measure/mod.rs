@@ -5,4 +5,5 @@
 pub mod cases;
 pub mod coverage;
 pub mod evaluate;
+pub mod rendered;
 pub mod trade;

@@ -50,6 +50,8 @@ pub struct TradeRow {
     pub bytes: usize,
     /// Share of the touch pressure within two cells of a tracked contact.
     pub coverage: f64,
+    /// Share of the touch pressure a driven actuator plays, within its workspace.
+    pub rendered: f64,
     /// Share of the true contacts tracked (`None` without a truth file).
     pub recall: Option<f64>,
 }
@@ -110,6 +112,7 @@ pub fn trade(
                     * track_agreement(c.tracked.as_ref(), exact.tracked.as_ref()),
                 bytes: c.report.bytes,
                 coverage: c.report.coverage,
+                rendered: c.report.rendered_coverage,
                 recall,
             })
         })

@@ -411,10 +411,11 @@ pub fn lattice_points(
         .collect()
 }
 
-/// [`lattice_points`], each with the peak of the contact it lies in: the evidence its
-/// detection cost is computed from. A lattice point is part of a contact whose peak
-/// shows it is there; scored by its own value, a point on a broad, weaker region (a
-/// hand's heel) would cost more than leaving it out, and the region would go untracked.
+/// [`lattice_points`], each with the evidence its detection cost is computed from: its
+/// own value on the contact's top, the contact's peak below it (where
+/// [`Split::extent`] reaches). Such a point is part of a contact whose peak shows it is
+/// there; scored by its own value, a point on a broad, weaker region (a hand's heel)
+/// would cost more than leaving it out, and the region would go untracked.
 pub fn lattice_points_of_contacts(
     frame: ArrayView2<f64>,
     upsample: usize,
@@ -471,7 +472,12 @@ pub fn lattice_points_of_contacts(
                 .filter(|&&(i, v)| {
                     v >= floor && (i / cols) % spacing == 0 && (i % cols) % spacing == 0
                 })
-                .map(|&(i, v)| ((centre(i / cols), centre(i % cols), v), peak)),
+                // A point of the top is scored by its own value (as it always was); a
+                // point the extent adds, by its contact's peak.
+                .map(|&(i, v)| {
+                    let evidence = if v >= top { v } else { peak };
+                    ((centre(i / cols), centre(i % cols), v), evidence)
+                }),
         );
     }
     out.sort_by_key(|&((r, c, _), _)| (r, c));

@@ -21,6 +21,7 @@ fn row(input: &str, preset: Preset, ms: f64, rms: f64) -> TradeRow {
         tracks_agree_pct: 100.0,
         bytes: 100,
         coverage: 1.0,
+        rendered: 1.0,
         recall: None,
     }
 }

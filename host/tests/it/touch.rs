@@ -151,3 +151,61 @@ fn the_same_touch_gives_the_same_stimulus_at_any_rate() {
         }
     }
 }
+
+/// Presses held 2 s at each of `at` (row, column), with 1.5 s of quiet on each side, on
+/// the paper's 8 x 21 frame at 20 Hz.
+fn presses(at: &[(f64, f64)]) -> Recording {
+    let data = ndarray::Array3::from_shape_fn((110, 8, 21), |(t, r, c)| {
+        let on = if (30..70).contains(&t) { 1.0 } else { 0.0 };
+        at.iter()
+            .map(|&(y, x)| {
+                let d2 = (r as f64 - y).powi(2) + (c as f64 - x).powi(2);
+                on * (-d2 / 1.5).exp()
+            })
+            .sum::<f64>()
+    });
+    Recording::from_array("presses", data.view()).unwrap()
+}
+
+/// Rendered coverage: a press under the sleeve is tracked whole and played in part (a
+/// workspace holds one or two of the cells a fingertip presses); nine presses spread
+/// over the frame, further apart than the workspaces reach, are tracked whole, but the
+/// sleeve plays two of them at most: a shortfall, with what to try.
+#[test]
+fn the_report_says_how_much_of_the_touch_the_sleeve_plays() {
+    let one = compile(&presses(&[(3.5, 10.0)]), &CompileOptions::default())
+        .unwrap()
+        .report;
+    assert!(one.coverage > 0.95, "{}", one.coverage);
+    assert!(
+        (0.2..0.8).contains(&one.rendered_coverage),
+        "{}",
+        one.rendered_coverage
+    );
+    assert!(one.shortfall.is_none());
+    assert!(one.rendered_detail.explained_psi > 0.0);
+    let spread: Vec<(f64, f64)> = [0.5, 3.5, 6.5]
+        .iter()
+        .flat_map(|&r| [1.0, 10.0, 19.0].map(|c| (r, c)))
+        .collect();
+    let apart = compile(&presses(&spread), &CompileOptions::default())
+        .unwrap()
+        .report;
+    assert!(apart.coverage > 0.95, "{}", apart.coverage);
+    let s = apart.shortfall.unwrap_or_else(|| {
+        panic!(
+            "no shortfall: {} {}",
+            apart.coverage, apart.rendered_coverage
+        )
+    });
+    assert_eq!(s.rendered, apart.rendered_coverage);
+    assert!(s.rendered < 0.2 * s.tracked, "{s:?}");
+    assert!(
+        apart
+            .warnings
+            .iter()
+            .any(|w| w.contains("the sleeve plays") && w.contains("--layout")),
+        "{:?}",
+        apart.warnings
+    );
+}

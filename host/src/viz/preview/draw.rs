@@ -133,9 +133,10 @@ pub(super) fn overlay<'b>(
     label(
         root,
         &format!(
-            "coverage {:.0}%: touch more than {DEFAULT_RADIUS_CELLS} cells from every \
-             contact is hatched red ({} of {} touch readings)",
+            "coverage {:.0}%, played {:.0}%: touch more than {DEFAULT_RADIUS_CELLS} cells \
+             from every contact is hatched red ({} of {} touch readings)",
             100.0 * cov.ratio(),
+            100.0 * c.report.rendered_coverage,
             cov.unexplained_cells,
             cov.touch_cells
         ),
