@@ -209,3 +209,22 @@ fn the_report_says_how_much_of_the_touch_the_sleeve_plays() {
         apart.warnings
     );
 }
+
+/// The 15 light strokes at 54 Hz, measured by `touchc trade --cases`'s runner: the
+/// default keeps one trajectory per stroke; `paper` (no bridging, entry and exit 8)
+/// cuts them into pieces, which the splits count.
+#[test]
+fn fifteen_strokes_stay_fifteen_trajectories_under_the_default() {
+    use touchc::measure::cases::run_case;
+    let case = synth::cases::cases_on(Sensor::Sleeve, 54.0)
+        .into_iter()
+        .find(|c| c.name.starts_with("15 strokes"))
+        .expect("the case");
+    let configs = [Preset::Touch, Preset::Paper].map(|p| (p, Config::preset(p)));
+    let rows = run_case(&case, 1, &CompileOptions::default(), &configs).unwrap();
+    let (touch, paper) = (&rows[0], &rows[1]);
+    assert_eq!(touch.contacts, 15);
+    assert!(touch.passes(), "{touch:?}");
+    assert!((12..=18).contains(&touch.trajectories), "{touch:?}");
+    assert!(paper.splits >= 5 && !paper.passes(), "{paper:?}");
+}
