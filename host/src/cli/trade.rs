@@ -29,9 +29,9 @@ pub struct Args {
     /// preset (`--preset P`: only P).
     #[arg(long, conflicts_with_all = ["recordings", "truth", "svg"])]
     cases: bool,
-    /// With `--cases`: draw each case with seeds 1 to this.
-    #[arg(long, default_value_t = 1, requires = "cases")]
-    seeds: u64,
+    /// With `--cases`: draw each case with seeds 1 to this [default: 1].
+    #[arg(long)]
+    seeds: Option<u64>,
     /// Compile each recording this many times per preset and keep the fastest run.
     #[arg(long, default_value_t = 3)]
     repeat: usize,
@@ -98,6 +98,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let pool = builder.build().context("cannot start the worker threads")?;
     if args.cases {
         return pool.install(|| run_cases(args));
+    }
+    // clap counts the unset `--cases` flag as given (its default), so `requires` on
+    // `--seeds` would never refuse.
+    if args.seeds.is_some() {
+        return Err(super::usage(
+            "--seeds draws the synthetic cases: use it with --cases",
+        ));
     }
     if !args.truth.is_empty() && args.truth.len() != args.recordings.len() {
         return Err(super::Usage(format!(
@@ -170,7 +177,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 /// `touchc trade --cases`: every synthetic case under the presets, one row each, and
 /// how many rows of each preset pass the bar of [`CaseRow::passes`].
 fn run_cases(args: &Args) -> anyhow::Result<()> {
-    if args.seeds == 0 {
+    let seeds = args.seeds.unwrap_or(1);
+    if seeds == 0 {
         return Err(super::usage("--seeds must be at least 1"));
     }
     let presets: Vec<Preset> = match args.config.preset {
@@ -184,7 +192,7 @@ fn run_cases(args: &Args) -> anyhow::Result<()> {
     let base = CompileOptions::default();
     let mut rows: Vec<CaseRow> = Vec::new();
     for case in touchc::input::synth::cases::cases() {
-        for seed in 1..=args.seeds {
+        for seed in 1..=seeds {
             rows.extend(run_case(&case, seed, &base, &configs)?);
         }
     }

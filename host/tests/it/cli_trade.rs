@@ -200,3 +200,23 @@ fn trade_measures_recall_against_a_synthetic_truth() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("2 recordings, 1 truth files"));
 }
+
+#[test]
+fn trade_cases_takes_no_recordings_and_seeds_only_with_cases() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = synth(dir.path(), "stroke", "stroke");
+    for args in [
+        vec!["trade", "--cases", s(&rec)],
+        vec!["trade", "--seeds", "2", s(&rec)],
+        vec!["trade", "--cases", "--seeds", "0"],
+        vec!["trade"],
+    ] {
+        let out = touchc(&args);
+        let err = refused(&out);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("--cases") || err.contains("--seeds") || err.contains("RECORDINGS"),
+            "{args:?}: {err}"
+        );
+    }
+}
