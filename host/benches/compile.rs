@@ -15,7 +15,7 @@ use touchc::input::recording::Recording;
 use touchc::placement::layout::Layout;
 use touchc::placement::place;
 use touchc::rendering::condition;
-use touchc::tracking::{detect, preprocess, scene, track};
+use touchc::tracking::{detect, preprocess, track};
 
 /// The 698-frame combination ([`common::combination_698`]).
 fn long_recording() -> Recording {
@@ -117,7 +117,7 @@ fn bench(c: &mut Criterion) {
     }
     c.bench_function("stage/signals", |b| {
         b.iter(|| {
-            scene::recomputed_actuator_signals(
+            touchc::rendering::signals::recomputed_actuator_signals(
                 black_box(tracked),
                 placement,
                 tared.view(),

@@ -17,7 +17,7 @@ use crate::measure::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_
 use crate::placement::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
 use crate::rendering::condition::{self, ConditionError, LimitViolation};
-use crate::rendering::signals::ChannelSignals;
+use crate::rendering::signals::{self, ChannelSignals};
 use crate::stage::{Shares, Stage};
 use crate::tracking::scene::{self, Crop};
 use crate::tracking::track::{TrackError, TrackOutput};
@@ -268,7 +268,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     let mut warnings = Vec::new();
 
     // Every knob, in the units of this recording, before any work.
-    let metadata = Metadata::resolve(&opts.metadata, &rec, cfg);
+    let metadata = Metadata::resolve(&opts.metadata, &rec.file_metadata(), cfg);
     let sampling = Sampling::new(&metadata, cfg);
     let (_, rows, cols) = rec.dim();
     cfg.validate_for(&sampling, (rows, cols))?;
@@ -380,7 +380,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     // Stage 5.
     let frames = tared.dim().0;
     let signals = match &placement {
-        Some(p) => scene::recomputed_actuator_signals(&tracked, p, tared.view(), cfg, &sampling)?,
+        Some(p) => signals::recomputed_actuator_signals(&tracked, p, tared.view(), cfg, &sampling)?,
         None => ChannelSignals::silent(frames),
     };
     if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {

@@ -31,6 +31,7 @@ pub mod encoding;
 pub mod export;
 
 pub mod compile;
+pub mod track;
 pub mod stage;
 pub mod measure;
 

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 use touchc::input::recording::Recording;
-use touchc::tracking::track::{track_streaming, TrackOutput};
+use touchc::track::track_streaming;
+use touchc::tracking::track::TrackOutput;
 use touchc::tracking::trajectory::Columns;
 
 /// Arguments of `touchc track`.

@@ -15,7 +15,6 @@
 use serde::Serialize;
 
 use super::Config;
-use crate::input::recording::Recording;
 
 /// How a recording was sampled, and how finely stage 1 resamples it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -147,6 +146,16 @@ pub struct MetadataOverrides {
     pub pitch_mm: Option<f64>,
 }
 
+/// The rate and pitch a recording file declares, where it declares them (a `.npz`'s
+/// `rate_hz` and `pitch_mm`), already checked against the accepted ranges.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FileMetadata {
+    /// Frames per second the file declares.
+    pub rate_hz: Option<f64>,
+    /// Cell pitch the file declares, mm.
+    pub pitch_mm: Option<f64>,
+}
+
 /// The recording's rate and pitch as used, each with its source.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Metadata {
@@ -158,7 +167,7 @@ pub struct Metadata {
 
 impl Metadata {
     /// Command line over file over config default.
-    pub fn resolve(overrides: &MetadataOverrides, rec: &Recording, config: &Config) -> Self {
+    pub fn resolve(overrides: &MetadataOverrides, file: &FileMetadata, config: &Config) -> Self {
         let pick = |cli: Option<f64>, file: Option<f64>, default: f64| match (cli, file) {
             (Some(value), _) => Sourced {
                 value,
@@ -174,12 +183,8 @@ impl Metadata {
             },
         };
         Metadata {
-            rate_hz: pick(overrides.rate_hz, rec.file_rate_hz(), config.input.rate_hz),
-            pitch_mm: pick(
-                overrides.pitch_mm,
-                rec.file_pitch_mm(),
-                config.input.pitch_mm,
-            ),
+            rate_hz: pick(overrides.rate_hz, file.rate_hz, config.input.rate_hz),
+            pitch_mm: pick(overrides.pitch_mm, file.pitch_mm, config.input.pitch_mm),
         }
     }
 

@@ -7,10 +7,9 @@
 //! and the range, instead of running for minutes, allocating gigabytes or panicking in a
 //! third-party routine.
 
-use super::{Config, Sampling};
-use crate::input::recording::{PITCH_MM_RANGE, RATE_HZ_RANGE};
-use crate::placement::{grid_size, MAX_TRANSFORMS};
-use crate::tracking::preprocess::MAX_UPSAMPLE;
+use super::{
+    grid_size, Config, Sampling, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE, RATE_HZ_RANGE,
+};
 
 /// A knob outside its range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

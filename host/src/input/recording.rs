@@ -16,17 +16,11 @@ use std::path::Path;
 
 use ndarray::{Array2, Array3, ArrayView3, Axis};
 
-use crate::config::{Baseline, InputConfig, Sampling};
+use crate::config::{Baseline, FileMetadata, InputConfig, Sampling, PITCH_MM_RANGE, RATE_HZ_RANGE};
 use crate::input::warning::InputWarning;
 
 mod npy;
 mod npz;
-
-/// Frame rates a recording may have, in Hz: from a slow pressure mat up to the sleeve's
-/// 1 kHz output rate, which a recording's frames are resampled to (the player has no
-/// faster ticks to play more frames on). Outside this the value is more likely a unit
-/// mistake (a period, kHz) than a sensor.
-pub const RATE_HZ_RANGE: RangeInclusive<f64> = 1.0..=1_000.0;
 
 /// The most bytes one `.npz` entry may need decompressed: 512 MiB, eleven hours of an
 /// 8 x 21 float32 recording at 20 Hz. An archive's declared sizes cost nothing to
@@ -35,9 +29,6 @@ pub const RATE_HZ_RANGE: RangeInclusive<f64> = 1.0..=1_000.0;
 /// read in pieces whose memory is asked for fallibly, so a process that cannot get it
 /// reports [`RecordingError::OutOfMemory`] instead of aborting.
 pub const MEMBER_BUDGET_BYTES: u64 = 1 << 29;
-
-/// Cell pitches a file may declare, in mm: from e-skin taxels to a coarse seat mat.
-pub const PITCH_MM_RANGE: RangeInclusive<f64> = 0.1..=100.0;
 
 /// What can be wrong with a recording file or its contents.
 #[derive(Debug, thiserror::Error)]
@@ -384,6 +375,14 @@ impl Recording {
             rate_hz,
             pitch_mm,
         })
+    }
+
+    /// The rate and pitch the file declares, for [`Metadata::resolve`](crate::config::Metadata::resolve).
+    pub fn file_metadata(&self) -> FileMetadata {
+        FileMetadata {
+            rate_hz: self.rate_hz,
+            pitch_mm: self.pitch_mm,
+        }
     }
 
     /// The frame rate the file declares (`rate_hz` in a `.npz`), validated against

@@ -67,18 +67,6 @@ pub fn transform_grid(
     grid
 }
 
-/// Transforms in the grid of `cfg` (`grid_x * grid_y * (grid_y + 1) / 2`); `None` if that
-/// overflows.
-pub fn grid_size(cfg: &PlacementConfig) -> Option<usize> {
-    let per_x = cfg.grid_y.checked_mul(cfg.grid_y.checked_add(1)?)? / 2;
-    cfg.grid_x.checked_mul(per_x)
-}
-
-/// The largest grid [`place`] accepts: 20 million transforms hold 800 MB of transforms
-/// and scores, and take minutes; no placement needs them (the grid converges well before,
-/// see `docs/trade.md`).
-pub const MAX_TRANSFORMS: usize = 20_000_000;
-
 /// Position in grid order of the transform with lattice indices `(ix, iy, is)`:
 /// `x` index, `y` index and split index (`is < grid_y - iy`).
 pub(super) fn grid_position(grid_y: usize, [ix, iy, is]: [usize; 3]) -> usize {

@@ -31,7 +31,7 @@ mod scoring;
 mod search;
 mod validation;
 
-pub use grid::{grid_size, transform_grid, MAX_TRANSFORMS};
+pub use grid::transform_grid;
 
 use grid::*;
 use scoring::*;
@@ -40,7 +40,7 @@ use validation::*;
 
 use thiserror::Error;
 
-use crate::config::PlacementConfig;
+use crate::config::{grid_size, PlacementConfig, MAX_TRANSFORMS};
 use crate::geometry::{pixel_centre_mm, Circle};
 use crate::placement::bnb::SubsetProblem;
 use crate::placement::layout::{Layout, CHANNELS};

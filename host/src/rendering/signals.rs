@@ -14,7 +14,11 @@
 use ndarray::{ArrayView2, ArrayView3, Axis};
 use rayon::prelude::*;
 
+use crate::config::{Config, Sampling};
 use crate::geometry::{pixel_centre_mm, Circle};
+use crate::placement::Placement;
+use crate::tracking::preprocess::{Blur, BlurOperator};
+use crate::tracking::track::{TrackError, TrackOutput};
 use crate::tracking::trajectory::Trajectory;
 
 /// Actuator rows, columns per row (column 0 nearest the elbow) and channels, numbered
@@ -224,6 +228,30 @@ pub fn actuator_signals_with(
     }
 
     ChannelSignals { psi, source }
+}
+
+/// Stage 5 ([`actuator_signals`]) for the whole recording: silent outside the
+/// trajectories' frames, which lie in the crop. The blurred frames the neighbour fill
+/// reads are recomputed from `tared`, those frames only (bit for bit the pass's: the
+/// same operator on the same frame).
+pub fn recomputed_actuator_signals(
+    tracked: &TrackOutput,
+    placement: &Placement,
+    tared: ArrayView3<f64>,
+    cfg: &Config,
+    sampling: &Sampling,
+) -> Result<ChannelSignals, TrackError> {
+    let (t, r, c) = tared.dim();
+    let op = BlurOperator::new(r, c, &Blur::new(&cfg.preprocess, sampling))?;
+    let (h, w) = op.out_dim();
+    Ok(actuator_signals_with(
+        &tracked.trajectories,
+        &placement.selected,
+        &placement.circles,
+        (t, h, w),
+        tracked.pitch_mm(),
+        |f, read| read(op.apply(tared.index_axis(Axis(0), f)).view()),
+    ))
 }
 
 #[cfg(test)]

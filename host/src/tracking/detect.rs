@@ -11,9 +11,8 @@
 //! so corners may be detections here (the reference trajectories are unaffected).
 
 use ndarray::ArrayView2;
-use serde::{Deserialize, Serialize};
 
-use crate::config::DetectConfig;
+use crate::config::{DetectConfig, Split};
 use crate::tracking::preprocess::Blurred;
 
 /// One local maximum of one blurred frame.
@@ -370,22 +369,6 @@ pub fn detection_cost(z: f64, cfg: &DetectConfig) -> f64 {
     let ln_p = m.ln() + log_ndtr(x);
     let ln_q = log_add_exp((1.0 - m).ln(), m.ln() + log_ndtr(-x));
     ln_q - ln_p
-}
-
-/// Contact splitting: a flat contact (a palm) is one blob with a broad top and one local
-/// maximum, so one trajectory would stand for all of it and render it at one point.
-/// Splitting adds detections on a lattice of cells inside such a contact, so that the
-/// actuators it covers each get a trajectory to render.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Split {
-    /// A contact is flat when at least this many cells read `level` of its peak or more.
-    pub min_cells: usize,
-    /// Share of the contact's peak that makes its top.
-    pub level: f64,
-    /// Lattice pitch, in cells: cells whose row and column are multiples of it. With 2,
-    /// every cell of the top lies within 1.5 cells of a lattice cell.
-    pub spacing_cells: usize,
 }
 
 /// The lattice detections of one blurred frame (`[R k, C k]` pixels, `k = upsample`):

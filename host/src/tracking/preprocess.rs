@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use ndarray::{Array2, Array3, ArrayView1, ArrayView2, ArrayView3, ArrayViewMut2, Axis};
 
-use crate::config::{PreprocessConfig, Sampling};
+use crate::config::{PreprocessConfig, Sampling, MAX_UPSAMPLE};
 
 /// Why a preprocessing configuration cannot be used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -35,10 +35,6 @@ pub enum PreprocessError {
         truncate: f64,
     },
 }
-
-/// The largest upsampling factor: x32 already makes a 705-frame recording 1.3 GB of f64
-/// pixels, and detections finer than 0.8 mm mean nothing on a one-inch sensor.
-pub const MAX_UPSAMPLE: usize = 32;
 
 /// The blur in pixels: what [`BlurOperator`] builds its matrices from.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -24,8 +24,6 @@ use ndarray::{s, Array3, ArrayView2, ArrayView3, Axis};
 use serde::Serialize;
 
 use crate::config::{Config, Sampling};
-use crate::placement::Placement;
-use crate::rendering::signals::{self, ChannelSignals};
 use crate::stage::{Shares, Stage};
 use crate::tracking::detect::{
     detection_cost, frame_points, score_candidates, Candidates, Detections,
@@ -164,7 +162,7 @@ fn pixel_box(crop: &Crop, k: usize) -> (Range<usize>, Range<usize>) {
 /// With `keep_scene` the blurred frames are also kept in `blurred.frames` (the whole
 /// recording; previews draw them) and the scored detections in `detections`; otherwise
 /// `blurred.frames` has no frames, stage 5 recomputes the few it reads
-/// ([`recomputed_actuator_signals`]), and `detections` is empty once linked. Trajectories are in
+/// ([`recomputed_actuator_signals`](crate::rendering::signals::recomputed_actuator_signals)), and `detections` is empty once linked. Trajectories are in
 /// whole-recording frames and pixels. The crop actually used is returned. `lap` is
 /// called with the stages whose work has just been done and the share of the time since
 /// its previous call that each took (the pass's time is split between blurring and
@@ -320,30 +318,6 @@ pub fn exact_crop(
         out.cols = 0..cells.1;
     }
     out
-}
-
-/// Stage 5 ([`signals::actuator_signals`]) for the whole recording: silent outside the
-/// trajectories' frames, which lie in the crop. The blurred frames the neighbour fill
-/// reads are recomputed from `tared`, those frames only (bit for bit the pass's: the
-/// same operator on the same frame).
-pub fn recomputed_actuator_signals(
-    tracked: &TrackOutput,
-    placement: &Placement,
-    tared: ArrayView3<f64>,
-    cfg: &Config,
-    sampling: &Sampling,
-) -> Result<ChannelSignals, TrackError> {
-    let (t, r, c) = tared.dim();
-    let op = BlurOperator::new(r, c, &Blur::new(&cfg.preprocess, sampling))?;
-    let (h, w) = op.out_dim();
-    Ok(signals::actuator_signals_with(
-        &tracked.trajectories,
-        &placement.selected,
-        &placement.circles,
-        (t, h, w),
-        tracked.pitch_mm(),
-        |f, read| read(op.apply(tared.index_axis(Axis(0), f)).view()),
-    ))
 }
 
 #[cfg(test)]

@@ -13,14 +13,12 @@
 //! (so the strongest trajectory usually comes first).
 
 use ndarray::Array3;
-use serde::{Deserialize, Serialize};
 
-use crate::config::{Config, Metadata, MetadataOverrides, Sampling, TrackConfig};
-use crate::input::recording::{Recording, RecordingError};
+use crate::config::{Sampling, TrackConfig};
+use crate::input::recording::RecordingError;
 use crate::tracking::detect::Detections;
 use crate::tracking::flow::{min_cost_flow_by_parts, FlowError, FlowGraph};
 use crate::tracking::preprocess::{Blurred, PreprocessError};
-use crate::tracking::scene::{track_cropped, Crop};
 use crate::tracking::trajectory::{Point, Trajectory};
 
 /// Any failure of stages 0 to 3.
@@ -136,106 +134,6 @@ impl TrackOutput {
         &self.blurred.frames
     }
 }
-
-/// Stages 0-3: tare, upsample and blur, detect, track, at the rate and pitch of the file
-/// or the config (see [`track_with`]).
-pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, TrackError> {
-    track_with(rec, cfg, &MetadataOverrides::default())
-}
-
-/// [`track`] with the rate and pitch of `overrides` where given (`--rate`, `--pitch-mm`).
-/// The config is validated first, against the recording's sampling.
-pub fn track_with(
-    rec: &Recording,
-    cfg: &Config,
-    overrides: &MetadataOverrides,
-) -> Result<TrackOutput, TrackError> {
-    // The compile's driver on the whole recording, keeping the blurred movie.
-    track_whole(rec, cfg, overrides, true)
-}
-
-/// [`track_with`] streaming through the frames as the compile does: the same
-/// statistics and trajectories, bit for bit, but neither the blurred movie (`blurred`
-/// has no frames) nor the detections are kept, so memory follows the touch, not the
-/// recording's length (an hour's movie is 4.7 GB).
-pub fn track_streaming(
-    rec: &Recording,
-    cfg: &Config,
-    overrides: &MetadataOverrides,
-) -> Result<TrackOutput, TrackError> {
-    track_whole(rec, cfg, overrides, false)
-}
-
-/// Stages 0-3 on the whole recording (no crop), keeping the scene or not.
-fn track_whole(
-    rec: &Recording,
-    cfg: &Config,
-    overrides: &MetadataOverrides,
-    keep_scene: bool,
-) -> Result<TrackOutput, TrackError> {
-    let sampling = Sampling::new(&Metadata::resolve(overrides, rec, cfg), cfg);
-    let (_, rows, cols) = rec.dim();
-    cfg.validate_for(&sampling, (rows, cols))?;
-    let tared = rec.tare(&cfg.input, &sampling)?;
-    let whole = Crop::whole(tared.dim());
-    let (tracked, _) = track_cropped(
-        tared.view(),
-        &whole,
-        cfg,
-        &sampling,
-        keep_scene,
-        &mut |_| {},
-    )?;
-    Ok(tracked)
-}
-
-/// Links across missing frames: a contact that reads below detection for a frame or two
-/// (sensor flicker) stays one trajectory instead of breaking into pieces.
-///
-/// A detection in frame `t` also links from detections of frames `t - g` for
-/// `g = 2 ..= m + 1`, where `m` frames last at most `max_missing_s`, within `g` times the
-/// one-frame gate radius (the contact may keep moving while unseen), at the one-frame
-/// link cost of the scaled gate plus `cost_per_missing` per frame skipped. A flow that
-/// can take the frames in between keeps them: skipping a strong detection forgoes its
-/// negative cost. 60 ms bridges one frame at 20 Hz and three at 54 Hz (real flicker
-/// lasts one or two frames at 54 Hz); a lift of 150 ms between two strokes never.
-///
-/// With bridging, a detection that costs `cost_per_missing` or more is treated as a
-/// missing frame and left out of the graph. That gives up nothing the bridge can
-/// replace: if a path runs `a -> v -> b` over gaps of `g1` and `g2` frames with
-/// `g1 + g2 - 1` within the bridge, the link `a -> b` exists (the gate radius grows
-/// with the gap, so `|ab| <= |av| + |vb|` stays inside it) and costs at most
-/// `cost_per_missing` more than the two links through `v`, because the link cost
-/// `-ln(1 - x)` is convex and increasing in the squared speed `x`; so skipping `v`
-/// saves `cost(v) - cost_per_missing >= 0`. A weak detection at either end of a path
-/// only adds cost. Only a path that needs `v` to span more than the bridge allows
-/// loses it, and then the contact was unseen for longer than a flicker. On real
-/// recordings this leaves out the noise maxima (19 of 20 detections on
-/// `examples/combination.npy`), which otherwise join every contact within the wide
-/// gate and make the flow graph 20 times larger.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Bridge {
-    /// Longest time a contact may go unseen, seconds.
-    pub max_missing_s: f64,
-    /// Cost added per frame skipped.
-    pub cost_per_missing: f64,
-}
-
-impl Bridge {
-    /// The most frames a link may skip at `rate_hz`.
-    pub fn missing_frames(&self, rate_hz: f64) -> usize {
-        let m = (self.max_missing_s * rate_hz + 1e-9).floor();
-        if m.is_finite() && m > 0.0 {
-            (m as usize).min(MAX_MISSING_FRAMES)
-        } else {
-            0
-        }
-    }
-}
-
-/// However fast the sensor, a link skips at most this many frames (graph size).
-pub const MAX_MISSING_FRAMES: usize = 16;
 
 /// Builds the flow graph of `detections`, solves it and extracts the trajectories. The
 /// link gate is `cfg.max_speed_mm_s` in squared pixels per frame at `sampling`; with

@@ -5,7 +5,8 @@ use crate::common;
 use ndarray::{s, Array3};
 use touchc::config::Config;
 use touchc::input::recording::{Recording, RecordingError};
-use touchc::tracking::track::{track, TrackError, TrackOutput};
+use touchc::track::track;
+use touchc::tracking::track::{TrackError, TrackOutput};
 use touchc::tracking::trajectory::Columns;
 
 fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
