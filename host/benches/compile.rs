@@ -12,7 +12,7 @@ use touchc::compile::{compile, CompileOptions};
 use touchc::config::{Config, Preset};
 use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::input::recording::Recording;
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 use touchc::placement::place;
 use touchc::rendering::condition;
 use touchc::tracking::{detect, preprocess, track};

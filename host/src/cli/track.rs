@@ -7,7 +7,7 @@ use serde::Serialize;
 use touchc::input::recording::Recording;
 use touchc::track::track_streaming;
 use touchc::tracking::track::TrackOutput;
-use touchc::tracking::trajectory::Columns;
+use touchc::trajectory::Columns;
 
 /// Arguments of `touchc track`.
 #[derive(Debug, clap::Args)]

@@ -7,7 +7,7 @@ use touchc::config::Config;
 use touchc::input::recording::{Recording, RecordingError};
 use touchc::track::track;
 use touchc::tracking::track::{TrackError, TrackOutput};
-use touchc::tracking::trajectory::Columns;
+use touchc::trajectory::Columns;
 
 fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
     track(&Recording::from_array("synthetic", a.view()).unwrap(), cfg).unwrap()

@@ -1,7 +1,7 @@
 //! The published Python reference's outputs on its two synthetic recordings.
 
 use crate::common;
-use touchc::tracking::trajectory::Columns;
+use touchc::trajectory::Columns;
 
 use touchc::input::recording::Recording;
 use touchc::track::track;

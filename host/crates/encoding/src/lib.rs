@@ -3,4 +3,6 @@
 //!
 //! Hands on: the stimulus file's bytes (`touch_protocol`'s format).
 
+#![warn(missing_docs)]
+
 pub mod keyframes;

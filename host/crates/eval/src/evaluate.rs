@@ -1,4 +1,4 @@
-//! Tracking measured against the truth of a synthetic recording ([`crate::input::synth::Truth`]):
+//! Tracking measured against the truth of a synthetic recording ([`touchc_input::synth::Truth`]):
 //! what the trajectories keep of the touch that was there, and what they invent.
 //!
 //! Four figures, all in sensor cells and frames of the tared recording, so sensors,
@@ -12,17 +12,17 @@
 //!   the trajectory's points, or all of a shorter life);
 //! * **false contacts**: trajectories that lie near no pressing contact in most of their
 //!   frames (sensor noise, the quiet stretches before and after a touch);
-//! * **coverage**: [`crate::measure::coverage`]'s share of the touch pressure near a trajectory.
+//! * **coverage**: [`touchc_pipeline::coverage`]'s share of the touch pressure near a trajectory.
 
 use ndarray::ArrayView3;
 use serde::Serialize;
 
-use crate::compile::Compiled;
-use crate::config::Sampling;
-use crate::input::recording::{Recording, RecordingError};
-use crate::input::synth::{Truth, TruthPoint};
-use crate::measure::coverage::{self, ContactPoint, Coverage, DEFAULT_RADIUS_CELLS};
-use crate::tracking::trajectory::Trajectory;
+use touchc_input::recording::{Recording, RecordingError};
+use touchc_input::synth::{Truth, TruthPoint};
+use touchc_model::config::Sampling;
+use touchc_model::trajectory::Trajectory;
+use touchc_pipeline::compile::Compiled;
+use touchc_pipeline::coverage::{self, ContactPoint, Coverage, DEFAULT_RADIUS_CELLS};
 
 /// A trajectory follows a contact in a frame when it lies this close to the contact's
 /// centre, in cells (the radius of the coverage definition).
@@ -238,9 +238,9 @@ pub fn evaluate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::input::synth::{Gesture, Sensor, TruthContact};
-    use crate::tracking::trajectory::Columns;
     use ndarray::Array3;
+    use touchc_input::synth::{Gesture, Sensor, TruthContact};
+    use touchc_model::trajectory::Columns;
 
     fn point(frame: usize, row: f64, col: f64, pressure_psi: f64) -> TruthPoint {
         TruthPoint {

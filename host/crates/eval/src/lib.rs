@@ -2,6 +2,7 @@
 //! tracked contacts explain ([`coverage`]), tracking against a synthetic recording's
 //! truth ([`evaluate`]), and the presets' speed/accuracy trade ([`trade`]).
 
-pub mod coverage;
+#![warn(missing_docs)]
+
 pub mod evaluate;
 pub mod trade;

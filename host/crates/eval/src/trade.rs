@@ -15,15 +15,15 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::compile::{compile, CompileError, CompileOptions, Compiled};
-use crate::config::{Config, Preset};
-use crate::encoding::keyframes::KeyframeOptions;
-use crate::geometry::pixel_centre_mm;
-use crate::input::recording::Recording;
-use crate::input::synth::Truth;
-use crate::measure::evaluate::evaluate_compiled;
-use crate::tracking::track::TrackOutput;
+use crate::evaluate::evaluate_compiled;
 use touch_protocol::CHANNELS;
+use touchc_encoding::keyframes::KeyframeOptions;
+use touchc_input::recording::Recording;
+use touchc_input::synth::Truth;
+use touchc_model::config::{Config, Preset};
+use touchc_model::geometry::pixel_centre_mm;
+use touchc_pipeline::compile::{compile, CompileError, CompileOptions, Compiled};
+use touchc_tracking::track::TrackOutput;
 
 /// One preset's row of the trade table.
 #[derive(Debug, Clone, PartialEq, Serialize)]

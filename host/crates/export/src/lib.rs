@@ -16,14 +16,16 @@
 //! `docs/export.md` says what each one loses. Every writer also reports how far what
 //! its reader would reconstruct is from the player's output ([`Fidelity`]).
 
+#![warn(missing_docs)]
+
 pub mod ahap;
 pub mod haptic;
 pub mod hjif;
 pub mod tact;
 
-use crate::placement::layout::Layout;
 use touch_protocol::player::{code_to_amps, Fault};
 use touch_protocol::{DeviceConfig, Player, Status, Stimulus, CHANNELS};
+use touchc_model::layout::Layout;
 
 /// Why a stimulus cannot be exported, or an exported file imported.
 #[derive(Debug, thiserror::Error)]

@@ -5,6 +5,8 @@
 //!
 //! Hands on: tared frames `[T, rows, cols]` in psi at the sensor rate, NaN = no cell.
 
+#![warn(missing_docs)]
+
 pub mod recording;
 pub mod sanity;
 pub mod synth;

@@ -16,8 +16,10 @@ use std::path::Path;
 
 use ndarray::{Array2, Array3, ArrayView3, Axis};
 
-use crate::config::{Baseline, FileMetadata, InputConfig, Sampling, PITCH_MM_RANGE, RATE_HZ_RANGE};
-use crate::input::warning::InputWarning;
+use crate::warning::InputWarning;
+use touchc_model::config::{
+    Baseline, FileMetadata, InputConfig, Sampling, PITCH_MM_RANGE, RATE_HZ_RANGE,
+};
 
 mod npy;
 mod npz;
@@ -172,7 +174,7 @@ pub enum RecordingError {
         found: String,
     },
     /// A metadata value is not finite or outside its plausible range.
-    #[error("{name}: {field} = {} is outside the plausible range {} to {} {unit}", crate::display::Shortest(*.value), .range.start(), .range.end())]
+    #[error("{name}: {field} = {} is outside the plausible range {} to {} {unit}", touchc_model::display::Shortest(*.value), .range.start(), .range.end())]
     MetadataRange {
         /// The file the recording came from.
         name: String,
@@ -377,7 +379,7 @@ impl Recording {
         })
     }
 
-    /// The rate and pitch the file declares, for [`Metadata::resolve`](crate::config::Metadata::resolve).
+    /// The rate and pitch the file declares, for [`Metadata::resolve`](touchc_model::config::Metadata::resolve).
     pub fn file_metadata(&self) -> FileMetadata {
         FileMetadata {
             rate_hz: self.rate_hz,
@@ -758,7 +760,7 @@ mod tests {
 
     #[test]
     fn quantile_by_selection_equals_quantile_by_sorting() {
-        let mut rng = crate::test_rng::Xorshift::new(0x2545_f491_4f6c_dd1d);
+        let mut rng = touchc_test_rng::Xorshift::new(0x2545_f491_4f6c_dd1d);
         for n in [1usize, 2, 3, 10, 101, 1000] {
             let values: Vec<f64> = (0..n)
                 .map(|_| {

@@ -10,9 +10,9 @@
 
 use ndarray::{ArrayView2, ArrayView3, Axis};
 
-use crate::config::{Baseline, Config, Sampling};
-use crate::input::recording::{map_cell_series, Recording};
-use crate::input::warning::{ErasedBy, InputWarning, TransposedBy};
+use crate::recording::{map_cell_series, Recording};
+use crate::warning::{ErasedBy, InputWarning, TransposedBy};
+use touchc_model::config::{Baseline, Config, Sampling};
 
 /// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
 /// and looks like raw ADC counts.
@@ -286,7 +286,7 @@ pub const TIME_LAST_RATIO: usize = 4;
 /// line shows the frames and grid read.
 pub fn transposed(shape: (usize, usize, usize)) -> Option<InputWarning> {
     let (a, b, c) = shape;
-    let sleeve = (crate::input::synth::ROWS, crate::input::synth::COLS);
+    let sleeve = (crate::synth::ROWS, crate::synth::COLS);
     let reason = if c >= TIME_LAST_RATIO * a.max(b) {
         TransposedBy::LastAxisLongest
     } else if (a, b) == sleeve {
@@ -455,7 +455,7 @@ mod tests {
     #[test]
     fn raw_counts_fires_exactly_when_the_median_is_out_of_bounds() {
         let levels = [f64::NAN, -150.0, -100.0, -99.0, 0.0, 99.0, 100.0, 150.0];
-        let mut rng = crate::test_rng::Xorshift::new(0x9e37_79b9_7f4a_7c15);
+        let mut rng = touchc_test_rng::Xorshift::new(0x9e37_79b9_7f4a_7c15);
         for n in 1..40usize {
             for _ in 0..20 {
                 let values: Vec<f64> = (0..n)
@@ -564,7 +564,7 @@ mod tests {
             a[[t, 0, 0]] += 1.5;
         }
         // The paper's leading baseline is the one the warning is about.
-        let paper = Config::preset(crate::config::Preset::Paper);
+        let paper = Config::preset(touchc_model::config::Preset::Paper);
         let w = run(&a, &paper, &Sampling::PAPER);
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(

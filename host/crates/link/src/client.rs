@@ -760,7 +760,7 @@ fn command_name(command: &Command<'_>) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::MemoryTransport;
+    use crate::MemoryTransport;
     use touch_protocol::link::cobs::Decoder;
 
     /// A scripted device: answers each request with what `answer` returns (frames

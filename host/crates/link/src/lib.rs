@@ -8,6 +8,8 @@
 //!
 //! Pure Rust: no libusb, no libudev (ports are found through sysfs on Linux).
 
+#![warn(missing_docs)]
+
 mod client;
 pub mod serial;
 mod transport;

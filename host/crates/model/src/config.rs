@@ -61,7 +61,7 @@ impl Default for Config {
 /// `paper` only in how finely the touch is sampled in space and how thoroughly the
 /// placement is searched, `touch` only in which touch is tracked.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
     /// Real touch, the default: the paper's algorithm, with tracking that keeps what
@@ -121,7 +121,7 @@ impl Config {
     ///
     /// # Example
     /// ```
-    /// use touchc::config::{Config, Preset};
+    /// use touchc_model::config::{Config, Preset};
     /// assert_eq!(Config::preset(Preset::Touch), Config::default());
     /// let paper = Config::preset(Preset::Paper);
     /// let fast = Config::preset(Preset::Fast);
@@ -253,7 +253,7 @@ pub enum Baseline {
     Robust,
 }
 
-/// The crop of the active scene (see [`crate::tracking::scene`]).
+/// The crop of the active scene (see [`touchc_tracking::scene`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CropConfig {
@@ -397,7 +397,7 @@ impl Default for PlacementConfig {
 /// Every transform it scores is a transform of the full grid with the full grid's score,
 /// so its result is never better than the exhaustive search, and equal to it whenever
 /// the best transform lies near one of the `keep` best coarse ones (see
-/// [`crate::placement::place`]).
+/// [`touchc_placement::place`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CoarseToFine {
@@ -455,7 +455,7 @@ impl Default for SignalConfig {
 ///
 /// The signal is band-limited by the low-pass, so the file holds keyframes the player
 /// interpolates; every candidate period and quantisation is played through the real
-/// player and compared with the compiler's f64 signal (see [`crate::encoding::keyframes`]).
+/// player and compared with the compiler's f64 signal (see [`touchc_encoding::keyframes`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct KeyframeConfig {

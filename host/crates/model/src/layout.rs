@@ -28,7 +28,7 @@ pub const COLUMNS: usize = 4;
 const _: () = assert!(ROWS * COLUMNS == CHANNELS);
 
 /// The built-in paper layout, kept as a file so that users can copy and edit it.
-const PAPER_TOML: &str = include_str!("../../layouts/paper.toml");
+const PAPER_TOML: &str = include_str!("../../../layouts/paper.toml");
 /// Name used in error messages for the built-in layout.
 const PAPER_ORIGIN: &str = "<built-in layouts/paper.toml>";
 

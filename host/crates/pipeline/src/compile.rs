@@ -8,20 +8,20 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::config::Config;
-use crate::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
-use crate::encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
-use crate::input::recording::{Recording, RecordingError};
-use crate::input::warning::InputWarning;
-use crate::measure::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
-use crate::placement::layout::Layout;
-use crate::placement::{self, Placement, PlacementError};
-use crate::rendering::condition::{self, ConditionError, LimitViolation};
-use crate::rendering::signals::{self, ChannelSignals};
-use crate::stage::{Shares, Stage};
-use crate::tracking::scene::{self, Crop};
-use crate::tracking::track::{TrackError, TrackOutput};
+use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
 use touch_protocol::{Limits, CHANNELS};
+use touchc_encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
+use touchc_input::recording::{Recording, RecordingError};
+use touchc_input::warning::InputWarning;
+use touchc_model::config::Config;
+use touchc_model::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
+use touchc_model::layout::Layout;
+use touchc_model::stage::{Shares, Stage};
+use touchc_placement::{self as placement, Placement, PlacementError};
+use touchc_rendering::condition::{self, ConditionError, LimitViolation};
+use touchc_rendering::signals::{self, ChannelSignals};
+use touchc_tracking::scene::{self, Crop};
+use touchc_tracking::track::{TrackError, TrackOutput};
 
 /// Everything `compile` needs besides the recording.
 #[derive(Debug, Clone)]
@@ -147,7 +147,7 @@ pub struct Report {
     pub crop: Option<Crop>,
     /// Share of the touch pressure within two cells of a tracked contact (1 without
     /// touch, 0 when the tare removed the touch the raw frames hold: none of it is
-    /// played; see [`crate::measure::coverage`]).
+    /// played; see [`crate::coverage`]).
     pub coverage: f64,
     /// The figures behind `coverage`: touch and explained pressure, touch readings.
     pub coverage_detail: Coverage,
@@ -276,11 +276,11 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     // Stage 0: tare and trim, and the paper's "no touch" filter.
     let shape = rec.dim();
     let (tared, tare_note) = rec.tare_noting(&cfg.input, &sampling)?;
-    let mut notes: Vec<InputWarning> = crate::input::sanity::transposed(shape)
+    let mut notes: Vec<InputWarning> = touchc_input::sanity::transposed(shape)
         .into_iter()
         .chain(tare_note)
         .collect();
-    warnings.extend(crate::input::sanity::check(
+    warnings.extend(touchc_input::sanity::check(
         &rec,
         tared.view(),
         cfg,
@@ -289,7 +289,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
     let silent = touched <= cfg.input.min_touch_readings;
     if silent {
-        notes.extend(crate::input::sanity::erased_touch(&rec, cfg, &sampling));
+        notes.extend(touchc_input::sanity::erased_touch(&rec, cfg, &sampling));
     }
     // Nothing reads the raw frames after this: only the name.
     let input_name = rec.name().to_string();
@@ -357,7 +357,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
              untracked (coverage {:.2}); a scene this dense is usually noise: check the \
              tare, or narrow the link gate with --max-speed-mm-s",
             tracked.flow_work,
-            crate::tracking::track::FLOW_WORK_PER_EDGE,
+            touchc_tracking::track::FLOW_WORK_PER_EDGE,
             tracked.trajectories.len(),
             covered.0.ratio(),
         ));
@@ -481,7 +481,7 @@ fn measure_coverage(
 
 /// What the config's tracking can follow, in the units of [`Tracking`].
 fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
-    let strongest = -crate::tracking::detect::detection_cost(1e6, &cfg.detect);
+    let strongest = -touchc_tracking::detect::detection_cost(1e6, &cfg.detect);
     let pay = cfg.track.entry_cost + cfg.track.exit_cost;
     let min_frames = if strongest > 0.0 {
         (pay / strongest).floor() as usize + 1

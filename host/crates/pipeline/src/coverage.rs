@@ -16,7 +16,7 @@ use ndarray::{Array3, ArrayView3, Axis};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::tracking::trajectory::Trajectory;
+use touchc_model::trajectory::Trajectory;
 
 /// The radius of the coverage definition, in sensor cells.
 pub const DEFAULT_RADIUS_CELLS: f64 = 2.0;
@@ -376,8 +376,8 @@ pub fn explain(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tracking::trajectory::Columns;
     use ndarray::Array3;
+    use touchc_model::trajectory::Columns;
 
     fn traj(frames: &[usize], rows: &[usize], cols: &[usize]) -> Trajectory {
         Trajectory::try_from(Columns {

@@ -1,10 +1,10 @@
 //! Stages 0-3 alone, on the whole recording: what `touchc track` runs. The same driver
 //! as the compile's ([`track_cropped`]), without a crop.
 
-use crate::config::{Config, Metadata, MetadataOverrides, Sampling};
-use crate::input::recording::Recording;
-use crate::tracking::scene::{track_cropped, Crop};
-use crate::tracking::track::{TrackError, TrackOutput};
+use touchc_input::recording::Recording;
+use touchc_model::config::{Config, Metadata, MetadataOverrides, Sampling};
+use touchc_tracking::scene::{track_cropped, Crop};
+use touchc_tracking::track::{TrackError, TrackOutput};
 
 /// Stages 0-3: tare, upsample and blur, detect, track, at the rate and pitch of the file
 /// or the config (see [`track_with`]).

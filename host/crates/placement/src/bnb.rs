@@ -489,7 +489,7 @@ mod tests {
     /// A scene like the fuzzed noise: 90 trajectories of nearly equal weight, each in
     /// conflict with about a tenth of the others, so the bound prunes little.
     fn noisy(n: usize) -> SubsetProblem {
-        let mut rng = crate::test_rng::Xorshift::new(0x2545_f491_4f6c_dd1d);
+        let mut rng = touchc_test_rng::Xorshift::new(0x2545_f491_4f6c_dd1d);
         let mut next = move || rng.next_u64();
         let mut p = SubsetProblem::new((0..n).map(|i| 100.0 - i as f64 * 0.01).collect());
         for a in 0..n {

@@ -3,7 +3,7 @@
 //!
 //! For every transform of the published grid this stage finds which trajectory points lie
 //! in which workspace circle, chooses the best compatible subset of trajectories
-//! ([`crate::placement::bnb`]), and scores the transform; the lowest score wins, ties going to the
+//! ([`crate::bnb`]), and scores the transform; the lowest score wins, ties going to the
 //! first transform in grid order. It reproduces the authors' published code score for
 //! score (pinned against its outputs in `tests/placement_reference.rs`), with two
 //! deliberate differences: the subset is exact (the published code uses ECOS_BB, which
@@ -23,8 +23,9 @@
 //! `PlacementConfig::coarse_to_fine` (the `fast` preset) scores a sub-grid first and the
 //! full grid only near its best transforms; every score it computes is the full grid's.
 
+#![warn(missing_docs)]
+
 pub mod bnb;
-pub mod layout;
 
 mod grid;
 mod scoring;
@@ -40,11 +41,11 @@ use validation::*;
 
 use thiserror::Error;
 
-use crate::config::{grid_size, PlacementConfig, MAX_TRANSFORMS};
-use crate::geometry::{pixel_centre_mm, Circle};
-use crate::placement::bnb::SubsetProblem;
-use crate::placement::layout::{Layout, CHANNELS};
-use crate::tracking::trajectory::Trajectory;
+use crate::bnb::SubsetProblem;
+use touchc_model::config::{grid_size, PlacementConfig, MAX_TRANSFORMS};
+use touchc_model::geometry::{pixel_centre_mm, Circle};
+use touchc_model::layout::{Layout, CHANNELS};
+use touchc_model::trajectory::Trajectory;
 
 /// One placement of the layout on the frame.
 ///
@@ -189,9 +190,10 @@ pub enum PlacementError {
 ///
 /// # Example
 /// ```
-/// use touchc::config::PlacementConfig;
-/// use touchc::placement::{layout::Layout, place};
-/// use touchc::tracking::trajectory::{Point, Trajectory};
+/// use touchc_model::config::PlacementConfig;
+/// use touchc_model::layout::Layout;
+/// use touchc_placement::place;
+/// use touchc_model::trajectory::{Point, Trajectory};
 ///
 /// // One strong contact held still for three frames on a 56 x 147 px (8 x 21 cell) frame.
 /// let touch: Trajectory = (0..3)
@@ -203,7 +205,7 @@ pub enum PlacementError {
 /// assert_eq!(p.selected, vec![0]);
 /// // The winner puts the contact in column 1, whose weight is 1.02.
 /// assert!(p.score <= -3.0 * 3.9 * 1.02);
-/// # Ok::<(), touchc::placement::PlacementError>(())
+/// # Ok::<(), touchc_placement::PlacementError>(())
 /// ```
 pub fn place(
     trajs: &[Trajectory],
@@ -263,7 +265,7 @@ pub fn place(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tracking::trajectory::Columns;
+    use touchc_model::trajectory::Columns;
 
     #[test]
     fn linspace_matches_numpy() {

@@ -46,8 +46,8 @@ use sci_rs::signal::filter::design::{
 use sci_rs::signal::filter::sosfilt_dyn;
 use thiserror::Error;
 
-use crate::config::SignalConfig;
-use crate::rendering::signals::CHANNELS;
+use crate::signals::CHANNELS;
+use touchc_model::config::SignalConfig;
 
 /// Update rate of the sleeve's outputs, Hz (docs/hardware.md): the rate of
 /// [`Conditioned::output`] and the time step of [`check_limits`].
@@ -82,7 +82,7 @@ pub enum ConditionError {
         rate_hz: f64,
     },
     /// A scalar parameter is out of its domain (negative, NaN or infinite).
-    #[error("signal parameter `{name}` = {} is out of range", crate::display::Shortest(*.value))]
+    #[error("signal parameter `{name}` = {} is out of range", touchc_model::display::Shortest(*.value))]
     InvalidParameter {
         /// Config field name.
         name: &'static str,
@@ -416,8 +416,8 @@ fn validate(cfg: &SignalConfig, frame_rate_hz: f64) -> Result<(), ConditionError
 /// `condition(&signals.psi, &config.signal, config.input.frame_rate_hz)`.
 ///
 /// ```
-/// use touchc::rendering::condition::condition;
-/// use touchc::config::SignalConfig;
+/// use touchc_rendering::condition::condition;
+/// use touchc_model::config::SignalConfig;
 ///
 /// // One second of silence on all eight channels at 20 Hz.
 /// let psi: [Vec<f64>; 8] = std::array::from_fn(|_| vec![0.0; 20]);
@@ -427,7 +427,7 @@ fn validate(cfg: &SignalConfig, frame_rate_hz: f64) -> Result<(), ConditionError
 /// assert_eq!(c.output[c.output.len() - 1], [0.0; 8]); // ...and ends there
 /// assert_eq!(c.output[c.output.len() / 2], [-0.9; 8]); // silence is the pre-dent
 /// assert_eq!(c.output.len(), 2 * 500 + (c.frames_a.len() - 1) * 50 + 1);
-/// # Ok::<(), touchc::rendering::condition::ConditionError>(())
+/// # Ok::<(), touchc_rendering::condition::ConditionError>(())
 /// ```
 pub fn condition(
     psi: &[Vec<f64>; CHANNELS],

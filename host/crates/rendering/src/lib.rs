@@ -4,5 +4,7 @@
 //!
 //! Hands on: 8 currents in amperes at the 1 kHz output rate.
 
+#![warn(missing_docs)]
+
 pub mod condition;
 pub mod signals;

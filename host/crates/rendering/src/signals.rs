@@ -14,16 +14,16 @@
 use ndarray::{ArrayView2, ArrayView3, Axis};
 use rayon::prelude::*;
 
-use crate::config::{Config, Sampling};
-use crate::geometry::{pixel_centre_mm, Circle};
-use crate::placement::Placement;
-use crate::tracking::preprocess::{Blur, BlurOperator};
-use crate::tracking::track::{TrackError, TrackOutput};
-use crate::tracking::trajectory::Trajectory;
+use touchc_model::config::{Config, Sampling};
+use touchc_model::geometry::{pixel_centre_mm, Circle};
+use touchc_model::trajectory::Trajectory;
+use touchc_placement::Placement;
+use touchc_tracking::preprocess::{Blur, BlurOperator};
+use touchc_tracking::track::{TrackError, TrackOutput};
 
 /// Actuator rows, columns per row (column 0 nearest the elbow) and channels, numbered
 /// `row * COLUMNS + column` (docs/hardware.md): the layout's, which are the protocol's.
-pub use crate::placement::layout::{CHANNELS, COLUMNS, ROWS};
+pub use touchc_model::layout::{CHANNELS, COLUMNS, ROWS};
 
 /// Why an actuator renders what it renders at one frame; kept next to the pressure so
 /// plots and tests can tell a trajectory from neighbour fill from silence.
@@ -257,8 +257,8 @@ pub fn recomputed_actuator_signals(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tracking::trajectory::Point;
     use ndarray::Array3;
+    use touchc_model::trajectory::Point;
 
     const PITCH: f64 = 25.4 / 7.0;
 

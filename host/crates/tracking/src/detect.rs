@@ -12,8 +12,8 @@
 
 use ndarray::ArrayView2;
 
-use crate::config::{DetectConfig, Split};
-use crate::tracking::preprocess::Blurred;
+use crate::preprocess::Blurred;
+use touchc_model::config::{DetectConfig, Split};
 
 /// One local maximum of one blurred frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -215,7 +215,7 @@ fn frame_min_of(frame: ArrayView2<f64>) -> f64 {
     }
 }
 
-crate::wide::kernel! {
+touchc_wide::kernel! {
     /// The candidates of [`local_maxima`]: pixels `(row, col, value)` at least level
     /// with the maximum of their 3 x 3 neighbourhood (outside the frame counts as 0) and
     /// above `min_value`, in row-major order.
@@ -625,13 +625,13 @@ mod tests {
     use ndarray::array;
 
     /// The AVX2 build of the local maxima finds the baseline's, value for value
-    /// ([`crate::wide`]), on frames with peaks, plateaus and flat zeros.
+    /// ([`touchc_wide`]), on frames with peaks, plateaus and flat zeros.
     #[test]
     fn the_avx2_build_finds_the_baseline_maxima() {
-        if !crate::wide::avx2_or_skip("detect::tests::the_avx2_build_finds_the_baseline_maxima") {
+        if !touchc_wide::avx2_or_skip("detect::tests::the_avx2_build_finds_the_baseline_maxima") {
             return;
         }
-        let mut rng = crate::test_rng::Xorshift::new(0x9e37_79b9_7f4a_7c15);
+        let mut rng = touchc_test_rng::Xorshift::new(0x9e37_79b9_7f4a_7c15);
         let mut next = move || rng.uniform();
         for (i, dim) in [(56, 147), (3, 5), (1, 9), (7, 1), (17, 33)]
             .into_iter()

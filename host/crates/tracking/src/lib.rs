@@ -6,9 +6,10 @@
 //!
 //! Hands on: [`trajectory::Trajectory`]s in sensor cells at the upsampled frame rate.
 
+#![warn(missing_docs)]
+
 pub mod detect;
 pub mod flow;
 pub mod preprocess;
 pub mod scene;
 pub mod track;
-pub mod trajectory;

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use ndarray::{Array2, Array3, ArrayView1, ArrayView2, ArrayView3, ArrayViewMut2, Axis};
 
-use crate::config::{PreprocessConfig, Sampling, MAX_UPSAMPLE};
+use touchc_model::config::{PreprocessConfig, Sampling, MAX_UPSAMPLE};
 
 /// Why a preprocessing configuration cannot be used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -223,8 +223,8 @@ impl BlurOperator {
     }
 }
 
-crate::wide::kernel! {
-    /// [`BlurOperator::apply_into`]; compiled for AVX2 too (`crate::wide`).
+touchc_wide::kernel! {
+    /// [`BlurOperator::apply_into`]; compiled for AVX2 too (`touchc_wide`).
     fn blur_into / blur_into_baseline / blur_into_avx2 (
         op: &BlurOperator,
         frame: ArrayView2<f64>,
@@ -304,7 +304,7 @@ fn validate(cfg: &Blur) -> Result<(), PreprocessError> {
 /// whole blurred movie, for the stage benchmarks, the tests and the previews (the
 /// pipeline itself streams, see [`blur_stream`]).
 ///
-/// `tared` must be NaN-free (see [`crate::input::recording::Recording::tare`]); `sampling` gives
+/// `tared` must be NaN-free (see [`touchc_input::recording::Recording::tare`]); `sampling` gives
 /// the cell pitch and upsampling factor.
 pub fn preprocess(
     tared: ArrayView3<f64>,
@@ -504,7 +504,7 @@ fn blocked_sum(values: &[f64], f: impl Fn(f64) -> f64) -> f64 {
     sum + comp
 }
 
-crate::wide::kernel! {
+touchc_wide::kernel! {
     /// Population mean and standard deviation (numpy's `mean`, `std` with `ddof = 0`),
     /// two-pass with compensated block sums.
     ///
@@ -557,7 +557,7 @@ mod tests {
 
     /// Frames of random bumps over a few decades, some with exact plateaus.
     fn random_frames(seed: u64, count: usize, dim: (usize, usize)) -> Vec<Array2<f64>> {
-        let mut rng = crate::test_rng::Xorshift::new(seed);
+        let mut rng = touchc_test_rng::Xorshift::new(seed);
         let mut next = move || rng.uniform();
         (0..count)
             .map(|i| {
@@ -575,10 +575,10 @@ mod tests {
     }
 
     /// The AVX2 builds of the blur and of the mean and std give the baseline's numbers
-    /// to the bit ([`crate::wide`]); on a CPU without AVX2 there is one build only.
+    /// to the bit ([`touchc_wide`]); on a CPU without AVX2 there is one build only.
     #[test]
     fn the_avx2_builds_compute_the_baseline_numbers() {
-        if !crate::wide::avx2_or_skip(
+        if !touchc_wide::avx2_or_skip(
             "preprocess::tests::the_avx2_builds_compute_the_baseline_numbers",
         ) {
             return;

@@ -23,14 +23,12 @@ use std::time::{Duration, Instant};
 use ndarray::{s, Array3, ArrayView2, ArrayView3, Axis};
 use serde::Serialize;
 
-use crate::config::{Config, Sampling};
-use crate::stage::{Shares, Stage};
-use crate::tracking::detect::{
-    detection_cost, frame_points, score_candidates, Candidates, Detections,
-};
-use crate::tracking::flow::FlowError;
-use crate::tracking::preprocess::{blur_chunks, Blur, BlurOperator, Blurred};
-use crate::tracking::track::{link, TrackError, TrackOutput};
+use crate::detect::{detection_cost, frame_points, score_candidates, Candidates, Detections};
+use crate::flow::FlowError;
+use crate::preprocess::{blur_chunks, Blur, BlurOperator, Blurred};
+use crate::track::{link, TrackError, TrackOutput};
+use touchc_model::config::{Config, Sampling};
+use touchc_model::stage::{Shares, Stage};
 
 /// The part of a tared recording the heavy stages look at, in frames and sensor cells.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -162,7 +160,7 @@ fn pixel_box(crop: &Crop, k: usize) -> (Range<usize>, Range<usize>) {
 /// With `keep_scene` the blurred frames are also kept in `blurred.frames` (the whole
 /// recording; previews draw them) and the scored detections in `detections`; otherwise
 /// `blurred.frames` has no frames, stage 5 recomputes the few it reads
-/// ([`recomputed_actuator_signals`](crate::rendering::signals::recomputed_actuator_signals)), and `detections` is empty once linked. Trajectories are in
+/// ([`recomputed_actuator_signals`](touchc_rendering::signals::recomputed_actuator_signals)), and `detections` is empty once linked. Trajectories are in
 /// whole-recording frames and pixels. The crop actually used is returned. `lap` is
 /// called with the stages whose work has just been done and the share of the time since
 /// its previous call that each took (the pass's time is split between blurring and

@@ -14,12 +14,12 @@
 
 use ndarray::Array3;
 
-use crate::config::{Sampling, TrackConfig};
-use crate::input::recording::RecordingError;
-use crate::tracking::detect::Detections;
-use crate::tracking::flow::{min_cost_flow_by_parts, FlowError, FlowGraph};
-use crate::tracking::preprocess::{Blurred, PreprocessError};
-use crate::tracking::trajectory::{Point, Trajectory};
+use crate::detect::Detections;
+use crate::flow::{min_cost_flow_by_parts, FlowError, FlowGraph};
+use crate::preprocess::{Blurred, PreprocessError};
+use touchc_input::recording::RecordingError;
+use touchc_model::config::{Sampling, TrackConfig};
+use touchc_model::trajectory::{Point, Trajectory};
 
 /// Any failure of stages 0 to 3.
 #[derive(Debug, thiserror::Error)]
@@ -36,7 +36,7 @@ pub enum TrackError {
     Flow(#[from] FlowError),
     /// A knob is out of its range (names the knob, the value and the range).
     #[error("config: {0}")]
-    Config(#[from] crate::config::ConfigError),
+    Config(#[from] touchc_model::config::ConfigError),
     /// The detections link into a flow graph above [`MAX_FLOW_EDGES`].
     #[error(
         "the scene is too dense to track: {detections} detections would link into more \

@@ -11,6 +11,8 @@
 //! `#[target_feature(enable = "avx2")]`, so that the compiler generates the body, and
 //! whatever it inlines, for each.
 
+#![warn(missing_docs)]
+
 /// Whether this CPU runs AVX2 (cached by the standard library after the first call).
 #[inline]
 pub fn avx2() -> bool {
@@ -30,17 +32,14 @@ pub fn avx2() -> bool {
 /// stderr, past the harness's capture) with the number of skips so far, and with
 /// `TOUCHC_REQUIRE_AVX2` set (as `scripts/check.sh` does on a CPU that has AVX2) it
 /// fails instead.
-#[cfg(test)]
-pub(crate) fn avx2_or_skip(test: &str) -> bool {
+pub fn avx2_or_skip(test: &str) -> bool {
     // `eprintln!` would be captured with the passing test's output and never shown.
     skip_unless(avx2(), test, &mut std::io::stderr())
 }
 
 /// How many comparisons [`avx2_or_skip`] skipped in this process.
-#[cfg(test)]
 static SKIPS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
-#[cfg(test)]
 fn skip_unless(available: bool, test: &str, out: &mut impl std::io::Write) -> bool {
     if available {
         return true;
@@ -61,6 +60,7 @@ fn skip_unless(available: bool, test: &str, out: &mut impl std::io::Write) -> bo
 /// `kernel! { fn name / name_baseline / name_avx2 (args) -> R { body } }` defines
 /// `name`, which runs `body` in its AVX2 build (`name_avx2`) when [`avx2`] says so, else
 /// in its baseline build (`name_baseline`); the tests call both.
+#[macro_export]
 macro_rules! kernel {
     (
         $(#[$meta:meta])*
@@ -71,7 +71,7 @@ macro_rules! kernel {
         $vis fn $name($($arg: $ty),*) $(-> $ret)? {
             #[cfg(target_arch = "x86_64")]
             {
-                if $crate::wide::avx2() {
+                if $crate::avx2() {
                     // SAFETY: the CPU runs AVX2 (checked just above), the one feature
                     // `$wide` is compiled for.
                     return unsafe { $wide($($arg),*) };
@@ -91,7 +91,7 @@ macro_rules! kernel {
         /// The AVX2 build of the kernel above.
         ///
         /// # Safety
-        /// Only on a CPU that runs AVX2 ([`crate::wide::avx2`]).
+        /// Only on a CPU that runs AVX2 ([`touchc_wide::avx2`]).
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2")]
         #[inline(never)]
@@ -102,8 +102,6 @@ macro_rules! kernel {
         }
     };
 }
-
-pub(crate) use kernel;
 
 #[cfg(test)]
 mod tests {

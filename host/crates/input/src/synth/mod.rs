@@ -30,7 +30,7 @@ pub const COLS: usize = 21;
 
 /// A gesture the generator can produce.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Gesture {
     /// One fingertip-sized contact sliding along the arm over about 1.2 s
@@ -72,7 +72,7 @@ impl Gesture {
 
 /// Which sleeve outline to mask the frame with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Mask {
     /// The 142-cell sleeve of the reference recordings.
     Cells142,
@@ -97,7 +97,7 @@ impl Mask {
 
 /// The sensor a recording imitates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Sensor {
     /// The paper's sleeve: 8 x 21 one-inch cells (outline from [`Mask`]) at 20 Hz.
@@ -127,7 +127,7 @@ impl Sensor {
     /// Frame rate, Hz.
     pub fn rate_hz(self) -> f64 {
         match self {
-            Sensor::Sleeve => crate::config::Sampling::PAPER.rate_hz,
+            Sensor::Sleeve => touchc_model::config::Sampling::PAPER.rate_hz,
             Sensor::Grid10 => 54.0,
         }
     }
@@ -135,7 +135,7 @@ impl Sensor {
     /// Cell pitch, mm.
     pub fn pitch_mm(self) -> f64 {
         // Both sensors have the paper's one-inch cells.
-        crate::config::Sampling::PAPER.pitch_mm
+        touchc_model::config::Sampling::PAPER.pitch_mm
     }
 
     /// The sensor's name on the command line.
@@ -394,7 +394,7 @@ pub enum NpzWriteError {
 
 /// The bytes of a numpy `.npz` archive (`np.savez`'s layout: stored members named
 /// `<key>.npy`) holding `recording` as `pressure` and the sampling as the scalars
-/// `rate_hz` and `pitch_mm`, where [`crate::input::recording::Recording::load`] and
+/// `rate_hz` and `pitch_mm`, where [`crate::recording::Recording::load`] and
 /// `np.load` find them: the file compiles at its own rate without `--rate`.
 pub fn to_npz(
     recording: &Array3<f64>,
@@ -497,13 +497,13 @@ mod tests {
                 &[Gesture::Stroke],
                 7,
                 Mask::Cells142,
-                include_bytes!("../../../../examples/stroke.npy"),
+                include_bytes!("../../../../../examples/stroke.npy"),
             ),
             (
                 &[Gesture::Tap, Gesture::Pat],
                 11,
                 Mask::Cells142,
-                include_bytes!("../../../../examples/tap_pat.npy"),
+                include_bytes!("../../../../../examples/tap_pat.npy"),
             ),
         ];
         for (gestures, seed, mask, bytes) in cases {

@@ -98,7 +98,7 @@ pub enum LimitViolation {
         sample: usize,
     },
     /// A limit is negative, NaN or infinite.
-    #[error("limit `{name}` = {} is not a finite, non-negative number", crate::display::Shortest(*.value))]
+    #[error("limit `{name}` = {} is not a finite, non-negative number", touchc_model::display::Shortest(*.value))]
     InvalidLimits {
         /// Field name.
         name: &'static str,
@@ -193,7 +193,7 @@ fn scan_halves(signal: &[[f64; CHANNELS]], scale: f64, limits: &Limits) -> Scann
 }
 
 /// [`Scan::run`], in its AVX2 build when the CPU runs AVX2 (the same numbers, see
-/// [`crate::wide`]).
+/// [`touchc_wide`]).
 fn run_scan<const FIRST: usize, const N: usize>(
     signal: &[[f64; CHANNELS]],
     scale: f64,
@@ -201,7 +201,7 @@ fn run_scan<const FIRST: usize, const N: usize>(
 ) -> (Scan<FIRST, N>, Option<LimitViolation>) {
     #[cfg(target_arch = "x86_64")]
     {
-        if crate::wide::avx2() {
+        if touchc_wide::avx2() {
             // SAFETY: the CPU runs AVX2 (checked just above).
             return unsafe { run_scan_avx2(signal, scale, limits) };
         }
@@ -212,7 +212,7 @@ fn run_scan<const FIRST: usize, const N: usize>(
 /// [`Scan::run`] compiled for AVX2.
 ///
 /// # Safety
-/// Only on a CPU that runs AVX2 ([`crate::wide::avx2`]).
+/// Only on a CPU that runs AVX2 ([`touchc_wide::avx2`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn run_scan_avx2<const FIRST: usize, const N: usize>(
@@ -503,7 +503,7 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 /// or invalid limits.
 ///
 /// ```
-/// use touchc::rendering::condition::{check_limits, fit, Limits};
+/// use touchc_rendering::condition::{check_limits, fit, Limits};
 ///
 /// // 1.5 A on channel 0 after a gentle 100 ms rise: over the 1 A peak.
 /// let mut signal: Vec<[f64; 8]> = (0..=100)
@@ -514,7 +514,7 @@ pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), L
 /// let scale = fit(&mut signal, &Limits::default())?;
 /// assert!((scale - 1.0 / 1.5).abs() < 1e-12);
 /// assert_eq!(check_limits(&signal, &Limits::default()), Ok(()));
-/// # Ok::<(), touchc::rendering::condition::LimitViolation>(())
+/// # Ok::<(), touchc_rendering::condition::LimitViolation>(())
 /// ```
 pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, LimitViolation> {
     fit_to(signal, limits, 1.0)
@@ -774,7 +774,7 @@ mod tests {
     /// sometimes with one odd sample: a jump, a NaN or an infinity.
     fn signals() -> impl Strategy<Value = Vec<[f64; CHANNELS]>> {
         (1usize..1200, any::<u64>(), 0usize..4, any::<usize>()).prop_map(|(n, seed, odd, at)| {
-            let mut rng = crate::test_rng::Xorshift::new(seed);
+            let mut rng = touchc_test_rng::Xorshift::new(seed);
             let mut next = move || rng.uniform();
             let mut level = [0.0_f64; CHANNELS];
             let mut signal: Vec<[f64; CHANNELS]> = (0..n)

@@ -333,7 +333,7 @@ impl Parts {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_rng::Xorshift;
+    use touchc_test_rng::Xorshift;
 
     /// The loop [`solve_in_order`] stands for: the oracle.
     fn in_order(
