@@ -23,7 +23,7 @@ cargo clippy --all-targets --locked -- -D warnings
 step "clippy (protocol for the MCU, with defmt)"
 cargo clippy -p touch-protocol --target thumbv7em-none-eabihf --features defmt --locked -- -D warnings
 
-# The AVX2 comparisons (host/src/wide.rs) can only run on a CPU that has AVX2: there a
+# The AVX2 comparisons (host/crates/wide/src/lib.rs) can only run on a CPU that has AVX2: there a
 # skip is a failure; elsewhere each skip prints a SKIPPED line, and this says why.
 if grep -qw avx2 /proc/cpuinfo 2>/dev/null; then
     export TOUCHC_REQUIRE_AVX2=1
