@@ -1,6 +1,6 @@
 //! The unit tests' seeded generator: reproducible inputs without an RNG crate.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 /// Xorshift64 (13, 7, 17); the same numbers for the same seed on every machine.
 pub struct Xorshift(u64);
