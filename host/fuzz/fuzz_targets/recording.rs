@@ -4,7 +4,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use touchc::input::recording::{Recording, PITCH_MM_RANGE, RATE_HZ_RANGE};
+use touchc::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+use touchc::input::recording::Recording;
 
 #[path = "../../tests/common/poison.rs"]
 mod poison;

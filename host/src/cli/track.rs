@@ -5,8 +5,9 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 use touchc::input::recording::Recording;
-use touchc::tracking::track::{track_streaming, TrackOutput};
-use touchc::tracking::trajectory::Columns;
+use touchc::track::track_streaming;
+use touchc::tracking::track::TrackOutput;
+use touchc::trajectory::Columns;
 
 /// Arguments of `touchc track`.
 #[derive(Debug, clap::Args)]

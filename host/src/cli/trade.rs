@@ -9,8 +9,9 @@ use anyhow::Context;
 use touchc::compile::CompileOptions;
 use touchc::config::Preset;
 use touchc::input::synth::Truth;
-use touchc::measure::trade::{plot_svg, trade, TradeRow};
+use touchc::measure::trade::{trade, TradeRow};
 use touchc::stage::Stage;
+use touchc::viz::trade::plot_svg;
 
 /// Arguments of `touchc trade`.
 #[derive(Debug, clap::Args)]

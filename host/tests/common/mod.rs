@@ -69,7 +69,7 @@ pub fn reference_dir() -> std::path::PathBuf {
 }
 
 use serde::Deserialize;
-use touchc::tracking::trajectory::{Columns, Trajectory};
+use touchc::trajectory::{Columns, Trajectory};
 
 /// One trajectory as the reference stores it.
 #[derive(Deserialize)]

@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 
 use crate::bin::{ok, refused, s, stderr, touchc};
 
