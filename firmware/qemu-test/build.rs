@@ -1,6 +1,6 @@
 //! Makes the test bank with the protocol crate's encoder, plays every slot with the
 //! host's player, and writes the bank and the expected tick counts and code hashes
-//! for the target to check against. Links with the workspace's `memory.x`.
+//! for the target to check against. Links with the firmware's `memory.x`.
 
 #[path = "src/crc32.rs"]
 mod crc32;
@@ -132,13 +132,16 @@ fn bold() -> Vec<u8> {
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("set by cargo"));
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("set by cargo"));
-    let root = manifest
-        .join("../..")
+    let firmware = manifest
+        .join("..")
         .canonicalize()
-        .expect("workspace root");
-    println!("cargo:rustc-link-search={}", root.display());
+        .expect("the firmware crate");
+    println!("cargo:rustc-link-search={}", firmware.display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
-    println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+    println!(
+        "cargo:rerun-if-changed={}",
+        firmware.join("memory.x").display()
+    );
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-changed=src/crc32.rs");
     println!("cargo:rerun-if-changed=src/scenario.rs");

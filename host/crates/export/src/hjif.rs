@@ -211,8 +211,13 @@ pub struct Keyframe {
     pub amplitude_modulation: Option<f64>,
 }
 
-/// Writes `playback` as one HJIF document, dated `date`.
-pub fn export(playback: &Playback, date: &str) -> Result<Exported, ExportError> {
+/// Writes `playback` as one HJIF document, dated `date`, its reference device resonating
+/// at `resonance_hz` when that is known.
+pub fn export(
+    playback: &Playback,
+    date: &str,
+    resonance_hz: Option<f64>,
+) -> Result<Exported, ExportError> {
     let fs = playback.full_scale_a;
     let layout = &playback.layout;
     let hash = layout.geometry_hash();
@@ -291,7 +296,7 @@ pub fn export(playback: &Playback, date: &str) -> Result<Exported, ExportError> 
                 body_part_mask: Some(LEFT_FOREARM_MASK),
                 minimum_frequency: Some(0.0),
                 maximum_frequency: Some(500.0),
-                resonance_frequency: None,
+                resonance_frequency: resonance_hz,
                 maximum_amplitude: Some(1.0),
                 impedance: Some(8.0),
                 maximum_current: Some(fs),

@@ -280,6 +280,10 @@ pub struct ExportOptions {
     pub pick: Option<Pick>,
     /// The creation date written where a format has one, ISO 8601 (`YYYY-MM-DD`).
     pub date: String,
+    /// The actuator's mechanical resonance, Hz, where a format describes the device
+    /// (HJIF's reference device). `None` leaves it out: no value is made up for a coil
+    /// whose datasheet the project does not have.
+    pub resonance_hz: Option<f64>,
 }
 
 /// A single-signal format's writer: one file of `points` (tick, 0..1 value), the
@@ -293,7 +297,7 @@ pub fn export(
     opts: &ExportOptions,
 ) -> Result<Exported, ExportError> {
     match format {
-        Format::Hjif => hjif::export(playback, &opts.date),
+        Format::Hjif => hjif::export(playback, &opts.date, opts.resonance_hz),
         Format::Tact => tact::export(playback),
         Format::Haptic | Format::Ahap => {
             let picks: Vec<(String, Pick)> = match opts.pick {
@@ -510,7 +514,7 @@ mod tests {
         let bytes = waves(Layout::paper().geometry_hash());
         let stim = Stimulus::decode(&bytes).unwrap();
         let played = play(&stim, &Layout::paper()).unwrap();
-        let out = hjif::export(&played, "2026-01-01").unwrap();
+        let out = hjif::export(&played, "2026-01-01", None).unwrap();
         assert!(
             out.fidelity.max_fs <= CURVE_TOLERANCE_FS + 1e-6,
             "{:?}",
@@ -536,6 +540,7 @@ mod tests {
             let opts = ExportOptions {
                 pick: None,
                 date: "2026-01-01".into(),
+                resonance_hz: None,
             };
             let out = export(&played, format, &opts).unwrap();
             let files = if format.single_signal() { CHANNELS } else { 1 };
@@ -552,6 +557,7 @@ mod tests {
             &ExportOptions {
                 pick: None,
                 date: String::new(),
+                resonance_hz: None,
             },
         )
         .unwrap();
