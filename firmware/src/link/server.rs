@@ -435,7 +435,7 @@ pub fn identity<'a>(
         Ok(b) => {
             let summary = link::BankSummary {
                 len: b.as_bytes().len() as u32,
-                crc: super::bank::bank_crc(b.as_bytes()),
+                crc: super::bank::stored_crc(b.as_bytes()),
                 slots: b.len() as u8,
             };
             if core::ptr::eq(source, builtin) {

@@ -145,7 +145,7 @@ fn hello_info_and_slots() {
         info.bank,
         BankState::Flashed(link::BankSummary {
             len: image.len() as u32,
-            crc: bank_crc(&image),
+            crc: host_bank_crc(&image),
             slots: 2
         })
     );
@@ -189,6 +189,39 @@ fn hello_info_and_slots() {
             len: 257
         }),
         Err(LinkError::OutOfRange)
+    );
+}
+
+/// The CRC a bank carries at its end, over every byte before it, as the host computes
+/// it from the file.
+fn host_bank_crc(image: &[u8]) -> u32 {
+    touch_protocol::container::crc32(&image[..image.len() - 4])
+}
+
+#[test]
+fn info_gives_each_bank_its_own_crc() {
+    let other = bank(&[constant_stimulus("c", 500, 700)]);
+    let mut crcs = Vec::new();
+    // Two flashed banks, and the built-in one (the region erased).
+    for (image, flashed) in [(two_slots(), true), (other, true), (builtin(), false)] {
+        let mut h = if flashed {
+            Host::new(Device::boot(&image, &builtin()))
+        } else {
+            Host::new(Device::boot(&[], &image))
+        };
+        let f = h.call(Command::Info).unwrap();
+        let Reply::Info(info) = reply(&f) else {
+            panic!()
+        };
+        let (BankState::Flashed(s) | BankState::Builtin(s)) = info.bank else {
+            panic!("{:?}", info.bank)
+        };
+        assert_eq!(s.crc, host_bank_crc(&image), "{:?}", info.bank);
+        crcs.push(s.crc);
+    }
+    assert!(
+        crcs[0] != crcs[1] && crcs[1] != crcs[2] && crcs[0] != crcs[2],
+        "{crcs:x?}"
     );
 }
 
@@ -445,7 +478,9 @@ fn an_upload_commits_and_the_device_restarts_into_it() {
     let Reply::Info(info) = reply(&f) else {
         panic!()
     };
-    assert!(matches!(info.bank, BankState::Flashed(s) if s.crc == bank_crc(&new) && s.slots == 3));
+    assert!(
+        matches!(info.bank, BankState::Flashed(s) if s.crc == host_bank_crc(&new) && s.slots == 3)
+    );
     let f = h.call(Command::Slot { slot: 2 }).unwrap();
     assert!(matches!(reply(&f), Reply::Slot(s) if s.name == "z"));
     let f = h.call(Command::Play { slot: 2 }).unwrap();

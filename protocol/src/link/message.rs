@@ -248,7 +248,10 @@ pub enum BankState {
 pub struct BankSummary {
     /// Bytes of the image.
     pub len: u32,
-    /// CRC-32 of the whole image (as [`Command::BankBegin`] takes it).
+    /// The CRC-32 stored in the image's last four bytes (over every byte before
+    /// them): the one the boot checked, which tells banks apart. (The CRC-32 of a
+    /// whole intact image, as [`Command::BankBegin`] takes it, is the same constant
+    /// for every bank.)
     pub crc: u32,
     /// Number of slots.
     pub slots: u8,
