@@ -32,10 +32,6 @@ pub const BAUD: u32 = 460_800;
 /// APB1, USART2's clock (see `board::config`).
 const PCLK1_HZ: u32 = 42_000_000;
 
-/// An upload idle this long is abandoned: the host is gone, and the device restarts
-/// into the built-in bank rather than stay locked.
-const UPLOAD_IDLE: Duration = Duration::from_secs(30);
-
 /// A frame begun on one transport and silent this long gives way to the other's.
 const FRAME_IDLE: Duration = Duration::from_millis(100);
 
@@ -187,7 +183,6 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
     let mut owner_heard = Instant::now();
     // The transport that gets the tick's answers and events.
     let mut last = 0;
-    let mut heard = Instant::now();
     let mut batch = [0u8; RX_LEN];
     loop {
         // Woken by a byte or an answer; once a second anyway, for the upload timeout.
@@ -211,8 +206,8 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
             if n == 0 {
                 continue;
             }
-            heard = Instant::now();
-            owner_heard = heard;
+            owner_heard = Instant::now();
+            server.heard(owner_heard.as_millis());
             owner = (batch[n - 1] != 0).then_some(i);
             last = i;
             server.receive(&batch[..n], &mut |f: &[u8]| port.send(f));
@@ -237,8 +232,10 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
         }
         let port = &mut ports[last];
         server.poll(&mut |f: &[u8]| port.send(f));
-        let abandoned = server.locked() && heard.elapsed() > UPLOAD_IDLE;
-        if server.restart_requested() || abandoned {
+        // After a commit or an abort, or an upload abandoned by its host
+        // (`sleeve_firmware::link::server::UPLOAD_IDLE_MS`): the task wakes at least
+        // once a second to see it.
+        if server.restart_due(Instant::now().as_millis()) {
             // Let the last reply leave: the USART's ring empties at 46 bytes per ms;
             // the USB one as the host reads, if it does (not waited for past 100 ms).
             let since = Instant::now();

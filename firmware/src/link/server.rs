@@ -31,6 +31,11 @@ pub struct Identity<'a> {
     pub slots: Option<Bank<'a>>,
 }
 
+/// An upload with nothing heard from the host for this long is abandoned: the host
+/// is gone, and the device restarts (into the built-in bank: the region was erased
+/// at the upload's begin) rather than stay locked, with nothing playable, for good.
+pub const UPLOAD_IDLE_MS: u64 = 30_000;
+
 /// The server (see the module docs).
 pub struct LinkServer<'a, F: Flash> {
     port: LinkPort<'a>,
@@ -46,6 +51,8 @@ pub struct LinkServer<'a, F: Flash> {
     /// The next stream keyframe index, while a stream takes data.
     stream_next: Option<u32>,
     restart: bool,
+    /// When bytes last came from the host, ms on the caller's clock.
+    heard_ms: u64,
 }
 
 impl<'a, F: Flash> LinkServer<'a, F> {
@@ -62,13 +69,28 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             locked: false,
             stream_next: None,
             restart: false,
+            heard_ms: 0,
         }
     }
 
-    /// True once the device should restart (after a committed or abandoned upload),
+    /// True once the device should restart (after a committed or aborted upload),
     /// when the last reply went out.
     pub fn restart_requested(&self) -> bool {
         self.restart
+    }
+
+    /// Notes that bytes came from the host at `now_ms` (ms on a monotonic clock, the
+    /// one [`LinkServer::restart_due`] is asked with).
+    pub fn heard(&mut self, now_ms: u64) {
+        self.heard_ms = now_ms;
+    }
+
+    /// True once the device should restart, at `now_ms`: after a committed or
+    /// aborted upload ([`LinkServer::restart_requested`]), or an upload that owns
+    /// the bank and heard nothing from the host for [`UPLOAD_IDLE_MS`].
+    pub fn restart_due(&self, now_ms: u64) -> bool {
+        let abandoned = self.locked && now_ms.saturating_sub(self.heard_ms) > UPLOAD_IDLE_MS;
+        self.restart || abandoned
     }
 
     /// The bank region's flash.

@@ -611,6 +611,57 @@ fn an_upload_cut_at_every_chunk_leaves_the_builtin_bank() {
     }
 }
 
+/// The host stops in the middle of an upload and never comes back: 30 s after the
+/// last byte it sent (not before, and counted again from each chunk), the device
+/// drops the staged upload and restarts into the built-in bank, which plays.
+#[test]
+fn an_upload_abandoned_for_30_s_restarts_into_the_builtin_bank() {
+    let new = bank(&[constant_stimulus("x", 200, 2000)]);
+    let mut h = host();
+    h.call(Command::BankBegin {
+        len: new.len() as u32,
+        crc: bank_crc(&new),
+    })
+    .unwrap();
+    let chunks: Vec<_> = new.chunks(16).collect();
+    h.call(Command::BankChunk {
+        offset: 0,
+        bytes: chunks[0],
+    })
+    .unwrap();
+    // A chunk 20 s later starts the wait again.
+    h.run(20_000);
+    assert_eq!(h.dev.boots, 0);
+    h.call(Command::BankChunk {
+        offset: 16,
+        bytes: chunks[1],
+    })
+    .unwrap();
+    let last_heard = h.dev.ms;
+    h.run(29_990);
+    assert_eq!(h.dev.boots, 0, "restarted before 30 s of silence");
+    assert_eq!(
+        h.call(Command::Play { slot: 0 }),
+        Err(LinkError::Busy(Busy::Uploading))
+    );
+    // That request was heard: the silence starts again from it.
+    let last_heard = last_heard.max(h.dev.ms - 1);
+    while h.dev.boots == 0 && h.dev.ms < last_heard + 40_000 {
+        h.dev.tick();
+    }
+    assert_eq!(h.dev.boots, 1, "no restart 40 s after the host went silent");
+    let silent = h.dev.ms - last_heard;
+    assert!(
+        (30_000..=30_010).contains(&silent),
+        "restarted after {silent} ms"
+    );
+    let f = h.call(Command::Info).unwrap();
+    assert!(matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))));
+    assert_eq!(h.call(Command::BankCommit), Err(LinkError::NoUpload));
+    let f = h.call(Command::Play { slot: 0 }).unwrap();
+    assert!(matches!(reply(&f), Reply::Play { now: true, .. }));
+}
+
 fn stream_params() -> link::StreamParams {
     link::StreamParams {
         keyframe_period_ms: 20,
