@@ -12,8 +12,16 @@
 //! Every slot is decoded once, at boot (by [`Bank::decode`] in the boot check):
 //! decoding checks a stimulus's CRC and every record, far too slow for the tick, so
 //! [`Controller::new`] only reads each slot's header back and checks that it was
-//! compiled for this sleeve ([`LAYOUT_HASH`]), and starting one in the tick is only
-//! [`Player::with_thermal`]. A slot for another layout is never played.
+//! compiled for this sleeve ([`LAYOUT_HASH`]). A slot for another layout is never
+//! played.
+//!
+//! Building a player is still more than a tick can add to its own work, so with
+//! the link attached ([`Controller::attach`]) the link's task builds it, outside the
+//! tick: the player for the selected slot waits ready, and the tick that starts a
+//! slot only takes it ([`TickPort::take_player`]: a swap, and the coils' heat handed
+//! in). A start whose player is not ready yet (another slot's button, a press that
+//! races a `play`) waits for it a tick or two, as a queued start. Without the link
+//! (the host tests of the controller alone), the tick builds the player itself.
 
 use touch_protocol::bank::MAX_SLOTS;
 use touch_protocol::link::{self as wire, LinkError, Source, StreamStop};
@@ -22,7 +30,7 @@ use touch_protocol::thermal::TooHot;
 use touch_protocol::{Bank, DeviceConfig, Error, LiveParams, Player, Stimulus, Thermal};
 
 use crate::button::Event;
-use crate::link::{Answer, Control, Snapshot, TickPort, TickReply};
+use crate::link::{Answer, Control, TickPort, TickReply};
 use crate::output::{Frame, IDLE_FRAME, LAYOUT_HASH};
 
 /// What happened, for the log (the tick interrupt never logs itself).
@@ -99,8 +107,11 @@ pub struct Controller<'a> {
     stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
     device: DeviceConfig,
     selected: usize,
-    /// What plays (or ramps down) and its player.
-    playing: Option<(Playing, Player<'a>)>,
+    /// What plays (or ramps down). Its player is in the link's tick port, or in
+    /// `own` without a link.
+    playing: Option<Playing>,
+    /// The player, when the tick built it (no link attached).
+    own: Option<Player<'a>>,
     /// True once the playing slot was asked to stop or ended: it ramps down.
     stopping: bool,
     /// Slot to start as soon as the current one reached 0 A.
@@ -110,7 +121,7 @@ pub struct Controller<'a> {
     /// Ticks since power-up (the tick being computed): the link's clock.
     now: u32,
     /// The link's end in the tick, if a link runs.
-    link: Option<TickPort<'a>>,
+    link: Option<TickPort<'a, 'a>>,
     stream: StreamState,
     clock: StreamClock,
     /// An upload owns the bank region: nothing from the bank may start.
@@ -146,6 +157,7 @@ impl<'a> Controller<'a> {
             device,
             selected: 0,
             playing: None,
+            own: None,
             stopping: false,
             queued: None,
             thermal: Thermal::COLD,
@@ -165,7 +177,8 @@ impl<'a> Controller<'a> {
 
     /// Connects the link: the controller takes its commands and stream keyframes on
     /// every tick and answers through it.
-    pub fn attach(&mut self, port: TickPort<'a>) {
+    pub fn attach(&mut self, mut port: TickPort<'a, 'a>) {
+        port.want(self.selected as u8);
         self.link = Some(port);
     }
 
@@ -181,14 +194,41 @@ impl<'a> Controller<'a> {
 
     /// True while the host's stream plays (or ramps down).
     pub fn streaming(&self) -> bool {
-        matches!(self.playing, Some((Playing::Stream, _)))
+        self.playing == Some(Playing::Stream)
     }
 
     /// The coils' heat now.
     pub fn thermal(&self) -> Thermal {
-        match &self.playing {
-            Some((_, player)) => player.thermal(),
+        match self.player() {
+            Some(player) => player.thermal(),
             None => self.thermal,
+        }
+    }
+
+    /// The player of what plays, if anything does.
+    fn player(&self) -> Option<&Player<'a>> {
+        self.playing?;
+        match &self.link {
+            Some(port) => Some(port.player_ref()),
+            None => self.own.as_ref(),
+        }
+    }
+
+    /// The player of what plays, if anything does.
+    fn player_mut(&mut self) -> Option<&mut Player<'a>> {
+        self.playing?;
+        match &mut self.link {
+            Some(port) => Some(port.player()),
+            None => self.own.as_mut(),
+        }
+    }
+
+    /// Starts `slot` after what plays ramped down (or, if nothing does, as soon as
+    /// its player is ready): asks the link for that player now.
+    fn queue(&mut self, slot: usize) {
+        self.queued = Some(slot);
+        if let Some(port) = &mut self.link {
+            port.want(slot as u8);
         }
     }
 
@@ -214,7 +254,7 @@ impl<'a> Controller<'a> {
     /// The slot playing or ramping down, if any.
     pub fn playing(&self) -> Option<usize> {
         match self.playing {
-            Some((Playing::Slot(slot), _)) => Some(slot),
+            Some(Playing::Slot(slot)) => Some(slot),
             _ => None,
         }
     }
@@ -241,6 +281,9 @@ impl<'a> Controller<'a> {
                 self.queued = None;
                 self.stop();
                 self.selected = (self.selected + 1) % self.slots().max(1);
+                if let Some(port) = &mut self.link {
+                    port.want(self.selected as u8);
+                }
                 Some(Report::Selected(self.selected))
             }
         }
@@ -250,13 +293,13 @@ impl<'a> Controller<'a> {
     /// ramped down, if another plays).
     fn toggle(&mut self, slot: usize) -> Option<Report> {
         match self.playing {
-            Some((Playing::Slot(current), _)) if current == slot && !self.stopping => {
+            Some(Playing::Slot(current)) if current == slot && !self.stopping => {
                 self.queued = None;
                 self.stop()
             }
             Some(_) => {
                 self.stop();
-                self.queued = Some(slot);
+                self.queue(slot);
                 None
             }
             None => self.start(slot),
@@ -264,13 +307,13 @@ impl<'a> Controller<'a> {
     }
 
     fn stop(&mut self) -> Option<Report> {
-        let (what, player) = self.playing.as_mut()?;
+        let what = self.playing?;
         if self.stopping {
             return None;
         }
-        player.stop();
+        self.player_mut()?.stop();
         self.stopping = true;
-        Some(match *what {
+        Some(match what {
             Playing::Slot(slot) => Report::Stopping(slot),
             Playing::Stream => {
                 self.stream = StreamState::Off;
@@ -290,8 +333,23 @@ impl<'a> Controller<'a> {
                 if let Err(hot) = self.thermal.check_start(&limits) {
                     return Some(Report::TooHot(slot, hot));
                 }
-                let player = Player::with_thermal(&stimulus, &self.device, self.thermal);
-                self.playing = Some((Playing::Slot(slot), player));
+                match &mut self.link {
+                    Some(port) => {
+                        if !port.take_player(slot as u8, self.thermal) {
+                            // Not built yet: the link's task builds it, the start
+                            // waits for it as a queued one.
+                            self.queue(slot);
+                            return None;
+                        }
+                        // The next press's player.
+                        port.want(self.selected as u8);
+                    }
+                    None => {
+                        self.own =
+                            Some(Player::with_thermal(&stimulus, &self.device, self.thermal));
+                    }
+                }
+                self.playing = Some(Playing::Slot(slot));
                 self.stopping = false;
                 Some(Report::Started(slot))
             }
@@ -301,39 +359,55 @@ impl<'a> Controller<'a> {
 
     /// Computes the next frame; returns it and what to log.
     pub fn next_frame(&mut self) -> (Frame, Option<Report>) {
-        let mut early = self.serve_link();
-        let (frame, report) = self.step();
-        if let Some(r) = report {
-            self.announce(r);
-        }
-        // A link command's report and the tick's rarely coincide; the tick's wins the
-        // log, both went to the host.
-        early = report.or(early);
-        self.now = self.now.wrapping_add(1);
-        (frame, early)
+        let mut logged = None;
+        let frame = self.tick(|r| logged = Some(r));
+        (frame, logged)
     }
 
-    fn step(&mut self) -> (Frame, Option<Report>) {
+    /// Computes the next frame and hands what to log to `log`, in order (the tick's
+    /// form of [`Controller::next_frame`]: a report is handed on where it arises,
+    /// not moved around when there is none).
+    #[inline(always)]
+    pub fn tick(&mut self, mut log: impl FnMut(Report)) -> Frame {
+        if let Some(r) = self.serve_link() {
+            log(r);
+        }
+        let frame = self.step(&mut log);
+        self.now = self.now.wrapping_add(1);
+        frame
+    }
+
+    /// Tells the host and the log what a report of this tick says.
+    fn emit(&mut self, report: Report, log: &mut impl FnMut(Report)) {
+        self.announce(report);
+        log(report);
+    }
+
+    fn step(&mut self, log: &mut impl FnMut(Report)) -> Frame {
         if self.playing.is_none() {
             if let Some(slot) = self.queued.take() {
-                let report = self.start(slot);
+                if let Some(r) = self.start(slot) {
+                    self.emit(r, log);
+                }
                 if self.playing.is_none() {
                     self.thermal.idle_tick(&self.device.limits);
-                    return (IDLE_FRAME, report);
-                }
-                if let Some(r) = report {
-                    self.announce(r);
+                    return IDLE_FRAME;
                 }
             }
         }
-        let stream_report = self.stream_tick();
-        let Some((what, player)) = self.playing.as_mut() else {
+        if let Some(r) = self.stream_tick() {
+            self.emit(r, log);
+        }
+        let Some(what) = self.playing else {
             self.thermal.idle_tick(&self.device.limits);
-            return (IDLE_FRAME, stream_report);
+            return IDLE_FRAME;
         };
-        let what = *what;
+        let stopping = self.stopping;
+        let Some(player) = self.player_mut() else {
+            return IDLE_FRAME;
+        };
         let tick = player.tick();
-        let underrun = what == Playing::Stream && player.underrun() && !self.stopping;
+        let underrun = what == Playing::Stream && player.underrun() && !stopping;
         let report = match tick.status {
             Status::Playing => None,
             Status::RampingDown => {
@@ -349,13 +423,18 @@ impl<'a> Controller<'a> {
                     kind: fault.kind.into(),
                     channel: fault.channel,
                 });
+                if let Some(port) = &mut self.link {
+                    port.publish_faults(self.faults, self.last_fault);
+                }
                 Some(match what {
                     Playing::Slot(slot) => Report::Fault(slot, fault),
                     Playing::Stream => Report::Stream(StreamReport::Fault(fault)),
                 })
             }
             Status::Finished => {
-                self.thermal = player.thermal();
+                if let Some(player) = self.player() {
+                    self.thermal = player.thermal();
+                }
                 self.playing = None;
                 self.stopping = false;
                 Some(match what {
@@ -374,9 +453,15 @@ impl<'a> Controller<'a> {
             } else {
                 StreamStop::Underrun
             };
-            return (tick.codes, report.or(self.stop_stream(why)));
+            let stopped = self.stop_stream(why);
+            if let (None, Some(r)) = (report, stopped) {
+                self.emit(r, log);
+            }
         }
-        (tick.codes, report.or(stream_report))
+        if let Some(r) = report {
+            self.emit(r, log);
+        }
+        tick.codes
     }
 
     /// The stream's part of a tick: the deadline, the start once two keyframes are
@@ -419,17 +504,16 @@ impl<'a> Controller<'a> {
                 let first = port.next_keyframe().unwrap_or([0; 8]);
                 let second = port.next_keyframe().unwrap_or(first);
                 let player = Player::live(&params, first, second, &self.device, self.thermal);
-                self.playing = Some((Playing::Stream, player));
+                port.put_player(player);
+                self.playing = Some(Playing::Stream);
                 self.stopping = false;
                 self.stream = StreamState::On;
                 Some(Report::Stream(StreamReport::Started))
             }
             StreamState::On => {
-                if let Some((Playing::Stream, player)) = self.playing.as_mut() {
-                    if player.wants_keyframe() {
-                        if let Some(k) = port.next_keyframe() {
-                            let _ = player.push_keyframe(k);
-                        }
+                if self.playing == Some(Playing::Stream) && port.player().wants_keyframe() {
+                    if let Some(k) = port.next_keyframe() {
+                        let _ = port.player().push_keyframe(k);
                     }
                 }
                 None
@@ -443,9 +527,11 @@ impl<'a> Controller<'a> {
         let was = self.stream;
         self.stream = StreamState::Off;
         self.drain_keyframes();
-        match self.playing.as_mut() {
-            Some((Playing::Stream, player)) if !self.stopping => {
-                player.stop();
+        match self.playing {
+            Some(Playing::Stream) if !self.stopping => {
+                if let Some(player) = self.player_mut() {
+                    player.stop();
+                }
                 self.stopping = true;
                 Some(Report::Stream(StreamReport::Stopping(why)))
             }
@@ -465,13 +551,14 @@ impl<'a> Controller<'a> {
     /// Takes at most one link command per tick and answers it.
     #[inline(never)]
     fn serve_link(&mut self) -> Option<Report> {
-        let control = self.link.as_mut()?.next_control()?;
+        // Left in the queue until it is done with: a `Play` may wait for its player.
+        let control = *self.link.as_ref()?.peek_control()?;
         let first = self.now.wrapping_add(1);
         let (answer, report) = match control {
-            Control::Play { seq, slot } => self.link_play(seq, usize::from(slot)),
+            Control::Play { seq, slot } => self.link_play(seq, usize::from(slot))?,
             Control::Stop { seq } => {
                 self.queued = None;
-                let source = self.playing.as_ref().map(|(what, _)| source(*what));
+                let source = self.playing.map(source);
                 let report = match self.stream {
                     StreamState::Armed(_) => self.stop_stream(StreamStop::Ended),
                     _ => self.stop(),
@@ -483,19 +570,8 @@ impl<'a> Controller<'a> {
                 (Answer::Reply(seq, reply), report)
             }
             Control::Status { seq } => {
-                let snapshot = self.snapshot();
-                let sent = self
-                    .link
-                    .as_mut()
-                    .is_some_and(|p| p.send_snapshot(snapshot));
-                if sent {
-                    (Answer::Status(seq), None)
-                } else {
-                    (
-                        Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)),
-                        None,
-                    )
-                }
+                self.publish();
+                (Answer::Status(seq), None)
             }
             Control::StreamBegin { seq, params } => {
                 if let Some(e) = self.refuse_start() {
@@ -537,6 +613,9 @@ impl<'a> Controller<'a> {
                 }
             }
         };
+        if let Some(port) = &mut self.link {
+            port.next_control();
+        }
         self.send(answer);
         if let Some(r) = report {
             self.announce(r);
@@ -557,10 +636,12 @@ impl<'a> Controller<'a> {
         }
     }
 
-    fn link_play(&mut self, seq: u16, slot: usize) -> (Answer, Option<Report>) {
+    /// A `Play`: its answer and report, or `None` while it waits for its player
+    /// (it stays in the queue, the link's task builds the player).
+    fn link_play(&mut self, seq: u16, slot: usize) -> Option<(Answer, Option<Report>)> {
         let slots = self.slots() as u8;
         let first = self.now.wrapping_add(1);
-        let refuse = |e| (Answer::Refused(seq, e), None);
+        let refuse = |e| Some((Answer::Refused(seq, e), None));
         if self.locked {
             return refuse(LinkError::Busy(wire::Busy::Uploading));
         }
@@ -581,13 +662,13 @@ impl<'a> Controller<'a> {
         if self.playing.is_some() {
             // As a press on another slot: the one playing ramps down first.
             let report = self.stop();
-            self.queued = Some(slot);
+            self.queue(slot);
             let reply = TickReply::Play {
                 slot: wire_slot,
                 tick: first,
                 now: false,
             };
-            return (Answer::Reply(seq, reply), report);
+            return Some((Answer::Reply(seq, reply), report));
         }
         let limits = stimulus.limits().min(self.device.limits);
         if let Err(hot) = self.thermal.check_start(&limits) {
@@ -598,6 +679,15 @@ impl<'a> Controller<'a> {
             };
             return refuse(e);
         }
+        // A press's start still waiting for its player gives way to the host's.
+        self.queued = None;
+        let port = self.link.as_mut()?;
+        if !port.staged(wire_slot) {
+            // The server stages the player before it forwards the `Play`; a press
+            // took it or asked for another meanwhile.
+            port.want(wire_slot);
+            return None;
+        }
         self.selected = slot;
         let report = self.start(slot);
         let reply = TickReply::Play {
@@ -605,20 +695,18 @@ impl<'a> Controller<'a> {
             tick: first,
             now: true,
         };
-        (Answer::Reply(seq, reply), report)
+        Some((Answer::Reply(seq, reply), report))
     }
 
-    /// The state the link's `Status` reports (the per-mille arithmetic is the link
-    /// server's, outside the tick).
-    fn snapshot(&self) -> Snapshot {
-        Snapshot {
-            tick: self.now,
-            playing: self.playing.as_ref().map(|(what, _)| source(*what)),
-            stopping: self.stopping,
-            selected: self.selected as u8,
-            thermal: self.thermal(),
-            faults: self.faults,
-            last_fault: self.last_fault,
+    /// Publishes the state the link's `Status` reports (the per-mille arithmetic is
+    /// the link server's, outside the tick; the faults were published as they came).
+    fn publish(&mut self) {
+        let (tick, playing, stopping) = (self.now, self.playing.map(source), self.stopping);
+        let selected = self.selected as u8;
+        if let Some(port) = &mut self.link {
+            // While something plays its player holds the heat (in the port).
+            let idle = playing.is_none().then_some(&self.thermal);
+            port.publish_status(tick, playing, stopping, selected, idle);
         }
     }
 

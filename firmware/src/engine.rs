@@ -48,11 +48,7 @@ impl<'a, S: OutputSink, W: Watchdog, const N: usize> Engine<'a, S, W, N> {
                 log(report);
             }
         }
-        let (frame, report) = self.controller.next_frame();
-        if let Some(report) = report {
-            log(report);
-        }
-        self.next = frame;
+        self.next = self.controller.tick(&mut log);
     }
 
     /// Applies an event as if a button had produced it (for tests and a debugger).

@@ -89,7 +89,11 @@ enum Job {
     Engine(Engine<'static, Ccr, NoDog, 1>),
     /// The same with the link attached and busy: its end of the queues, driven
     /// between ticks as the link's task would (see [`host_side`]).
-    Linked(Engine<'static, Ccr, NoDog, 1>, LinkPort<'static>),
+    Linked(
+        Engine<'static, Ccr, NoDog, 1>,
+        LinkPort<'static, 'static>,
+        Bank<'static>,
+    ),
 }
 
 /// The most instructions a playing tick may take with the link busy (a command every
@@ -102,9 +106,28 @@ const LINK_TICKS: u32 = 4000;
 
 /// The link's task between two ticks: a command for the tick every millisecond
 /// (a stream begun at once and fed a keyframe every 20 ms, then a stop, a play, a
-/// stop, and a status request whenever nothing else is due), and the answers taken.
-fn host_side(t: u32, port: &mut LinkPort<'static>) {
+/// stop, and a status request whenever nothing else is due), the player the tick
+/// wants built (as the link server does), and the answers taken.
+fn host_side(t: u32, port: &mut LinkPort<'static, 'static>, bank: Bank<'static>) {
+    let stage = |port: &mut LinkPort<'static, 'static>, slot: u8| {
+        port.stage(slot, || {
+            let s = bank.slot(usize::from(slot)).ok()?;
+            Some(Player::with_thermal(
+                &s,
+                &device_config(),
+                touch_protocol::Thermal::COLD,
+            ))
+        })
+    };
+    if let Some(slot) = port.wanted() {
+        if port.staged() != Some(slot) {
+            stage(port, slot);
+        }
+    }
     let seq = t as u16;
+    if t == 2300 {
+        stage(port, 0);
+    }
     let control = match t {
         0 => Control::StreamBegin {
             seq,
@@ -299,7 +322,10 @@ fn main() -> ! {
         Buttons::<1>::new(Mode::PlayNext),
         controller,
     );
-    let s = run(&mut cp.SYST, State::new(Job::Linked(engine, link_port)));
+    let s = run(
+        &mut cp.SYST,
+        State::new(Job::Linked(engine, link_port, bank)),
+    );
     let (max_insns, mean_insns) = s.insns();
     let streamed = s.faulted;
     let steady = s.steady_counts * 1000 / COUNTS_PER_INSN_X1000;
@@ -356,8 +382,8 @@ fn SysTick() {
                 let end = SYST::get_current();
                 (engine.sink().0, None, start, end)
             }
-            Job::Linked(engine, port) => {
-                host_side(t, port);
+            Job::Linked(engine, port, bank) => {
+                host_side(t, port, *bank);
                 let start = SYST::get_current();
                 engine.tick([None], |_| {});
                 let end = SYST::get_current();

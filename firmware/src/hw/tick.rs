@@ -129,6 +129,6 @@ fn TIM7() {
         let _ = REPORTS.try_send(report);
     });
     if engine.controller().link_answered() {
-        super::link::wake();
+        super::link::wake_from_tick();
     }
 }

@@ -10,7 +10,7 @@ use touch_protocol::link::{
     self, cobs, BankState, Busy, Command, FrameError, Info, LinkError, Message, Reply, Request,
     SlotInfo, StatusReport, MAX_CHUNK, MAX_ENCODED, MAX_MESSAGE, MAX_STREAM_KEYFRAMES,
 };
-use touch_protocol::Bank;
+use touch_protocol::{Bank, Player, Thermal};
 
 use super::bank::{BankWriter, Flash};
 use super::port::{Answer, Control, LinkPort, Snapshot, TickReply};
@@ -38,7 +38,7 @@ pub const UPLOAD_IDLE_MS: u64 = 30_000;
 
 /// The server (see the module docs).
 pub struct LinkServer<'a, F: Flash> {
-    port: LinkPort<'a>,
+    port: LinkPort<'a, 'a>,
     flash: F,
     writer: BankWriter,
     id: Identity<'a>,
@@ -57,7 +57,7 @@ pub struct LinkServer<'a, F: Flash> {
 
 impl<'a, F: Flash> LinkServer<'a, F> {
     /// A server over the link's end of the queues and the bank region's flash.
-    pub fn new(port: LinkPort<'a>, flash: F, id: Identity<'a>) -> Self {
+    pub fn new(port: LinkPort<'a, 'a>, flash: F, id: Identity<'a>) -> Self {
         LinkServer {
             port,
             flash,
@@ -247,7 +247,11 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                 }
                 Err(e) => refuse(self, e, out),
             },
-            Command::Play { slot } => self.forward(seq, Control::Play { seq, slot }, out),
+            Command::Play { slot } => {
+                // Its player first, so that the tick that starts it only takes it.
+                self.stage(slot);
+                self.forward(seq, Control::Play { seq, slot }, out)
+            }
             Command::Stop => {
                 self.stream_next = None;
                 self.forward(seq, Control::Stop { seq }, out)
@@ -329,10 +333,32 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         })
     }
 
-    /// Forwards what the tick answered, and does an upload's erase once the tick has
-    /// locked the bank.
+    /// Builds the player for `slot` (from a cold coil: the tick hands it the heat
+    /// at the start) and stages it for the tick. Not while an upload owns the bank
+    /// region: nothing from it may be read for playback then.
+    fn stage(&mut self, slot: u8) {
+        if self.locked || self.begin.is_some() {
+            return;
+        }
+        let Some(bank) = self.id.slots else {
+            return;
+        };
+        self.port.stage(slot, || {
+            let s = bank.slot(usize::from(slot)).ok()?;
+            s.check_layout(LAYOUT_HASH).ok()?;
+            Some(Player::with_thermal(&s, &device_config(), Thermal::COLD))
+        });
+    }
+
+    /// Forwards what the tick answered, builds the player the tick wants ready,
+    /// and does an upload's erase once the tick has locked the bank.
     #[inline(never)]
     pub fn poll(&mut self, out: &mut dyn FnMut(&[u8])) {
+        if let Some(slot) = self.port.wanted() {
+            if self.port.staged() != Some(slot) {
+                self.stage(slot);
+            }
+        }
         while let Some(a) = self.port.receive() {
             match a {
                 Answer::Reply(seq, reply) => {
@@ -349,9 +375,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                     self.emit(&Message::Refused { seq, error }, out);
                 }
                 Answer::Status(seq) => {
-                    let Some(snap) = self.port.snapshot() else {
-                        continue;
-                    };
+                    let snap = self.port.snapshot();
                     let status = self.status(&snap);
                     self.emit(
                         &Message::Reply {

@@ -872,7 +872,7 @@ fn a_stream_fed_ahead_plays_on() {
     let run = |ahead: usize| {
         let bank = touch_protocol::Bank::decode(&image).unwrap();
         let mut c = Controller::new(bank, device_config());
-        let channels: &'static mut Channels = Box::leak(Box::new(Channels::new()));
+        let channels: &mut Channels = Box::leak(Box::new(Channels::new()));
         let (mut port, tick) = channels.split();
         c.attach(tick);
         let mut events = Vec::new();
