@@ -27,15 +27,18 @@ use touch_protocol::bank::MAX_SLOTS;
 use touch_protocol::link::{self as wire, LinkError, Source, StreamStop};
 use touch_protocol::player::{Fault, Status};
 use touch_protocol::thermal::TooHot;
-use touch_protocol::{Bank, DeviceConfig, Error, LiveParams, Player, Stimulus, Thermal};
+use touch_protocol::{Bank, DeviceConfig, Error, Limits, LiveParams, Player, Stimulus, Thermal};
 
 use crate::button::Event;
 use crate::link::{Answer, Control, TickPort, TickReply};
 use crate::output::{Frame, IDLE_FRAME, LAYOUT_HASH};
 
 /// What happened, for the log (the tick interrupt never logs itself).
+// A word-sized tag puts the fields on word boundaries: the tick copies a report in
+// a few loads and stores instead of a `memcpy` call (some 65 instructions).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(all(target_os = "none", feature = "hw"), derive(defmt::Format))]
+#[repr(u32)]
 pub enum Report {
     /// Slot started playing.
     Started(usize),
@@ -327,33 +330,48 @@ impl<'a> Controller<'a> {
             // An upload erased (or is erasing) the region the stimuli live in.
             return Some(Report::BadSlot(slot, Error::NoSuchSlot(slot as u16)));
         }
-        match self.slot(slot) {
-            Ok(stimulus) => {
-                let limits = stimulus.limits().min(self.device.limits);
-                if let Err(hot) = self.thermal.check_start(&limits) {
-                    return Some(Report::TooHot(slot, hot));
-                }
-                match &mut self.link {
-                    Some(port) => {
-                        if !port.take_player(slot as u8, self.thermal) {
-                            // Not built yet: the link's task builds it, the start
-                            // waits for it as a queued one.
-                            self.queue(slot);
-                            return None;
-                        }
-                        // The next press's player.
-                        port.want(self.selected as u8);
-                    }
-                    None => {
-                        self.own =
-                            Some(Player::with_thermal(&stimulus, &self.device, self.thermal));
-                    }
-                }
-                self.playing = Some(Playing::Slot(slot));
-                self.stopping = false;
-                Some(Report::Started(slot))
-            }
+        match self.start_limits(slot) {
+            Ok(limits) => self.start_with(slot, &limits),
             Err(e) => Some(Report::BadSlot(slot, e)),
+        }
+    }
+
+    /// Starts `slot`, whose start limits ([`Controller::start_limits`]) are `limits`,
+    /// unless a coil is too hot for them.
+    fn start_with(&mut self, slot: usize, limits: &Limits) -> Option<Report> {
+        if let Err(hot) = self.thermal.check_start(limits) {
+            return Some(Report::TooHot(slot, hot));
+        }
+        match &mut self.link {
+            Some(port) => {
+                if !port.take_player(slot as u8, self.thermal) {
+                    // Not built yet: the link's task builds it, the start waits for
+                    // it as a queued one.
+                    self.queue(slot);
+                    return None;
+                }
+                // The next press's player.
+                port.want(self.selected as u8);
+            }
+            None => {
+                if let Some(Ok(stimulus)) = self.stimuli.get(slot) {
+                    self.own = Some(Player::with_thermal(stimulus, &self.device, self.thermal));
+                }
+            }
+        }
+        self.playing = Some(Playing::Slot(slot));
+        self.stopping = false;
+        Some(Report::Started(slot))
+    }
+
+    /// The limits a start of `slot` is judged by, the stricter of the slot's and the
+    /// device's (the player holds the same while it plays), or why the slot never
+    /// plays.
+    pub fn start_limits(&self, slot: usize) -> Result<Limits, Error> {
+        match self.stimuli.get(slot) {
+            Some(Ok(s)) => Ok(s.limits().min(self.device.limits)),
+            Some(Err(e)) => Err(*e),
+            None => Err(Error::NoSuchSlot(u16::try_from(slot).unwrap_or(u16::MAX))),
         }
     }
 
@@ -369,16 +387,14 @@ impl<'a> Controller<'a> {
     /// not moved around when there is none).
     #[inline(always)]
     pub fn tick(&mut self, mut log: impl FnMut(Report)) -> Frame {
-        if let Some(r) = self.serve_link() {
-            log(r);
-        }
+        self.serve_link(&mut log);
         let frame = self.step(&mut log);
         self.now = self.now.wrapping_add(1);
         frame
     }
 
     /// Tells the host and the log what a report of this tick says.
-    fn emit(&mut self, report: Report, log: &mut impl FnMut(Report)) {
+    fn emit(&mut self, report: Report, log: &mut (impl FnMut(Report) + ?Sized)) {
         self.announce(report);
         log(report);
     }
@@ -548,14 +564,21 @@ impl<'a> Controller<'a> {
         }
     }
 
-    /// Takes at most one link command per tick and answers it.
+    /// Takes at most one link command per tick and answers it; what it did goes to
+    /// `log` (and to the host) as it happens, as the tick's own reports do.
     #[inline(never)]
-    fn serve_link(&mut self) -> Option<Report> {
+    fn serve_link(&mut self, log: &mut dyn FnMut(Report)) {
         // Left in the queue until it is done with: a `Play` may wait for its player.
-        let control = *self.link.as_ref()?.peek_control()?;
+        let Some(&control) = self.link.as_ref().and_then(|p| p.peek_control()) else {
+            return;
+        };
         let first = self.now.wrapping_add(1);
-        let (answer, report) = match control {
-            Control::Play { seq, slot } => self.link_play(seq, usize::from(slot))?,
+        match control {
+            Control::Play { seq, slot } => {
+                if !self.link_play(seq, usize::from(slot), log) {
+                    return;
+                }
+            }
             Control::Stop { seq } => {
                 self.queued = None;
                 let source = self.playing.map(source);
@@ -567,15 +590,18 @@ impl<'a> Controller<'a> {
                     source,
                     tick: if source.is_some() { first } else { self.now },
                 };
-                (Answer::Reply(seq, reply), report)
+                self.send(Answer::Reply(seq, reply));
+                if let Some(r) = report {
+                    self.emit(r, log);
+                }
             }
             Control::Status { seq } => {
                 self.publish();
-                (Answer::Status(seq), None)
+                self.send(Answer::Status(seq));
             }
             Control::StreamBegin { seq, params } => {
                 if let Some(e) = self.refuse_start() {
-                    (Answer::Refused(seq, e), None)
+                    self.send(Answer::Refused(seq, e));
                 } else {
                     self.drain_keyframes();
                     self.stream = StreamState::Armed(params);
@@ -586,41 +612,30 @@ impl<'a> Controller<'a> {
                         ended: false,
                     };
                     let capacity = self.link.as_ref().map_or(0, |p| p.keyframe_capacity());
-                    (
-                        Answer::Reply(seq, TickReply::StreamBegin { capacity }),
-                        None,
-                    )
+                    self.send(Answer::Reply(seq, TickReply::StreamBegin { capacity }));
                 }
             }
             Control::StreamEnd { seq } => {
                 if self.stream == StreamState::Off {
-                    (Answer::Refused(seq, LinkError::NoStream), None)
+                    self.send(Answer::Refused(seq, LinkError::NoStream));
                 } else {
                     self.clock.ended = true;
-                    (Answer::Reply(seq, TickReply::StreamEnd), None)
+                    self.send(Answer::Reply(seq, TickReply::StreamEnd));
                 }
             }
             Control::Lock { seq } => {
                 if self.playing.is_some() || self.stream != StreamState::Off {
-                    (
-                        Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)),
-                        None,
-                    )
+                    self.send(Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)));
                 } else {
                     self.locked = true;
                     self.queued = None;
-                    (Answer::Locked(seq), None)
+                    self.send(Answer::Locked(seq));
                 }
             }
-        };
+        }
         if let Some(port) = &mut self.link {
             port.next_control();
         }
-        self.send(answer);
-        if let Some(r) = report {
-            self.announce(r);
-        }
-        report
     }
 
     /// Why nothing may start now, if so: an upload owns the bank, a stream is on.
@@ -636,27 +651,29 @@ impl<'a> Controller<'a> {
         }
     }
 
-    /// A `Play`: its answer and report, or `None` while it waits for its player
-    /// (it stays in the queue, the link's task builds the player).
-    fn link_play(&mut self, seq: u16, slot: usize) -> Option<(Answer, Option<Report>)> {
+    /// A `Play`: answers it (and hands on what it did), or returns false while it
+    /// waits for its player (it stays in the queue, the link's task builds it).
+    fn link_play(&mut self, seq: u16, slot: usize, log: &mut dyn FnMut(Report)) -> bool {
         let slots = self.slots() as u8;
         let first = self.now.wrapping_add(1);
-        let refuse = |e| Some((Answer::Refused(seq, e), None));
-        if self.locked {
-            return refuse(LinkError::Busy(wire::Busy::Uploading));
-        }
-        if self.stream != StreamState::Off || self.streaming() {
-            return refuse(LinkError::Busy(wire::Busy::Streaming));
-        }
-        let stimulus = match self.slot(slot) {
-            Err(Error::NoSuchSlot(_)) => {
-                return refuse(LinkError::NoSuchSlot {
-                    slot: slot.min(255) as u8,
-                    slots,
-                })
+        let limits = match self.start_limits(slot) {
+            _ if self.locked => Err(LinkError::Busy(wire::Busy::Uploading)),
+            _ if self.stream != StreamState::Off || self.streaming() => {
+                Err(LinkError::Busy(wire::Busy::Streaming))
             }
-            Err(_) => return refuse(LinkError::BadSlot { slot: slot as u8 }),
-            Ok(s) => s,
+            Err(Error::NoSuchSlot(_)) => Err(LinkError::NoSuchSlot {
+                slot: slot.min(255) as u8,
+                slots,
+            }),
+            Err(_) => Err(LinkError::BadSlot { slot: slot as u8 }),
+            Ok(limits) => Ok(limits),
+        };
+        let limits = match limits {
+            Ok(limits) => limits,
+            Err(e) => {
+                self.send(Answer::Refused(seq, e));
+                return true;
+            }
         };
         let wire_slot = slot as u8;
         if self.playing.is_some() {
@@ -668,34 +685,49 @@ impl<'a> Controller<'a> {
                 tick: first,
                 now: false,
             };
-            return Some((Answer::Reply(seq, reply), report));
-        }
-        let limits = stimulus.limits().min(self.device.limits);
-        if let Err(hot) = self.thermal.check_start(&limits) {
-            let e = LinkError::TooHot {
-                channel: hot.channel,
-                permille: hot.permille,
-                cooldown_ms: hot.cooldown_ms,
-            };
-            return refuse(e);
+            self.send(Answer::Reply(seq, reply));
+            if let Some(r) = report {
+                self.emit(r, log);
+            }
+            return true;
         }
         // A press's start still waiting for its player gives way to the host's.
         self.queued = None;
-        let port = self.link.as_mut()?;
+        let Some(port) = self.link.as_mut() else {
+            return true;
+        };
         if !port.staged(wire_slot) {
             // The server stages the player before it forwards the `Play`; a press
             // took it or asked for another meanwhile.
             port.want(wire_slot);
-            return None;
+            return false;
         }
+        let selected = self.selected;
         self.selected = slot;
-        let report = self.start(slot);
-        let reply = TickReply::Play {
-            slot: wire_slot,
-            tick: first,
-            now: true,
-        };
-        Some((Answer::Reply(seq, reply), report))
+        // The thermal check is the start's own, as for a press.
+        match self.start_with(slot, &limits) {
+            Some(Report::TooHot(_, hot)) => {
+                self.selected = selected;
+                let e = LinkError::TooHot {
+                    channel: hot.channel,
+                    permille: hot.permille,
+                    cooldown_ms: hot.cooldown_ms,
+                };
+                self.send(Answer::Refused(seq, e));
+            }
+            report => {
+                let reply = TickReply::Play {
+                    slot: wire_slot,
+                    tick: first,
+                    now: true,
+                };
+                self.send(Answer::Reply(seq, reply));
+                if let Some(r) = report {
+                    self.emit(r, log);
+                }
+            }
+        }
+        true
     }
 
     /// Publishes the state the link's `Status` reports (the per-mille arithmetic is

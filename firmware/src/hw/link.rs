@@ -11,7 +11,6 @@
 //! are all the link uses.
 
 use core::ptr::addr_of_mut;
-use core::sync::atomic::{AtomicBool, Ordering};
 
 use embassy_stm32::gpio::{AfType, Flex, OutputType, Speed};
 use embassy_stm32::interrupt::{InterruptExt, Priority};
@@ -44,22 +43,10 @@ pub const TX_LEN: usize = 3 * touch_protocol::link::MAX_ENCODED;
 /// Wakes the link's task: a byte arrived, or the tick has answers.
 static WAKE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
-/// Wakes the link's task (from the USB transport, when bytes arrived).
-#[cfg(feature = "usb")]
+/// Wakes the link's task: bytes arrived (USB), or the tick queued answers or wants
+/// a player built (from the tick's follow-up interrupt, `tick.rs`).
 pub fn wake() {
     WAKE.signal(());
-}
-
-/// Set by the tick for [`USART2`]'s handler: wake the link's task.
-static TICK_WOKE: AtomicBool = AtomicBool::new(false);
-
-/// Wakes the link's task from the tick (it queued answers, or wants a player
-/// built): pends USART2's interrupt, below the tick's priority, whose handler
-/// signals the task once the tick returned. A flag store and a register write,
-/// where signalling from the tick itself costs it some 45 instructions.
-pub fn wake_from_tick() {
-    TICK_WOKE.store(true, Ordering::Release);
-    interrupt::USART2.pend();
 }
 
 static mut RX: Queue<u8, RX_LEN> = Queue::new();
@@ -148,9 +135,6 @@ fn USART2() {
     let Some((rx, tx)) = (unsafe { (*addr_of_mut!(ISR_ENDS)).as_mut() }) else {
         return;
     };
-    if TICK_WOKE.swap(false, Ordering::Acquire) {
-        WAKE.signal(());
-    }
     let u = pac::USART2;
     let sr = u.sr().read();
     if sr.rxne() || sr.ore() {
