@@ -75,6 +75,16 @@ pub enum StreamReport {
     TooHot(TooHot),
 }
 
+/// A `Play` whose slot started: what its answer and report say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Started {
+    seq: u16,
+    slot: u8,
+    /// The tick of its first frame.
+    tick: u32,
+    report: Option<Report>,
+}
+
 /// What plays: a bank slot or the host's stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Playing {
@@ -119,6 +129,11 @@ pub struct Controller<'a> {
     stopping: bool,
     /// Slot to start as soon as the current one reached 0 A.
     queued: Option<usize>,
+    /// A `Play` that started a slot, answered (and reported) at the next tick: the
+    /// tick that starts a slot has no room left for it.
+    started: Option<Started>,
+    /// True once this tick sent `started`'s answer: it takes no command then.
+    answered_started: bool,
     /// The coils' heat while nothing plays (while a player plays, it holds it).
     thermal: Thermal,
     /// Ticks since power-up (the tick being computed): the link's clock.
@@ -163,6 +178,8 @@ impl<'a> Controller<'a> {
             own: None,
             stopping: false,
             queued: None,
+            started: None,
+            answered_started: false,
             thermal: Thermal::COLD,
             now: 0,
             link: None,
@@ -387,10 +404,42 @@ impl<'a> Controller<'a> {
     /// not moved around when there is none).
     #[inline(always)]
     pub fn tick(&mut self, mut log: impl FnMut(Report)) -> Frame {
-        self.serve_link(&mut log);
+        self.answer_started(&mut log);
+        if !core::mem::take(&mut self.answered_started) {
+            self.serve_link(&mut log);
+        }
         let frame = self.step(&mut log);
         self.now = self.now.wrapping_add(1);
         frame
+    }
+
+    /// Answers the `Play` that started a slot at the last tick, and reports the
+    /// start, with the tick of its first frame (before anything else this tick
+    /// tells the host; the engine calls it before the buttons'). The tick that
+    /// does takes no link command.
+    #[inline(always)]
+    pub fn answer_started(&mut self, log: &mut impl FnMut(Report)) {
+        if self.started.is_some() {
+            self.answer_started_now(log);
+        }
+    }
+
+    #[inline(never)]
+    fn answer_started_now(&mut self, log: &mut dyn FnMut(Report)) {
+        let Some(s) = self.started.take() else {
+            return;
+        };
+        let reply = TickReply::Play {
+            slot: s.slot,
+            tick: s.tick,
+            now: true,
+        };
+        self.send(Answer::Reply(s.seq, reply));
+        if let Some(r) = s.report {
+            self.announce_at(r, s.tick);
+            log(r);
+        }
+        self.answered_started = true;
     }
 
     /// Tells the host and the log what a report of this tick says.
@@ -716,15 +765,13 @@ impl<'a> Controller<'a> {
                 self.send(Answer::Refused(seq, e));
             }
             report => {
-                let reply = TickReply::Play {
+                // Answered by the next tick (`answer_started`).
+                self.started = Some(Started {
+                    seq,
                     slot: wire_slot,
                     tick: first,
-                    now: true,
-                };
-                self.send(Answer::Reply(seq, reply));
-                if let Some(r) = report {
-                    self.emit(r, log);
-                }
+                    report,
+                });
             }
         }
         true
@@ -744,12 +791,16 @@ impl<'a> Controller<'a> {
 
     /// Tells the host what a report says (the frames it describes go out at the next
     /// tick).
-    #[inline(never)]
     fn announce(&mut self, report: Report) {
+        self.announce_at(report, self.now.wrapping_add(1));
+    }
+
+    /// Tells the host what a report says, with the tick of the frames it describes.
+    #[inline(never)]
+    fn announce_at(&mut self, report: Report, tick: u32) {
         if self.link.is_none() {
             return;
         }
-        let tick = self.now.wrapping_add(1);
         let slot = |s: usize| Source::Slot(s as u8);
         let event = match report {
             Report::Started(s) => wire::Event::Started(slot(s)),
