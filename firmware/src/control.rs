@@ -75,14 +75,25 @@ pub enum StreamReport {
     TooHot(TooHot),
 }
 
-/// A `Play` whose slot started: what its answer and report say.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Started {
-    seq: u16,
-    slot: u8,
-    /// The tick of its first frame.
-    tick: u32,
-    report: Option<Report>,
+/// What the tick that starts a slot leaves to the next tick to tell the host (it
+/// has no room left for it): the same messages, with the same ticks, a
+/// millisecond later.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct Later {
+    /// A `Play` that started its slot: its sequence number, the slot and the tick
+    /// of the first frame.
+    play: Option<(u16, u8, u32)>,
+    /// A button gesture and its tick.
+    gesture: Option<(wire::Gesture, u32)>,
+    /// A report, the tick of the frames it describes, and whether the log has it
+    /// yet.
+    report: Option<(Report, u32, bool)>,
+}
+
+impl Later {
+    fn is_empty(&self) -> bool {
+        self.play.is_none() && self.gesture.is_none() && self.report.is_none()
+    }
 }
 
 /// What plays: a bank slot or the host's stream.
@@ -118,6 +129,8 @@ struct StreamClock {
 pub struct Controller<'a> {
     /// The bank's slots, or why each is refused.
     stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
+    /// Each slot's start limits ([`Controller::start_limits`]), worked out once.
+    limits: [Limits; MAX_SLOTS as usize],
     device: DeviceConfig,
     selected: usize,
     /// What plays (or ramps down). Its player is in the link's tick port, or in
@@ -129,11 +142,10 @@ pub struct Controller<'a> {
     stopping: bool,
     /// Slot to start as soon as the current one reached 0 A.
     queued: Option<usize>,
-    /// A `Play` that started a slot, answered (and reported) at the next tick: the
-    /// tick that starts a slot has no room left for it.
-    started: Option<Started>,
-    /// True once this tick sent `started`'s answer: it takes no command then.
-    answered_started: bool,
+    /// What this tick tells the host at the next one (see [`Later`]).
+    later: Later,
+    /// True once this tick sent what the last one left: it takes no command then.
+    sent_later: bool,
     /// The coils' heat while nothing plays (while a player plays, it holds it).
     thermal: Thermal,
     /// Ticks since power-up (the tick being computed): the link's clock.
@@ -170,16 +182,27 @@ impl<'a> Controller<'a> {
         stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
         device: DeviceConfig,
     ) -> Self {
+        let mut limits = [device.limits; MAX_SLOTS as usize];
+        for (l, s) in limits.iter_mut().zip(&stimuli) {
+            if let Ok(s) = s {
+                *l = s.limits().min(device.limits);
+            }
+        }
         Controller {
             stimuli,
+            limits,
             device,
             selected: 0,
             playing: None,
             own: None,
             stopping: false,
             queued: None,
-            started: None,
-            answered_started: false,
+            later: Later {
+                play: None,
+                gesture: None,
+                report: None,
+            },
+            sent_later: false,
             thermal: Thermal::COLD,
             now: 0,
             link: None,
@@ -281,10 +304,21 @@ impl<'a> Controller<'a> {
 
     /// Applies one button event; returns what to log.
     pub fn handle(&mut self, event: Event) -> Option<Report> {
-        self.send(Answer::Event(self.now, wire::Event::Button(gesture(event))));
+        // With the link, the host hears of the first press of a tick (and of what
+        // it did) at the next tick, which has room for it.
+        let later = self.link.is_some() && self.later.is_empty();
+        if later {
+            self.later.gesture = Some((gesture(event), self.now));
+        } else {
+            self.send(Answer::Event(self.now, wire::Event::Button(gesture(event))));
+        }
         let report = self.press(event);
         if let Some(r) = report {
-            self.announce(r);
+            if later {
+                self.later.report = Some((r, self.now.wrapping_add(1), true));
+            } else {
+                self.announce(r);
+            }
         }
         report
     }
@@ -361,7 +395,7 @@ impl<'a> Controller<'a> {
         }
         match &mut self.link {
             Some(port) => {
-                if !port.take_player(slot as u8, self.thermal) {
+                if !port.take_player(slot as u8, &self.thermal) {
                     // Not built yet: the link's task builds it, the start waits for
                     // it as a queued one.
                     self.queue(slot);
@@ -386,7 +420,7 @@ impl<'a> Controller<'a> {
     /// plays.
     pub fn start_limits(&self, slot: usize) -> Result<Limits, Error> {
         match self.stimuli.get(slot) {
-            Some(Ok(s)) => Ok(s.limits().min(self.device.limits)),
+            Some(Ok(_)) => Ok(self.limits[slot]),
             Some(Err(e)) => Err(*e),
             None => Err(Error::NoSuchSlot(u16::try_from(slot).unwrap_or(u16::MAX))),
         }
@@ -395,17 +429,19 @@ impl<'a> Controller<'a> {
     /// Computes the next frame; returns it and what to log.
     pub fn next_frame(&mut self) -> (Frame, Option<Report>) {
         let mut logged = None;
-        let frame = self.tick(|r| logged = Some(r));
+        let mut log = |r| logged = Some(r);
+        self.send_later(&mut log);
+        let frame = self.tick(log);
         (frame, logged)
     }
 
     /// Computes the next frame and hands what to log to `log`, in order (the tick's
     /// form of [`Controller::next_frame`]: a report is handed on where it arises,
-    /// not moved around when there is none).
+    /// not moved around when there is none). [`Controller::send_later`] comes
+    /// first, before the buttons' events.
     #[inline(always)]
     pub fn tick(&mut self, mut log: impl FnMut(Report)) -> Frame {
-        self.answer_started(&mut log);
-        if !core::mem::take(&mut self.answered_started) {
+        if !core::mem::take(&mut self.sent_later) {
             self.serve_link(&mut log);
         }
         let frame = self.step(&mut log);
@@ -413,33 +449,37 @@ impl<'a> Controller<'a> {
         frame
     }
 
-    /// Answers the `Play` that started a slot at the last tick, and reports the
-    /// start, with the tick of its first frame (before anything else this tick
-    /// tells the host; the engine calls it before the buttons'). The tick that
-    /// does takes no link command.
+    /// Sends what the last tick left for this one ([`Later`]), before anything
+    /// else this tick tells the host (the engine calls it before the buttons'). The
+    /// tick that does takes no link command.
     #[inline(always)]
-    pub fn answer_started(&mut self, log: &mut impl FnMut(Report)) {
-        if self.started.is_some() {
-            self.answer_started_now(log);
+    pub fn send_later(&mut self, log: &mut impl FnMut(Report)) {
+        if !self.later.is_empty() {
+            self.send_later_now(log);
         }
     }
 
     #[inline(never)]
-    fn answer_started_now(&mut self, log: &mut dyn FnMut(Report)) {
-        let Some(s) = self.started.take() else {
-            return;
-        };
-        let reply = TickReply::Play {
-            slot: s.slot,
-            tick: s.tick,
-            now: true,
-        };
-        self.send(Answer::Reply(s.seq, reply));
-        if let Some(r) = s.report {
-            self.announce_at(r, s.tick);
-            log(r);
+    fn send_later_now(&mut self, log: &mut dyn FnMut(Report)) {
+        let later = core::mem::take(&mut self.later);
+        if let Some((seq, slot, tick)) = later.play {
+            let reply = TickReply::Play {
+                slot,
+                tick,
+                now: true,
+            };
+            self.send(Answer::Reply(seq, reply));
         }
-        self.answered_started = true;
+        if let Some((gesture, tick)) = later.gesture {
+            self.send(Answer::Event(tick, wire::Event::Button(gesture)));
+        }
+        if let Some((r, tick, logged)) = later.report {
+            self.announce_at(r, tick);
+            if !logged {
+                log(r);
+            }
+        }
+        self.sent_later = true;
     }
 
     /// Tells the host and the log what a report of this tick says.
@@ -765,13 +805,15 @@ impl<'a> Controller<'a> {
                 self.send(Answer::Refused(seq, e));
             }
             report => {
-                // Answered by the next tick (`answer_started`).
-                self.started = Some(Started {
-                    seq,
-                    slot: wire_slot,
-                    tick: first,
-                    report,
-                });
+                // Answered by the next tick (`send_later`).
+                self.later.play = Some((seq, wire_slot, first));
+                match report {
+                    Some(r) if self.later.report.is_none() => {
+                        self.later.report = Some((r, first, false));
+                    }
+                    Some(r) => self.emit(r, log),
+                    None => {}
+                }
             }
         }
         true

@@ -43,7 +43,7 @@ impl<'a, S: OutputSink, W: Watchdog, const N: usize> Engine<'a, S, W, N> {
     pub fn tick(&mut self, edges: [Option<bool>; N], mut log: impl FnMut(Report)) {
         self.sink.write(&self.next);
         self.watchdog.feed();
-        self.controller.answer_started(&mut log);
+        self.controller.send_later(&mut log);
         for event in self.buttons.tick(edges) {
             if let Some(report) = self.controller.handle(event) {
                 log(report);

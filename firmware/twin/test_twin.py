@@ -290,6 +290,39 @@ class StopRamps(unittest.TestCase):
         self.assertLess(len(want), len(full))
 
 
+class ButtonTicks(unittest.TestCase):
+    """The tick that starts a slot from the button stays within the budget: its
+    player waits ready (the link's task built it), and what the host hears of the
+    press goes out at the next tick."""
+
+    def test_the_tick_that_starts_a_slot_by_a_press_stays_within_the_budget(self):
+        b = boot(EMOJI)
+        b.run(0.3)
+        b.count_tick_instructions()
+        presses = (0.3, 3.0)  # the second after a long press selected slot 1
+        for t in presses:
+            b.press(t, SHORT)
+        b.press(1.2, SHORT)
+        b.press(1.8, LONG)
+        b.run(3.5)
+        b.count_tick_instructions(False)
+        frames = codes(b)
+        ticks = b.tick_instructions
+        starts = []
+        for t in presses:
+            # From the release (a press plays once debounced) to two ticks past the
+            # first frame off 0 A: the start, its first frames, the tick after.
+            i = first_frame_after(b, t + SHORT)
+            on = next(k for k in range(i, len(frames)) if frames[k] != IDLE)
+            window = (b.frames[i][0], b.frames[on + 2][0])
+            starts.append(max(n for at, n in ticks if window[0] <= at <= window[1]))
+        if os.environ.get("TWIN_VERBOSE"):
+            costs = sorted(n for _, n in ticks)
+            print(f"\nbutton: the ticks that start a slot {starts} instructions; all ticks: worst "
+                  f"{costs[-1]}, median {costs[len(costs) // 2]}")
+        self.assertLessEqual(max(starts), TICK_BUDGET)
+
+
 class CorruptBank(unittest.TestCase):
     def test_a_corrupt_bank_is_refused_with_its_led_code_and_nothing_plays(self):
         image = bytearray(EMOJI.read_bytes())

@@ -477,7 +477,7 @@ impl<'a> TickPort<'_, 'a> {
     /// ([`Player::start_from`]), and gives the link the tick's old place: a swap,
     /// the player is not copied. False (and nothing changed) if another or none is
     /// staged. The player that was in the tick's place must be done with.
-    pub fn take_player(&mut self, slot: u8, thermal: Thermal) -> bool {
+    pub fn take_player(&mut self, slot: u8, thermal: &Thermal) -> bool {
         let state = self.players.state.load(Ordering::Acquire);
         if state & 0xFF != u32::from(slot) + 1 {
             return false;
@@ -486,7 +486,7 @@ impl<'a> TickPort<'_, 'a> {
         self.players
             .state
             .store((state & LINK_PLACE) ^ LINK_PLACE, Ordering::Release);
-        self.player().start_from(thermal);
+        self.player().start_from(*thermal);
         true
     }
 
