@@ -824,10 +824,11 @@ impl<'a> Controller<'a> {
     fn publish(&mut self) {
         let (tick, playing, stopping) = (self.now, self.playing.map(source), self.stopping);
         let selected = self.selected as u8;
+        let limits = &self.limits[self.selected % self.limits.len()];
         if let Some(port) = &mut self.link {
             // While something plays its player holds the heat (in the port).
             let idle = playing.is_none().then_some(&self.thermal);
-            port.publish_status(tick, playing, stopping, selected, idle);
+            port.publish_status(tick, playing, stopping, selected, limits, idle);
         }
     }
 

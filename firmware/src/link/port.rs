@@ -19,7 +19,7 @@ use core::sync::atomic::{fence, AtomicBool, AtomicU32, Ordering};
 
 use heapless::spsc::{Consumer, Producer, Queue};
 use touch_protocol::link::{FaultRecord, Limit, LinkError, Reply, Source, StreamParams};
-use touch_protocol::{Player, Thermal, CHANNELS};
+use touch_protocol::{Limits, Player, Thermal, CHANNELS};
 
 /// Commands in flight from the link to the tick (one fewer than this).
 pub const CONTROL_DEPTH: usize = 5;
@@ -79,6 +79,10 @@ pub struct Snapshot {
     pub stopping: bool,
     /// The selected slot.
     pub selected: u8,
+    /// The limits a start of the selected slot is judged by
+    /// ([`crate::control::Controller::start_limits`]): `Status` reports the heat
+    /// against them, as a refused start does.
+    pub start_limits: Limits,
     /// The coils' heat.
     pub thermal: Thermal,
     /// Limit hits since power-up.
@@ -122,6 +126,12 @@ impl Snapshot {
             playing: source_from(w[1]),
             stopping: w[1] & 1 << 9 != 0,
             selected: (w[1] >> 16) as u8,
+            start_limits: Limits {
+                peak_ma: w[21] as u16,
+                slew_ma_per_ms: (w[21] >> 16) as u16,
+                continuous_ma: w[22] as u16,
+                i2t_budget_ma2s: w[23],
+            },
             thermal: Thermal::from_heat_ma2ms(core::array::from_fn(|c| {
                 u64::from(w[5 + 2 * c]) | u64::from(w[6 + 2 * c]) << 32
             })),
@@ -215,8 +225,9 @@ struct Published {
 }
 
 /// Words of a published [`Snapshot`]: the tick, what plays and the selection, the
-/// fault count and the last fault (three words), then each channel's heat.
-const SNAPSHOT_WORDS: usize = 5 + 2 * CHANNELS;
+/// fault count and the last fault (three words), each channel's heat (two words
+/// each), the selected slot's start limits (three words).
+const SNAPSHOT_WORDS: usize = 5 + 2 * CHANNELS + 3;
 
 /// The queues, in a static on the target (split once at boot).
 pub struct Channels<'a> {
@@ -523,6 +534,7 @@ impl<'a> TickPort<'_, 'a> {
         playing: Option<Source>,
         stopping: bool,
         selected: u8,
+        start_limits: &Limits,
         idle: Option<&Thermal>,
     ) {
         // The player only when something plays: the place holds none before that.
@@ -558,6 +570,10 @@ impl<'a> TickPort<'_, 'a> {
             put(5);
             put(6);
             put(7);
+            let l = start_limits;
+            w(21, u32::from(l.peak_ma) | u32::from(l.slew_ma_per_ms) << 16);
+            w(22, u32::from(l.continuous_ma));
+            w(23, l.i2t_budget_ma2s);
         });
     }
 

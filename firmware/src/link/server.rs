@@ -421,8 +421,11 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         self.emit(&m, out);
     }
 
+    /// The `Status` reply: the heat against the budget a start of the selected
+    /// slot is judged by, and the cooldown that start waits for (the numbers its
+    /// refusal would give).
     fn status(&self, s: &Snapshot) -> StatusReport {
-        let limits = device_config().limits;
+        let limits = s.start_limits;
         let heat = s.thermal.heat_ma2ms();
         StatusReport {
             tick: s.tick,
@@ -455,7 +458,8 @@ fn encode_into(m: &Message<'_>, tx: &mut [u8; MAX_ENCODED], out: &mut dyn FnMut(
     }
 }
 
-/// Heat as per mille of the device's I^2 t budget (mA^2 s, the bucket holds mA^2 ms).
+/// Heat as per mille of the I^2 t budget of `limits` (mA^2 s, the bucket holds
+/// mA^2 ms), as [`touch_protocol::Thermal::check_start`] gives it in a refusal.
 fn budget_permille(heat_ma2ms: u64, limits: &touch_protocol::Limits) -> u16 {
     let budget = u64::from(limits.i2t_budget_ma2s)
         .saturating_mul(1000)

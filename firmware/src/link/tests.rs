@@ -381,6 +381,55 @@ fn a_hot_coil_refuses_a_play_as_it_refuses_a_press() {
     ));
 }
 
+/// A slot with a stricter I^2 t budget than the device's: what `Status` says of the
+/// heat is what a start of the selected slot is judged by, so it agrees with the
+/// refusal of a `Play` of that slot, per mille and cooldown.
+#[test]
+fn status_and_a_too_hot_refusal_judge_the_heat_by_the_same_budget() {
+    let strict = Limits {
+        i2t_budget_ma2s: 1_000_000,
+        ..Limits::SLEEVE
+    };
+    let bold = stimulus_from("bold", 1000, &[[32767; CHANNELS]; 4], Limits::SLEEVE);
+    let careful = stimulus_from("careful", 1000, &[[8000; CHANNELS]; 4], strict);
+    let mut h = Host::new(Device::boot(&bank(&[careful, bold]), &builtin()));
+    // Two seconds at 1 A heat every coil to about 1.3 A^2 s: 43 per mille of the
+    // device's 30 A^2 s, more than the careful slot's whole 1 A^2 s.
+    h.call(Command::Play { slot: 1 }).unwrap();
+    h.run(2000);
+    h.call(Command::Stop).unwrap();
+    h.run(100);
+    // Select the careful slot again (a long press moves the selection on).
+    h.dev.press(Button::Next);
+    h.run(2);
+    let f = h.call(Command::Status).unwrap();
+    let Reply::Status(st) = reply(&f) else {
+        panic!()
+    };
+    assert_eq!(st.selected, 0);
+    let refusal = h.call(Command::Play { slot: 0 });
+    let Err(LinkError::TooHot {
+        channel,
+        permille,
+        cooldown_ms,
+    }) = refusal
+    else {
+        panic!("{refusal:?}")
+    };
+    assert!(permille > 500, "{permille}");
+    // A few milliseconds of cooling apart.
+    let said = st.heat_permille[usize::from(channel)];
+    assert!(
+        said.abs_diff(permille) <= 2,
+        "status {said}, refusal {permille} per mille"
+    );
+    assert!(
+        st.cooldown_ms.abs_diff(cooldown_ms) <= 10,
+        "status {} ms, refusal {cooldown_ms} ms",
+        st.cooldown_ms
+    );
+}
+
 #[test]
 fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
     let mut h = host();

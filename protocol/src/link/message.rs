@@ -295,9 +295,11 @@ pub struct StatusReport {
     pub stopping: bool,
     /// The slot a short press plays.
     pub selected: u8,
-    /// Each channel's heat, per mille of its I^2 t budget (a start is refused above 500).
+    /// Each channel's heat, per mille of the I^2 t budget a start of the selected
+    /// slot is judged by (the stricter of its own and the device's): such a start is
+    /// refused above 500, with the per mille this gives.
     pub heat_permille: [u16; 8],
-    /// Idle milliseconds until a start is accepted (0: now).
+    /// Idle milliseconds until a start of the selected slot is accepted (0: now).
     pub cooldown_ms: u32,
     /// Limit hits since power-up.
     pub faults: u16,
