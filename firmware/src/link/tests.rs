@@ -430,6 +430,110 @@ fn status_and_a_too_hot_refusal_judge_the_heat_by_the_same_budget() {
     );
 }
 
+/// The two places for players: the link stages one, replaces it with another slot's,
+/// keeps it when asked for the same slot again; the tick takes only the slot it
+/// starts, swapping places (the player is not copied), and the link's next one goes
+/// to the other place, leaving the one that plays alone.
+#[test]
+fn the_tick_takes_the_staged_player_and_the_link_builds_in_the_other_place() {
+    use super::Channels;
+    use touch_protocol::{Player, Thermal};
+    let image = two_slots();
+    let bank = touch_protocol::Bank::decode(&image).unwrap();
+    let device = device_config();
+    let build = |slot: u8| {
+        let s = bank.slot(usize::from(slot)).ok()?;
+        Some(Player::with_thermal(&s, &device, Thermal::COLD))
+    };
+    let channels: &mut Channels = Box::leak(Box::new(Channels::new()));
+    let (mut link, mut tick) = channels.split();
+    let warm = Thermal::from_heat_ma2ms([3_000_000_000; CHANNELS]);
+    assert_eq!((link.staged(), link.wanted()), (None, None));
+    assert!(!tick.take_player(0, &warm));
+    link.stage(0, || build(0));
+    assert_eq!((link.staged(), link.wanted()), (Some(0), Some(0)));
+    link.stage(1, || build(1));
+    assert_eq!((link.staged(), link.wanted()), (Some(1), Some(1)));
+    link.stage(1, || panic!("slot 1 is staged already"));
+    assert!(!tick.take_player(0, &warm));
+    assert!(tick.take_player(1, &warm));
+    assert_eq!(link.staged(), None);
+    // Built in the other place: the taken player plays on, slot 1 from the warm coil.
+    link.stage(0, || build(0));
+    assert_eq!(link.staged(), Some(0));
+    let s = bank.slot(1).unwrap();
+    let mut want = Player::with_thermal(&s, &device, warm);
+    for _ in 0..50 {
+        assert_eq!(tick.player().tick(), want.tick());
+    }
+    tick.want(1);
+    assert_eq!(link.wanted(), Some(1));
+}
+
+/// The players the link's task builds ahead and hands to the tick play exactly what
+/// the controller alone plays when it builds each player itself, warm coils, trips
+/// and refusals included: the press schedule below, on the in-memory sleeve and on
+/// a bare controller, gives the same frames and the same reports, tick for tick.
+#[test]
+fn players_built_ahead_play_as_players_built_in_the_tick() {
+    use crate::control::Report;
+    let limits = Limits {
+        i2t_budget_ma2s: 2_000_000,
+        ..Limits::SLEEVE
+    };
+    let hot = stimulus_from("hot", 500, &[[32767; CHANNELS]; 9], limits);
+    let other = stimulus_from("other", 100, &[[-20000; CHANNELS]; 9], Limits::SLEEVE);
+    let image = bank(&[hot, other]);
+    let mut dev = Device::boot(&image, &builtin());
+    let b = touch_protocol::Bank::decode(&image).unwrap();
+    let mut bare = crate::control::Controller::new(b, device_config());
+    let mut bare_frames = vec![IDLE_FRAME];
+    let (mut bare_reports, mut presses) = (Vec::new(), Vec::new());
+    let ticks = 120_000;
+    for t in 0..ticks {
+        // A press every 2.5 s (a trip, a refusal, a stop, a start), a long press
+        // (the next slot) every 23 s.
+        let press = match t {
+            _ if t % 23_000 == 50 => Some(Button::Next),
+            _ if t % 2500 == 10 => Some(Button::Toggle),
+            _ => None,
+        };
+        if let Some(p) = press {
+            let r = dev.press(p);
+            assert_eq!(r, bare.handle(p), "tick {t}: the press's report");
+            presses.extend(r);
+        }
+        dev.tick();
+        let (frame, report) = bare.next_frame();
+        bare_frames.push(frame);
+        if let Some(r) = report {
+            bare_reports.push((t as u32, r));
+        }
+    }
+    let frames = dev.outputs();
+    assert_eq!(frames.len(), ticks);
+    for t in 0..ticks {
+        assert_eq!(frames[t], bare_frames[t], "tick {t}");
+    }
+    assert_eq!(dev.reports(), &bare_reports[..]);
+    let trips = bare_reports
+        .iter()
+        .filter(|(_, r)| matches!(r, Report::Fault(..)))
+        .count();
+    let refused = presses
+        .iter()
+        .filter(|r| matches!(r, Report::TooHot(..)))
+        .count();
+    let starts = presses
+        .iter()
+        .filter(|r| matches!(r, Report::Started(1)))
+        .count();
+    assert!(
+        trips > 2 && refused > 2 && starts > 0,
+        "{trips} trips, {refused} refusals, {starts} starts of slot 1"
+    );
+}
+
 #[test]
 fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
     let mut h = host();
