@@ -30,6 +30,7 @@ use touch_protocol::thermal::TooHot;
 use touch_protocol::{Bank, DeviceConfig, Error, Limits, LiveParams, Player, Stimulus, Thermal};
 
 use crate::button::Event;
+use crate::link::port::{STAGED_STREAM, STAGED_STREAM_ONE};
 use crate::link::{Answer, Control, TickPort, TickReply};
 use crate::output::{Frame, IDLE_FRAME, LAYOUT_HASH};
 
@@ -574,7 +575,16 @@ impl<'a> Controller<'a> {
     #[inline(never)]
     fn stream_tick(&mut self) -> Option<Report> {
         if self.stream == StreamState::Off {
-            self.drain_keyframes();
+            // What a stopped stream left, a few a tick: all of them at once (up to
+            // 32) would cost the tick that stops it some 390 instructions. A new
+            // stream drains the rest before it is armed.
+            if let Some(port) = self.link.as_mut() {
+                for _ in 0..4 {
+                    if port.next_keyframe().is_none() {
+                        break;
+                    }
+                }
+            }
             return None;
         }
         let port = self.link.as_mut()?;
@@ -606,10 +616,25 @@ impl<'a> Controller<'a> {
                     self.stream = StreamState::Off;
                     return Some(Report::Stream(StreamReport::TooHot(hot)));
                 }
-                let first = port.next_keyframe().unwrap_or([0; 8]);
-                let second = port.next_keyframe().unwrap_or(first);
-                let player = Player::live(&params, first, second, &self.device, self.thermal);
-                port.put_player(player);
+                // The link's task built the player from these keyframes (both, or
+                // the only one of a stream that ended after it); if not (the
+                // selection moved meanwhile), the tick builds it.
+                let tag = if ready >= 2 {
+                    STAGED_STREAM
+                } else {
+                    STAGED_STREAM_ONE
+                };
+                if port.take_player(tag, &self.thermal) {
+                    port.next_keyframe();
+                    if tag == STAGED_STREAM {
+                        port.next_keyframe();
+                    }
+                } else {
+                    let first = port.next_keyframe().unwrap_or([0; 8]);
+                    let second = port.next_keyframe().unwrap_or(first);
+                    let player = Player::live(&params, first, second, &self.device, self.thermal);
+                    port.put_player(player);
+                }
                 self.playing = Some(Playing::Stream);
                 self.stopping = false;
                 self.stream = StreamState::On;
@@ -630,8 +655,8 @@ impl<'a> Controller<'a> {
     /// Ramps the stream down (or forgets an armed one) for `why`.
     fn stop_stream(&mut self, why: StreamStop) -> Option<Report> {
         let was = self.stream;
+        // Its keyframes left in the queue drain while it is off (`stream_tick`).
         self.stream = StreamState::Off;
-        self.drain_keyframes();
         match self.playing {
             Some(Playing::Stream) if !self.stopping => {
                 if let Some(player) = self.player_mut() {

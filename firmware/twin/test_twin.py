@@ -1218,6 +1218,23 @@ class LinkStream(unittest.TestCase):
         self.assertTrue(all(f[1] == IDLE for f in b.frames if f[0] >= rest))
         self.assertTrue(h.events("StreamStopped"), "the device said why")
 
+    def test_the_ticks_of_a_stream_stay_within_the_budget(self):
+        # Its begin, its start (the player the link's task built from the first two
+        # keyframes), its data a buffer ahead, its stop and ramp.
+        b = boot(EMOJI)
+        h = Host(b)
+        b.run(0.3)
+        b.count_tick_instructions()
+        self.stream(h, 300)
+        h.ok(link.stop)
+        h.pump(0.1)
+        b.count_tick_instructions(False)
+        costs = sorted(n for _, n in b.tick_instructions)
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nstream ticks: {len(costs)}, worst {costs[-1]} instructions (median "
+                  f"{costs[len(costs) // 2]})")
+        self.assertLessEqual(costs[-1], TICK_BUDGET)
+
     def test_stop_ramps_a_stream_to_0a(self):
         b = boot(EMOJI)
         h = Host(b)

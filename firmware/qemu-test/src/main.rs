@@ -23,6 +23,7 @@ use sleeve_firmware::boot::{check_bank, BootError};
 use sleeve_firmware::button::{Buttons, Mode};
 use sleeve_firmware::control::Controller;
 use sleeve_firmware::engine::{Engine, Watchdog};
+use sleeve_firmware::link::port::STAGED_STREAM;
 use sleeve_firmware::link::{Channels, Control, LinkPort};
 use sleeve_firmware::output::{device_config, pwm_compare, Frame, PWM_PERIOD};
 use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
@@ -104,6 +105,14 @@ const LINK_BUSY_BUDGET_INSNS: u32 = 1_700;
 /// Ticks the link-busy run lasts.
 const LINK_TICKS: u32 = 4000;
 
+/// How the link-busy run's stream plays.
+const STREAM: StreamParams = StreamParams {
+    keyframe_period_ms: 20,
+    ramp_ms: 20,
+    full_scale_ma: 1000,
+    limits: touch_protocol::Limits::SLEEVE,
+};
+
 /// The link's task between two ticks: a command for the tick every millisecond
 /// (a stream begun at once and fed a keyframe every 20 ms, then a stop, a play, a
 /// stop, and a status request whenever nothing else is due), the player the tick
@@ -131,12 +140,7 @@ fn host_side(t: u32, port: &mut LinkPort<'static, 'static>, bank: Bank<'static>)
     let control = match t {
         0 => Control::StreamBegin {
             seq,
-            params: StreamParams {
-                keyframe_period_ms: 20,
-                ramp_ms: 20,
-                full_scale_ma: 1000,
-                limits: touch_protocol::Limits::SLEEVE,
-            },
+            params: STREAM,
         },
         2000 | 3500 => Control::Stop { seq },
         2300 => Control::Play { seq, slot: 0 },
@@ -150,6 +154,19 @@ fn host_side(t: u32, port: &mut LinkPort<'static, 'static>, bank: Bank<'static>)
         let n = if t == 1 { 3 } else { 1 };
         for _ in 0..n {
             let _ = port.push_keyframe([v; CHANNELS]);
+        }
+        if t == 1 {
+            // The stream's player from its first two keyframes, as the link server
+            // builds it.
+            port.stage(STAGED_STREAM, || {
+                Some(Player::live(
+                    &STREAM,
+                    [v; CHANNELS],
+                    [v; CHANNELS],
+                    &device_config(),
+                    touch_protocol::Thermal::COLD,
+                ))
+            });
         }
         port.fed();
     }

@@ -197,6 +197,13 @@ pub enum Answer {
     Event(u32, touch_protocol::link::Event),
 }
 
+/// The slot number a stream's player is staged as, built from its first two
+/// keyframes ([`LinkPort::stage`], [`TickPort::take_player`]; bank slots are below
+/// [`touch_protocol::bank::MAX_SLOTS`]).
+pub const STAGED_STREAM: u8 = 0xFE;
+/// The same for a stream that ended after its only keyframe.
+pub const STAGED_STREAM_ONE: u8 = 0xFD;
+
 /// No player staged (the low byte of [`Players::state`]).
 const NONE_STAGED: u32 = 0;
 /// The bit of [`Players::state`] that says which place is the link's.

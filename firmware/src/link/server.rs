@@ -8,12 +8,15 @@
 
 use touch_protocol::link::{
     self, cobs, BankState, Busy, Command, FrameError, Info, LinkError, Message, Reply, Request,
-    SlotInfo, StatusReport, MAX_CHUNK, MAX_ENCODED, MAX_MESSAGE, MAX_STREAM_KEYFRAMES,
+    SlotInfo, StatusReport, StreamParams, MAX_CHUNK, MAX_ENCODED, MAX_MESSAGE,
+    MAX_STREAM_KEYFRAMES,
 };
 use touch_protocol::{Bank, Player, Thermal};
 
 use super::bank::{BankWriter, Flash};
-use super::port::{Answer, Control, LinkPort, Snapshot, TickReply};
+use super::port::{
+    Answer, Control, LinkPort, Snapshot, TickReply, STAGED_STREAM, STAGED_STREAM_ONE,
+};
 use crate::output::{device_config, LAYOUT_HASH};
 
 /// What the device says about itself in `Info`.
@@ -50,6 +53,9 @@ pub struct LinkServer<'a, F: Flash> {
     locked: bool,
     /// The next stream keyframe index, while a stream takes data.
     stream_next: Option<u32>,
+    /// The last stream begun, and its first keyframe once it came: its player is
+    /// built here, once its first two keyframes are in.
+    stream: Option<(StreamParams, Option<[i16; 8]>)>,
     restart: bool,
     /// When bytes last came from the host, ms on the caller's clock.
     heard_ms: u64,
@@ -68,6 +74,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             begin: None,
             locked: false,
             stream_next: None,
+            stream: None,
             restart: false,
             heard_ms: 0,
         }
@@ -261,6 +268,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                 if let Err(e) = params.validate() {
                     return refuse(self, e, out);
                 }
+                self.stream = Some((params, None));
                 self.forward(seq, Control::StreamBegin { seq, params }, out)
             }
             Command::StreamData { index, keyframes } => match self.stream_data(index, keyframes) {
@@ -268,6 +276,12 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                 Err(e) => refuse(self, e, out),
             },
             Command::StreamEnd => {
+                if self.stream_next == Some(1) {
+                    // A stream of one keyframe: its player starts from it alone.
+                    if let Some((params, Some(first))) = self.stream {
+                        self.stage_stream(STAGED_STREAM_ONE, &params, first, first);
+                    }
+                }
                 self.stream_next = None;
                 self.forward(seq, Control::StreamEnd { seq }, out)
             }
@@ -307,6 +321,15 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         for i in 0..n.min(MAX_STREAM_KEYFRAMES) {
             if let Some(k) = link::stream_keyframe(keyframes, i) {
                 let _ = self.port.push_keyframe(k);
+                // The player from the stream's first two keyframes, for the tick to
+                // take when it starts the stream.
+                match (expected + i as u32, self.stream) {
+                    (0, Some((params, _))) => self.stream = Some((params, Some(k))),
+                    (1, Some((params, Some(first)))) => {
+                        self.stage_stream(STAGED_STREAM, &params, first, k)
+                    }
+                    _ => {}
+                }
             }
         }
         self.port.fed();
@@ -347,6 +370,20 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             let s = bank.slot(usize::from(slot)).ok()?;
             s.check_layout(LAYOUT_HASH).ok()?;
             Some(Player::with_thermal(&s, &device_config(), Thermal::COLD))
+        });
+    }
+
+    /// Builds a stream's player from its first keyframes (from a cold coil: the tick
+    /// hands it the heat at the start) and stages it as `tag`.
+    fn stage_stream(&mut self, tag: u8, params: &StreamParams, first: [i16; 8], second: [i16; 8]) {
+        self.port.stage(tag, || {
+            Some(Player::live(
+                params,
+                first,
+                second,
+                &device_config(),
+                Thermal::COLD,
+            ))
         });
     }
 
