@@ -141,6 +141,9 @@ pub struct Controller<'a> {
     own: Option<Player<'a>>,
     /// True once the playing slot was asked to stop or ended: it ramps down.
     stopping: bool,
+    /// The tick at which what plays started, and its keyframe period in ms: the
+    /// ticks on which its player takes its next keyframe (see `keyframe_tick`).
+    keyframes: (u32, u32),
     /// Slot to start as soon as the current one reached 0 A.
     queued: Option<usize>,
     /// What this tick tells the host at the next one (see [`Later`]).
@@ -197,6 +200,7 @@ impl<'a> Controller<'a> {
             playing: None,
             own: None,
             stopping: false,
+            keyframes: (0, 0),
             queued: None,
             later: Later {
                 play: None,
@@ -412,6 +416,9 @@ impl<'a> Controller<'a> {
             }
         }
         self.playing = Some(Playing::Slot(slot));
+        if let Some(Ok(s)) = self.stimuli.get(slot) {
+            self.keyframes = (self.now, u32::from(s.header().keyframe_period_ms));
+        }
         self.stopping = false;
         Some(Report::Started(slot))
     }
@@ -636,6 +643,7 @@ impl<'a> Controller<'a> {
                     port.put_player(player);
                 }
                 self.playing = Some(Playing::Stream);
+                self.keyframes = (self.now, u32::from(params.keyframe_period_ms));
                 self.stopping = false;
                 self.stream = StreamState::On;
                 Some(Report::Stream(StreamReport::Started))
@@ -709,6 +717,9 @@ impl<'a> Controller<'a> {
                     self.emit(r, log);
                 }
             }
+            // A player that takes its next keyframe decodes it in that tick: the
+            // snapshot waits a tick rather than add to it.
+            Control::Status { .. } if self.keyframe_tick() => return,
             Control::Status { seq } => {
                 self.publish();
                 self.send(Answer::Status(seq));
@@ -750,6 +761,17 @@ impl<'a> Controller<'a> {
         if let Some(port) = &mut self.link {
             port.next_control();
         }
+    }
+
+    /// True if this tick's player takes its next keyframe (a player's `k`-th tick
+    /// from its start does when `k + 1` is a multiple of the period), while it plays
+    /// its keyframes. Never with a period under 2 ms, where every tick does.
+    fn keyframe_tick(&self) -> bool {
+        let (start, period) = self.keyframes;
+        self.playing.is_some()
+            && !self.stopping
+            && period >= 2
+            && self.now.wrapping_sub(start) % period == period - 1
     }
 
     /// Why nothing may start now, if so: an upload owns the bank, a stream is on.

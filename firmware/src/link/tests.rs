@@ -534,6 +534,38 @@ fn players_built_ahead_play_as_players_built_in_the_tick() {
     );
 }
 
+/// A `Status` that would land on a tick whose player decodes its next keyframe (the
+/// dearest ticks) is answered a tick later; on any other tick, at once.
+#[test]
+fn a_status_is_not_answered_on_a_keyframe_tick() {
+    let period = 20u32;
+    let frames: Vec<[i16; CHANNELS]> = (0..50).map(|i| [(i * 300) as i16; CHANNELS]).collect();
+    let s = stimulus_from("ramps", period as u16, &frames, Limits::SLEEVE);
+    let mut h = Host::new(Device::boot(&bank(&[s]), &builtin()));
+    h.run(5);
+    let f = h.call(Command::Play { slot: 0 }).unwrap();
+    let Reply::Play { tick: first, .. } = reply(&f) else {
+        panic!()
+    };
+    // The tick that started it computed its first frame.
+    let start = first - 1;
+    let mut late = 0;
+    for _ in 0..3 * period {
+        let sent = h.dev.controller().now();
+        let f = h.call(Command::Status).unwrap();
+        let Reply::Status(st) = reply(&f) else {
+            panic!()
+        };
+        assert_ne!(
+            st.tick.wrapping_sub(start) % period,
+            period - 1,
+            "answered on a keyframe tick"
+        );
+        late += usize::from(st.tick > sent);
+    }
+    assert!(late > 0 && late < 10, "{late} answered a tick late");
+}
+
 #[test]
 fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
     let mut h = host();
