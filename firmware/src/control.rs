@@ -132,6 +132,8 @@ pub struct Controller<'a> {
     stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
     /// Each slot's start limits ([`Controller::start_limits`]), worked out once.
     limits: [Limits; MAX_SLOTS as usize],
+    /// Each slot's keyframe period, ms.
+    periods: [u16; MAX_SLOTS as usize],
     device: DeviceConfig,
     selected: usize,
     /// What plays (or ramps down). Its player is in the link's tick port, or in
@@ -187,14 +189,17 @@ impl<'a> Controller<'a> {
         device: DeviceConfig,
     ) -> Self {
         let mut limits = [device.limits; MAX_SLOTS as usize];
-        for (l, s) in limits.iter_mut().zip(&stimuli) {
+        let mut periods = [0; MAX_SLOTS as usize];
+        for ((l, p), s) in limits.iter_mut().zip(&mut periods).zip(&stimuli) {
             if let Ok(s) = s {
                 *l = s.limits().min(device.limits);
+                *p = s.header().keyframe_period_ms;
             }
         }
         Controller {
             stimuli,
             limits,
+            periods,
             device,
             selected: 0,
             playing: None,
@@ -416,9 +421,7 @@ impl<'a> Controller<'a> {
             }
         }
         self.playing = Some(Playing::Slot(slot));
-        if let Some(Ok(s)) = self.stimuli.get(slot) {
-            self.keyframes = (self.now, u32::from(s.header().keyframe_period_ms));
-        }
+        self.keyframes = (self.now, u32::from(self.periods[slot % self.periods.len()]));
         self.stopping = false;
         Some(Report::Started(slot))
     }

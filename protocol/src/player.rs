@@ -297,7 +297,7 @@ impl<'a> Player<'a> {
             fault: None,
         };
         player.starved = budget_ma2ms(&limits) < player.reserve_ma2ms();
-        player.start_from(thermal);
+        player.start_from(&thermal);
         if player.slew_ua == 0 || player.peak_ua == 0 {
             // Nothing may move: finish at once rather than pretend to play.
             player.mode = Mode::Done;
@@ -311,9 +311,9 @@ impl<'a> Player<'a> {
     /// tick, from any heat, and hands it the device's at the tick that starts it:
     /// a copy and a comparison, where building it costs divisions and the first
     /// keyframes' decoding. Call it before the first [`Player::tick`] only.
-    pub fn start_from(&mut self, thermal: Thermal) {
-        self.thermal = thermal;
-        let (channel, heat) = thermal.hottest();
+    pub fn start_from(&mut self, thermal: &Thermal) {
+        self.thermal = *thermal;
+        let (channel, heat) = self.thermal.hottest();
         // Too hot already, or a budget that cannot carry even one tick and the ramp
         // down after it: the first tick is a thermal fault and nothing moves.
         self.hot = (heat > self.trip_ma2ms || self.starved).then_some(channel);

@@ -245,7 +245,7 @@ fn play_on_device(device: DeviceConfig, plays: &[Play]) -> Result<u64, TestCaseE
         // Built ahead from a cold coil and handed the heat at its start: the same
         // player, field for field.
         let mut ahead = Player::new(&s, &device);
-        ahead.start_from(thermal);
+        ahead.start_from(&thermal);
         prop_assert_eq!(format!("{ahead:?}"), format!("{player:?}"), "play {}", i);
         let (coil_start, spec_start) = (coil.heat, spec.heat);
         let mut prev = [ZERO as u16; CHANNELS];
@@ -435,7 +435,7 @@ fn a_play_started_on_a_hot_coil_stops_at_once() {
 
     let mut second = Player::with_thermal(&s, &device, heat);
     let mut ahead = Player::new(&s, &device);
-    ahead.start_from(heat);
+    ahead.start_from(&heat);
     assert_eq!(format!("{ahead:?}"), format!("{second:?}"));
     let t = second.tick();
     assert!(

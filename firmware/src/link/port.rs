@@ -504,7 +504,7 @@ impl<'a> TickPort<'_, 'a> {
         self.players
             .state
             .store((state & LINK_PLACE) ^ LINK_PLACE, Ordering::Release);
-        self.player().start_from(*thermal);
+        self.player().start_from(thermal);
         true
     }
 
