@@ -240,7 +240,8 @@ impl<'a> Controller<'a> {
         self.now
     }
 
-    /// True when the tick queued answers the link has not looked at yet.
+    /// True when the tick queued answers, or asked for a player, and the link has
+    /// not looked since (the firmware wakes the link's task on it).
     pub fn link_answered(&self) -> bool {
         self.link.as_ref().is_some_and(|p| p.answered())
     }

@@ -142,7 +142,7 @@ impl Snapshot {
 }
 
 /// The tick's replies: the variants of [`Reply`] it gives, small (an answer is
-/// copied into the queue in the tick; the snapshot of a `Status` travels apart).
+/// copied into the queue in the tick; the state for a `Status` is published apart).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TickReply {
     /// [`Reply::Play`].

@@ -470,6 +470,69 @@ fn the_tick_takes_the_staged_player_and_the_link_builds_in_the_other_place() {
     assert_eq!(link.wanted(), Some(1));
 }
 
+/// A `Play` whose player is not staged (a press took the place, or asked for
+/// another slot) stays in the queue: the tick asks the link for it, and once it is
+/// staged the `Play` starts and is answered with the tick of its first frame.
+#[test]
+fn a_play_waits_for_its_player() {
+    use super::{Answer, Channels, Control, LinkPort, TickReply};
+    use crate::control::Controller;
+    use touch_protocol::{Player, Thermal};
+
+    fn run(
+        c: &mut Controller<'_>,
+        port: &mut LinkPort<'_, '_>,
+        frames: &mut Vec<crate::output::Frame>,
+        answers: &mut Vec<Answer>,
+        n: usize,
+    ) {
+        for _ in 0..n {
+            frames.push(c.next_frame().0);
+            while let Some(a) = port.receive() {
+                answers.push(a);
+            }
+        }
+    }
+
+    let image = two_slots();
+    let bank = touch_protocol::Bank::decode(&image).unwrap();
+    let mut c = Controller::new(bank, device_config());
+    let channels: &mut Channels = Box::leak(Box::new(Channels::new()));
+    let (mut port, tick) = channels.split();
+    c.attach(tick);
+    let (mut frames, mut answers) = (Vec::new(), Vec::new());
+    run(&mut c, &mut port, &mut frames, &mut answers, 3);
+    port.send(Control::Play { seq: 7, slot: 1 }).unwrap();
+    run(&mut c, &mut port, &mut frames, &mut answers, 5);
+    assert_eq!(port.wanted(), Some(1), "the tick asks for slot 1's player");
+    assert!(answers.is_empty(), "{answers:?}");
+    assert!(frames.iter().all(|f| *f == IDLE_FRAME));
+    let s = bank.slot(1).unwrap();
+    port.stage(1, || {
+        Some(Player::with_thermal(&s, &device_config(), Thermal::COLD))
+    });
+    run(&mut c, &mut port, &mut frames, &mut answers, 5);
+    let reply = answers.iter().find_map(|a| match a {
+        Answer::Reply(
+            7,
+            TickReply::Play {
+                slot: 1,
+                tick,
+                now: true,
+            },
+        ) => Some(*tick),
+        _ => None,
+    });
+    let Some(tick) = reply else {
+        panic!("{answers:?}")
+    };
+    // The frame computed at tick n (frames[n]) goes out at tick n + 1: the answer
+    // names that tick.
+    assert_eq!(frames[tick as usize - 2], IDLE_FRAME);
+    assert_ne!(frames[tick as usize - 1], IDLE_FRAME);
+    assert_eq!(c.playing(), Some(1));
+}
+
 /// The players the link's task builds ahead and hands to the tick play exactly what
 /// the controller alone plays when it builds each player itself, warm coils, trips
 /// and refusals included: the press schedule below, on the in-memory sleeve and on
