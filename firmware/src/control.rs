@@ -550,7 +550,12 @@ impl<'a> Controller<'a> {
             }
             Status::Finished => {
                 if let Some(player) = self.player() {
-                    self.thermal = player.thermal();
+                    // Through a local the compiler must keep: assigned straight
+                    // from the player's place, the copy may overlap as far as it
+                    // knows, and it links compiler_builtins' memmove (1.5 KB of
+                    // flash) for this copy alone.
+                    let heat = core::hint::black_box(player.thermal().heat_ma2ms());
+                    self.thermal = Thermal::from_heat_ma2ms(heat);
                 }
                 self.playing = None;
                 self.stopping = false;
