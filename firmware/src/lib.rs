@@ -3,7 +3,8 @@
 //! The data flow, top to bottom:
 //! - [`boot`]: is the bank in flash usable? If not, which LED code says why.
 //! - [`button`]: EXTI edges -> debounced levels -> gestures (press, long press).
-//! - [`control`]: gestures -> which slot plays; owns the [`touch_protocol::Player`].
+//! - [`control`]: gestures -> which slot plays; steps the [`touch_protocol::Player`]
+//!   (with the link, one the link's task built ahead, see [`link::port`]).
 //! - [`engine`]: the 1 kHz tick: write the frame computed last tick, then compute
 //!   the next one.
 //! - [`output`]: codes -> timer compare values; the compiled hard limits.

@@ -242,6 +242,11 @@ fn play_on_device(device: DeviceConfig, plays: &[Play]) -> Result<u64, TestCaseE
             max_code_offset(eff.peak_ma, fs),
         );
         let mut player = Player::with_thermal(&s, &device, thermal);
+        // Built ahead from a cold coil and handed the heat at its start: the same
+        // player, field for field.
+        let mut ahead = Player::new(&s, &device);
+        ahead.start_from(&thermal);
+        prop_assert_eq!(format!("{ahead:?}"), format!("{player:?}"), "play {}", i);
         let (coil_start, spec_start) = (coil.heat, spec.heat);
         let mut prev = [ZERO as u16; CHANNELS];
         let mut n = 0u32;
@@ -429,6 +434,9 @@ fn a_play_started_on_a_hot_coil_stops_at_once() {
     assert!(heat.check_start(&hot).is_err(), "{:?}", heat.heat_ma2ms());
 
     let mut second = Player::with_thermal(&s, &device, heat);
+    let mut ahead = Player::new(&s, &device);
+    ahead.start_from(&heat);
+    assert_eq!(format!("{ahead:?}"), format!("{second:?}"));
     let t = second.tick();
     assert!(
         matches!(t.status, Status::Fault(f) if f.kind == LimitKind::Thermal && f.channel == 5),

@@ -97,7 +97,7 @@ pub async fn run(spawner: Spawner) -> ! {
             let _ = at_boot.push(report);
         }
     }
-    tick.start();
+    let mut reports = tick.start();
     if let Err(e) = checked {
         show_refused(&mut led, e).await
     }
@@ -117,10 +117,10 @@ pub async fn run(spawner: Spawner) -> ! {
         let light = status.at(now_ms());
         set(&mut led, light.on);
         let report = match light.until_ms {
-            Some(t) => with_deadline(Instant::from_millis(t), tick::REPORTS.receive())
+            Some(t) => with_deadline(Instant::from_millis(t), reports.next())
                 .await
                 .ok(),
-            None => Some(tick::REPORTS.receive().await),
+            None => Some(reports.next().await),
         };
         if let Some(report) = report {
             log(report);
