@@ -66,21 +66,13 @@ fn encode(
     limits: Limits,
     frames: Vec<[i16; CHANNELS]>,
 ) -> Vec<u8> {
-    let header = stimulus::Header {
-        channels: CHANNELS as u8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: period_ms,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: 50,
-        full_scale_ma,
-        quant_shift: 4,
-        layout_hash: touch_protocol::layout::SLEEVE_HASH,
-        layout: touch_protocol::layout::SLEEVE_NAME,
-        limits,
-        name,
-    };
-    stimulus::encode(header, &frames).expect("test stimulus encodes")
+    stimulus::Builder::new(name, period_ms)
+        .ramp_ms(50)
+        .full_scale_ma(full_scale_ma)
+        .quant_shift(4)
+        .limits(limits)
+        .encode(&frames)
+        .expect("test stimulus encodes")
 }
 
 /// Like the paper's signals: coils rest pre-indented at -0.9 A and a touch moves
