@@ -10,7 +10,8 @@
 //! - [`poison`]: hand-built `.npy` and `.npz` files, most of them wrong in one way.
 //! - [`bin`]: running the real `touchc` binary.
 //!
-//! What the tests used to reach as `common::...` stands at the crate's root too.
+//! The recordings, the reference loader and the generator also stand at the crate's
+//! root, which the tests, benches and examples name `common`.
 #![warn(missing_docs)]
 
 pub mod bin;
