@@ -1,6 +1,6 @@
 //! Makes the test bank with the protocol crate's encoder, plays every slot with the
 //! host's player, and writes the bank and the expected tick counts and code hashes
-//! for the target to check against. Links with the workspace's `memory.x`.
+//! for the target to check against. Links with the firmware's `memory.x`.
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -117,13 +117,16 @@ fn bold() -> Vec<u8> {
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("set by cargo"));
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("set by cargo"));
-    let root = manifest
-        .join("../..")
+    let firmware = manifest
+        .join("..")
         .canonicalize()
-        .expect("workspace root");
-    println!("cargo:rustc-link-search={}", root.display());
+        .expect("the firmware crate");
+    println!("cargo:rustc-link-search={}", firmware.display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
-    println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+    println!(
+        "cargo:rerun-if-changed={}",
+        firmware.join("memory.x").display()
+    );
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-changed=../../protocol/src");
 

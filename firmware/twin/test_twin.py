@@ -1260,6 +1260,21 @@ class StudyScript(unittest.TestCase):
         self.assertEqual(len(set(ticks)), len(ticks))
         self.assertEqual(b.resets, [])
 
+    def test_without_a_sleeve_the_script_stops_in_one_line(self):
+        if not TOUCHC.exists():
+            self.skipTest(f"{TOUCHC} not built (run.sh builds it)")
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        script, log = SCRATCH / "study.sh", SCRATCH / "study-none.jsonl"
+        script.write_text(study_script())
+        log.unlink(missing_ok=True)
+        env = dict(os.environ, PATH=f"{TOUCHC.parent}:{os.environ['PATH']}", GAP="0")
+        run = subprocess.run(["bash", str(script), str(SCRATCH / "no-such-port"), str(log)],
+                             capture_output=True, text=True, env=env, timeout=60)
+        self.assertEqual(run.returncode, 1, run.stderr)
+        self.assertEqual(len(run.stderr.splitlines()), 1, run.stderr)
+        self.assertIn("no sleeve attached there", run.stderr)
+        self.assertFalse(log.exists(), "no trial logged")
+
     def test_touchc_uploads_stimuli_and_the_sleeve_plays_the_new_bank(self):
         b = boot(EMOJI)
         port = self.serving(b)

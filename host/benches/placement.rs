@@ -6,7 +6,7 @@ use touchc_testkit as common;
 use common::Reference;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 use touchc::placement::place;
 
 fn bench(c: &mut Criterion) {

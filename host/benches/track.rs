@@ -8,9 +8,10 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion};
 use ndarray_npy::WriteNpyExt;
 use touchc::input::recording::Recording;
+use touchc::track::track;
 use touchc::tracking::detect::detect;
 use touchc::tracking::preprocess::preprocess;
-use touchc::tracking::track::{link, track};
+use touchc::tracking::track::link;
 
 fn stages(c: &mut Criterion) {
     let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);

@@ -34,9 +34,10 @@ impl std::ops::Sub for Instant {
 
 use ndarray_npy::WriteNpyExt;
 use touchc::input::recording::Recording;
+use touchc::track::track;
 use touchc::tracking::detect::detect;
 use touchc::tracking::preprocess::preprocess;
-use touchc::tracking::track::{link, track};
+use touchc::tracking::track::link;
 
 fn main() -> anyhow::Result<()> {
     let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);

@@ -23,8 +23,6 @@ use heapless::spsc::{Consumer, Producer, Queue};
 use sleeve_firmware::link::LinkServer;
 
 use super::flash::BankFlash;
-#[cfg(feature = "usb")]
-use super::usb;
 
 /// Baud rate of the link's USART.
 pub const BAUD: u32 = 460_800;
@@ -160,9 +158,9 @@ fn USART2() {
 pub struct Transports {
     /// USART2.
     pub uart: Uart,
-    /// The USB socket.
+    /// The USB socket (`usb.rs`'s end of its rings).
     #[cfg(feature = "usb")]
-    pub usb: usb::Link,
+    pub usb: Port,
 }
 
 /// Serves the link on every transport until a restart. The server's frame decoder
@@ -180,7 +178,7 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
     let mut ports = [
         uart,
         #[cfg(feature = "usb")]
-        usb.port,
+        usb,
     ];
     // The transport whose frame the decoder holds, and when it last sent a byte.
     let mut owner: Option<usize> = None;

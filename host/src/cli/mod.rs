@@ -130,11 +130,11 @@ pub(crate) struct Usage(pub String);
 /// The actuator layout of a `--layout FILE` option, or the paper's sleeve without one.
 /// A layout file that cannot be read or is not a layout is a usage error, like a
 /// `--config` file: both are how the command was called.
-pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc::placement::layout::Layout> {
+pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc::layout::Layout> {
     Ok(match path {
-        Some(path) => touchc::placement::layout::Layout::load(path)
+        Some(path) => touchc::layout::Layout::load(path)
             .map_err(|e| usage(message(&anyhow::Error::new(e))))?,
-        None => touchc::placement::layout::Layout::paper(),
+        None => touchc::layout::Layout::paper(),
     })
 }
 

@@ -345,7 +345,7 @@ impl ConfigArgs {
 
     /// `--rate` and `--pitch-mm` against the ranges a recording's own values must meet.
     fn check_sampling(&self) -> anyhow::Result<()> {
-        use touchc::input::recording::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+        use touchc::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
         for (flag, value, range, unit) in [
             ("--rate", self.rate, RATE_HZ_RANGE, "Hz"),
             ("--pitch-mm", self.pitch_mm, PITCH_MM_RANGE, "mm"),

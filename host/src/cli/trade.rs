@@ -8,10 +8,10 @@ use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::compile::CompileOptions;
 use touchc::config::Preset;
-use touchc::input::recording::Recording;
 use touchc::input::synth::Truth;
-use touchc::measure::trade::{plot_svg, trade, TradeRow};
+use touchc::measure::trade::{trade, TradeRow};
 use touchc::stage::Stage;
+use touchc::viz::trade::plot_svg;
 
 /// Arguments of `touchc trade`.
 #[derive(Debug, clap::Args)]
@@ -19,7 +19,8 @@ use touchc::stage::Stage;
     "Compare only this preset with `exact` [default: every preset]"
 )))]
 pub struct Args {
-    /// Recordings, `.npy` `[frames, rows, cols]` in psi.
+    /// Recordings: `.npy` `[frames, rows, cols]` in psi, or `.npz` holding it as
+    /// `pressure`; `-` is standard input.
     #[arg(required = true)]
     recordings: Vec<PathBuf>,
     /// Compile each recording this many times per preset and keep the fastest run.
@@ -119,7 +120,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     let mut failed = 0;
     for (i, path) in args.recordings.iter().enumerate() {
-        let rec = Recording::load(path)?;
+        let rec = super::load_recording(path)?;
         let base = CompileOptions {
             metadata: args.config.overrides(),
             ..CompileOptions::default()
@@ -129,7 +130,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Err(e) => {
                 failed += 1;
                 super::print_error(
-                    &anyhow::Error::new(e).context(format!("{}: cannot compile", path.display())),
+                    &anyhow::Error::new(e)
+                        .context(format!("{}: cannot compile", super::input_name(path))),
                 );
             }
         }

@@ -9,7 +9,7 @@ use touchc::compile::{compile, CompileOptions, Compiled};
 use touchc::config::Config;
 use touchc::input::recording::Recording;
 use touchc::input::synth::{self, Gesture, SynthSpec};
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 
 fn synth_recording(gestures: &[Gesture], seed: u64) -> Recording {
     let spec = SynthSpec {

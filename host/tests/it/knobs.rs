@@ -4,9 +4,9 @@
 use crate::common;
 
 use touchc::compile::{compile, CompileError, CompileOptions, Compiled};
+use touchc::config::grid_size;
 use touchc::config::{CoarseToFine, Config, Preset};
 use touchc::input::recording::Recording;
-use touchc::placement::grid_size;
 
 /// 100 frames, one contact sliding along the arm: short enough for debug builds.
 fn recording() -> Recording {

@@ -11,7 +11,7 @@ use touchc_testkit::{fuzz_input, poison, stimuli};
 mod bin {
     use std::process::{Command, Output};
 
-    pub use touchc_testkit::bin::{ok, refused, s, stderr};
+    pub use touchc_testkit::bin::{fed, ok, refused, s, stderr};
 
     const TOUCHC: touchc_testkit::bin::Bin = touchc_testkit::bin::Bin(env!("CARGO_BIN_EXE_touchc"));
 

@@ -6,7 +6,8 @@
 use std::collections::BTreeMap;
 
 use touchc::config::Preset;
-use touchc::measure::trade::{log_ticks, plot_svg, TradeRow};
+use touchc::measure::trade::TradeRow;
+use touchc::viz::trade::{log_ticks, plot_svg};
 
 fn row(input: &str, preset: Preset, ms: f64, rms: f64) -> TradeRow {
     TradeRow {

@@ -1,11 +1,11 @@
 //! The published Python reference's outputs on its two synthetic recordings.
 
 use crate::common;
-use touchc::tracking::trajectory::Columns;
+use touchc::trajectory::Columns;
 
 use touchc::input::recording::Recording;
+use touchc::track::track;
 use touchc::tracking::detect::detect;
-use touchc::tracking::track::track;
 
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs().max(f64::MIN_POSITIVE)

@@ -1,7 +1,8 @@
 //! Running the real `touchc` binary, for the tests that drive it.
 
+use std::io::Write;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
 
 /// An executable under test: its path, as cargo gives it to an integration test or
 /// bench of the package that builds it (`Bin(env!("CARGO_BIN_EXE_touchc"))`; the kit
@@ -23,6 +24,24 @@ impl Bin {
             .output()
             .unwrap_or_else(|e| panic!("{}: {e}", self.0))
     }
+}
+
+/// Runs `cmd` with `input` on its standard input (written from another thread, so a
+/// large input cannot deadlock against a full output pipe) and returns its output.
+pub fn fed(cmd: &mut Command, input: &[u8]) -> Output {
+    let mut child = cmd
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let bytes = input.to_vec();
+    // A command that stops reading early (an error) closes the pipe: its output says why.
+    let writer = std::thread::spawn(move || drop(stdin.write_all(&bytes)));
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    out
 }
 
 /// Standard error as text, for assertions and their messages.

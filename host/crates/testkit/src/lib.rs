@@ -4,7 +4,8 @@
 //! - [`recordings`]: synthetic recordings (moving blobs, the compile bench's
 //!   combination, the real-touch cases) and a CPU clock for the benches.
 //! - [`reference`]: the published Python code's reference vectors and their loader.
-//! - [`rng`]: the one seeded generator of the tests.
+//! - [`rng`]: the one seeded generator of the tests (`touchc-test-rng`, which the
+//!   layers' unit tests use directly).
 //! - [`stimuli`]: stimulus files for the tests that drive the CLI.
 //! - [`fuzz_input`]: the compile fuzz target's recordings, built from its bytes.
 //! - [`poison`]: hand-built `.npy` and `.npz` files, most of them wrong in one way.
@@ -19,9 +20,8 @@ pub mod fuzz_input;
 pub mod poison;
 pub mod recordings;
 pub mod reference;
-pub mod rng;
 pub mod stimuli;
 
 pub use recordings::*;
 pub use reference::{reference_dir, RefTrajectory, Reference};
-pub use rng::Xorshift;
+pub use touchc_test_rng::{self as rng, Xorshift};

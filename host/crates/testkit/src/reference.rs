@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use serde::Deserialize;
-use touchc::tracking::trajectory::{Columns, Trajectory};
+use touchc_model::trajectory::{Columns, Trajectory};
 
 /// The folder of the reference vectors: `NAME.npy` the recording, `NAME.reference.json`
 /// what the published code computed from it.
