@@ -7,7 +7,7 @@
 //!
 //! | stage | module (crate) | hands on |
 //! |---|---|---|
-//! | - | [`config`], [`display`], [`geometry`], [`layout`], [`stage`], [`trajectory`] (`touchc-model`) | the model every stage shares |
+//! | - | [`config`], [`crop`], [`display`], [`geometry`], [`layout`], [`stage`], [`trajectory`] (`touchc-model`) | the model every stage shares |
 //! | 0 load, tare | [`input`] (`touchc-input`) | tared frames |
 //! | 1-3 crop, blur, detections, trajectories | [`tracking`] (`touchc-tracking`) | [`trajectory::Trajectory`] |
 //! | 4 placement | [`placement`] (`touchc-placement`) | circles, chosen trajectories |
@@ -20,7 +20,7 @@
 
 #![warn(missing_docs)]
 
-pub use touchc_model::{config, display, geometry, layout, stage, trajectory};
+pub use touchc_model::{config, crop, display, geometry, layout, stage, trajectory};
 
 pub use touchc_encoding as encoding;
 pub use touchc_input as input;

@@ -3,6 +3,6 @@
 //!
 //! Hands on: the stimulus file's bytes (`touch_protocol`'s format).
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod keyframes;

@@ -5,7 +5,7 @@
 //! rates and presets compare on one scale:
 //!
 //! * **recall**: the share of true contacts that one trajectory *follows* (lies within
-//!   [`FOLLOW_CELLS`] of the contact's centre) in more than half the frames of the
+//!   `FOLLOW_CELLS` of the contact's centre) in more than half the frames of the
 //!   contact's life (the frames it presses above the touch threshold);
 //! * **merges**: trajectories that follow two or more true contacts (each point goes to
 //!   the nearest contact present in its frame, and a contact counts once it holds two of
@@ -26,11 +26,11 @@ use touchc_pipeline::coverage::{self, ContactPoint, Coverage, DEFAULT_RADIUS_CEL
 
 /// A trajectory follows a contact in a frame when it lies this close to the contact's
 /// centre, in cells (the radius of the coverage definition).
-pub const FOLLOW_CELLS: f64 = DEFAULT_RADIUS_CELLS;
+pub(crate) const FOLLOW_CELLS: f64 = DEFAULT_RADIUS_CELLS;
 
 /// A contact in a frame counts as touching (for false contacts) above this pressure, psi:
 /// well above sensor noise (about 0.003 psi), well below any touch.
-pub const PRESENT_PSI: f64 = 0.02;
+pub(crate) const PRESENT_PSI: f64 = 0.02;
 
 /// What tracking made of one true contact.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -48,7 +48,7 @@ pub struct ContactResult {
 
 impl ContactResult {
     /// More than half its life followed by one trajectory.
-    pub fn recalled(&self) -> bool {
+    pub(crate) fn recalled(&self) -> bool {
         2 * self.followed > self.life
     }
 }
@@ -70,7 +70,7 @@ pub struct Evaluation {
 
 impl Evaluation {
     /// True contacts recalled.
-    pub fn recalled(&self) -> usize {
+    pub(crate) fn recalled(&self) -> usize {
         self.contacts.iter().filter(|c| c.recalled()).count()
     }
 

@@ -136,7 +136,7 @@ pub fn score_gap_pct(score: f64, reference: f64) -> f64 {
 
 /// RMS and largest difference between two 1 kHz signals over all ticks and channels,
 /// in amperes; the shorter one is taken as silent (0 A) past its end.
-pub fn signal_difference(a: &[[f64; CHANNELS]], b: &[[f64; CHANNELS]]) -> (f64, f64) {
+pub(crate) fn signal_difference(a: &[[f64; CHANNELS]], b: &[[f64; CHANNELS]]) -> (f64, f64) {
     let n = a.len().max(b.len());
     if n == 0 {
         return (0.0, 0.0);
@@ -158,7 +158,7 @@ pub fn signal_difference(a: &[[f64; CHANNELS]], b: &[[f64; CHANNELS]]) -> (f64, 
 /// one is matched to the nearest unmatched detection of the other within the coarser of
 /// the two pixel pitches (in mm); matches over the larger of the two detection counts.
 /// 1 when neither tracks anything.
-pub fn track_agreement(a: Option<&TrackOutput>, b: Option<&TrackOutput>) -> f64 {
+pub(crate) fn track_agreement(a: Option<&TrackOutput>, b: Option<&TrackOutput>) -> f64 {
     let points = |t: Option<&TrackOutput>| -> BTreeMap<usize, Vec<(f64, f64)>> {
         let mut m: BTreeMap<usize, Vec<(f64, f64)>> = BTreeMap::new();
         if let Some(t) = t {

@@ -1,15 +1,15 @@
 //! Apple Haptic and Audio Pattern (AHAP, Core Haptics), one signal per file.
 //!
 //! `Version` 1.0; `HapticContinuous` events of intensity 1 and sharpness 0 (a dull,
-//! pressing feel) back to back, each at most [`MAX_EVENT_S`] long (Core Haptics'
+//! pressing feel) back to back, each at most `MAX_EVENT_S` long (Core Haptics'
 //! limit for a continuous event), under an intensity control curve
 //! (`HapticIntensityControl`) chained in `ParameterCurve`s of at most
-//! [`MAX_CONTROL_POINTS`] points (Core Haptics' limit per curve), each curve starting
+//! `MAX_CONTROL_POINTS` points (Core Haptics' limit per curve), each curve starting
 //! at the previous one's last point, control point times relative to their curve's.
 //!
 //! Core Haptics' intensity is perceptual, not a current: as Lofelt's converter does,
 //! intensity is the square root of the amplitude, here the current mapped onto 0..1
-//! as for `.haptic` ([`super::to_unit`]: the sleeve's rest is 0.05, no current 1/2,
+//! as for `.haptic` (`super::to_unit`: the sleeve's rest is 0.05, no current 1/2,
 //! full press 1), so the reconstructed amplitude is the intensity squared. Lost: which
 //! actuator (one file per actuator, or the mix), and the meaning: an iPhone plays the
 //! intensity as the strength of a vibration, not as an indentation.
@@ -19,9 +19,9 @@ use serde::Serialize;
 use super::{from_unit, round_to, to_unit, ExportError, Pick, Playback, UnitScale};
 
 /// Core Haptics' limit on a `HapticContinuous` event's duration, seconds.
-pub const MAX_EVENT_S: f64 = 30.0;
+pub(crate) const MAX_EVENT_S: f64 = 30.0;
 /// Core Haptics' limit on the control points of one parameter curve.
-pub const MAX_CONTROL_POINTS: usize = 16;
+pub(crate) const MAX_CONTROL_POINTS: usize = 16;
 /// Tolerance of the intensity curve: a quarter of the other formats' (an intensity
 /// error `e` is an amplitude error of at most `2 e`, and one unit of amplitude is two
 /// of current).

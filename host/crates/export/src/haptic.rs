@@ -3,9 +3,9 @@
 //!
 //! The format has no channels and no sign: a continuous signal's amplitude envelope,
 //! breakpoints of `time` (seconds, non-decreasing) and `amplitude` (0..1). The envelope
-//! here is the current mapped affinely onto 0..1 ([`to_unit`]: 0 pulled fully back, 1/2
+//! here is the current mapped affinely onto 0..1 (`to_unit`: 0 pulled fully back, 1/2
 //! no current, 1 fully pressed; the sleeve's rest is 0.05), on line segments within
-//! [`CURVE_TOLERANCE_FS`] of the player's output. What is lost: which actuator it was
+//! `CURVE_TOLERANCE_FS` of the player's output. What is lost: which actuator it was
 //! (one file per actuator, or the mix), and the meaning: a phone or controller plays
 //! the amplitude as the strength of a vibration, not as an indentation.
 

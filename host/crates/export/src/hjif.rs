@@ -18,7 +18,7 @@
 //! actuator target (`X` the column along the arm, 0 nearest the elbow; `Y` the row) and
 //! its position in mm in its description. Each channel has one `Curve` band of linear
 //! curves (timescale 1000: positions are the player's 1 ms ticks) whose keyframes are
-//! the current as a fraction of the full scale, signed, within [`CURVE_TOLERANCE_FS`]
+//! the current as a fraction of the full scale, signed, within `CURVE_TOLERANCE_FS`
 //! of the player's output.
 
 use serde::{Deserialize, Serialize};
@@ -32,18 +32,18 @@ use super::{
 /// The standard's edition this writer follows.
 pub const VERSION: &str = "2023";
 /// Ticks per second of every position.
-pub const TIMESCALE: u32 = 1000;
+pub(crate) const TIMESCALE: u32 = 1000;
 /// The body-part mask bit of the left forearm (the mask's bit 13).
-pub const LEFT_FOREARM_MASK: u32 = 0x0000_2000;
+pub(crate) const LEFT_FOREARM_MASK: u32 = 0x0000_2000;
 /// A curve band's upper frequency limit, Hz: the reference encoder's curve band,
 /// far above the sleeve's 4 Hz low-pass.
-pub const CURVE_BAND_UPPER_HZ: i32 = 72;
+pub(crate) const CURVE_BAND_UPPER_HZ: i32 = 72;
 /// The text before the layout's geometry hash in the description, read back on import.
 const GEOMETRY_TAG: &str = "geometry 0x";
 
 /// An HJIF document, as far as this writer fills it.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Document {
+pub(crate) struct Document {
     /// `YYYY` or `YYYY-N`.
     pub version: String,
     /// ISO 8601 date.
@@ -66,7 +66,7 @@ pub struct Document {
 
 /// A body representation that perceptions refer to.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Avatar {
+pub(crate) struct Avatar {
     /// Not 0 (reserved).
     pub id: i32,
     /// Level of detail.
@@ -78,7 +78,7 @@ pub struct Avatar {
 
 /// One perception: a modality and its channels.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Perception {
+pub(crate) struct Perception {
     /// Unique among perceptions.
     pub id: i32,
     /// An avatar's id, or 0.
@@ -98,7 +98,7 @@ pub struct Perception {
 
 /// The actuator a signal was made for.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct ReferenceDevice {
+pub(crate) struct ReferenceDevice {
     /// Unique in the perception.
     pub id: i32,
     /// Free text.
@@ -340,7 +340,7 @@ fn invalid(reason: impl Into<String>) -> ExportError {
 }
 
 /// Reads an HJIF document written for the sleeve: one perception of eight channels
-/// (ids 0 to 7) of linear curves at timescale 1000, at most [`super::MAX_EXPORT_MS`]
+/// (ids 0 to 7) of linear curves at timescale 1000, at most `super::MAX_EXPORT_MS`
 /// long, naming the layout's geometry in its description. `full_scale_a` is the
 /// current of amplitude 1.
 pub fn import(bytes: &[u8], full_scale_a: f64) -> Result<Imported, ExportError> {

@@ -3,7 +3,7 @@
 //! Every format starts from the player's output (the firmware's code, run here), not
 //! from the keyframes in the file, so the limits, the ramps and the integer
 //! interpolation are in what is exported. Each writer approximates each channel's
-//! 1 kHz current with line segments ([`fit_polyline`]) at a tolerance the player itself
+//! 1 kHz current with line segments (`fit_polyline`) at a tolerance the player itself
 //! meets, then writes them as its format's own reader expects:
 //!
 //! | format | module | keeps |
@@ -16,7 +16,7 @@
 //! `docs/export.md` says what each one loses. Every writer also reports how far what
 //! its reader would reconstruct is from the player's output ([`Fidelity`]).
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod ahap;
 pub mod haptic;
@@ -51,7 +51,7 @@ pub enum ExportError {
     TooLong {
         /// How long the stimulus plays, seconds.
         seconds: f64,
-        /// [`MAX_EXPORT_MS`] in seconds.
+        /// `MAX_EXPORT_MS` in seconds.
         max_s: u32,
     },
     /// A channel number outside the sleeve's eight.
@@ -157,11 +157,11 @@ impl Playback {
 
 /// The longest playback an export takes, ms: an hour, 230 MB of samples while it is
 /// fitted; haptic clips in these formats last seconds.
-pub const MAX_EXPORT_MS: u32 = 3_600_000;
+pub(crate) const MAX_EXPORT_MS: u32 = 3_600_000;
 
 /// Plays `stimulus` on the sleeve (the device's full scale and limits, a cold coil)
 /// to the end, after checking that it was compiled for `layout` and is not longer
-/// than [`MAX_EXPORT_MS`].
+/// than `MAX_EXPORT_MS`.
 pub fn play(stimulus: &Stimulus<'_>, layout: &Layout) -> Result<Playback, ExportError> {
     let header = stimulus.header();
     if header.playback_ms() > MAX_EXPORT_MS {
@@ -347,7 +347,7 @@ pub(crate) fn fidelity(err: &ErrorSum, fit: &ErrorSum) -> Fidelity {
 /// slope keeps every sample so far within `tol` (the cone of such slopes narrows with
 /// each sample); when none does, the segment ends at the previous sample, at the
 /// value of the allowed slope nearest the sample there, which starts the next one.
-pub fn fit_polyline(samples: &[f64], tol: f64) -> Vec<(usize, f64)> {
+pub(crate) fn fit_polyline(samples: &[f64], tol: f64) -> Vec<(usize, f64)> {
     let Some(&first) = samples.first() else {
         return Vec::new();
     };
@@ -384,7 +384,7 @@ pub fn fit_polyline(samples: &[f64], tol: f64) -> Vec<(usize, f64)> {
 
 /// The value at `tick` of the line segments through `points` (sorted by tick); the
 /// first and last values hold outside them.
-pub fn polyline_at(points: &[(usize, f64)], tick: usize, hint: &mut usize) -> f64 {
+pub(crate) fn polyline_at(points: &[(usize, f64)], tick: usize, hint: &mut usize) -> f64 {
     while *hint + 1 < points.len() && points[*hint + 1].0 <= tick {
         *hint += 1;
     }
@@ -441,18 +441,18 @@ impl UnitScale {
 /// Tolerance of the curves, fraction of the full scale: two output codes (1/1024),
 /// well inside the bounds the compiler meets (0.5% RMS, 2% max), so that a re-import
 /// still meets them after its own encoding.
-pub const CURVE_TOLERANCE_FS: f64 = 1.0 / 1024.0;
+pub(crate) const CURVE_TOLERANCE_FS: f64 = 1.0 / 1024.0;
 
 /// A current as the 0..1 amplitude of the formats that have no sign: `(I / full
 /// scale + 1) / 2`. 0 is the coil pulled fully back, 1/2 no current, 1 fully pressed;
 /// the sleeve's pre-indented rest (-0.9 A of 1 A) is 0.05. Affine, so nothing of the
 /// value is lost: [`from_unit`] gives the current back.
-pub fn to_unit(amps: f64, full_scale_a: f64) -> f64 {
+pub(crate) fn to_unit(amps: f64, full_scale_a: f64) -> f64 {
     ((amps / full_scale_a + 1.0) / 2.0).clamp(0.0, 1.0)
 }
 
 /// The current of a [`to_unit`] amplitude.
-pub fn from_unit(unit: f64, full_scale_a: f64) -> f64 {
+pub(crate) fn from_unit(unit: f64, full_scale_a: f64) -> f64 {
     (2.0 * unit - 1.0) * full_scale_a
 }
 

@@ -7,11 +7,11 @@
 //! and 1 with the weight `max(0, 1 - |u - x| / (1/2))` (linear interpolation between
 //! the two nearest motor columns), and a motor plays the weighted mean of the
 //! amplitudes it is fed (the current mapped onto 0..1 as for `.haptic`,
-//! [`super::to_unit`]: the sleeve's rest is 0.05, full press 1). On the paper's layout (u = 0, 1/3, 2/3, 1): the elbow motor
+//! `super::to_unit`: the sleeve's rest is 0.05, full press 1). On the paper's layout (u = 0, 1/3, 2/3, 1): the elbow motor
 //! takes column 0 at weight 1 and column 1 at 1/3; the middle motor columns 1 and 2 at
 //! 2/3 each; the wrist motor column 2 at 1/3 and column 3 at 1.
 //!
-//! Dot mode: frames of [`FRAME_MS`] ms (the SDKs' update interval), each motor at the
+//! Dot mode: frames of `FRAME_MS` ms (the SDKs' update interval), each motor at the
 //! mean of its signal over the frame, in whole percent (the motors' 0-100 scale,
 //! written as the designer does, 0..1), identical consecutive frames merged. Lost: two
 //! of eight places (neighbours are averaged), detail under 20 ms and under 2% of
@@ -23,13 +23,13 @@ use touch_protocol::CHANNELS;
 use super::{fidelity, from_unit, to_unit, ErrorSum, ExportError, ExportFile, Exported, Playback};
 
 /// A frame's length, ms.
-pub const FRAME_MS: usize = 20;
+pub(crate) const FRAME_MS: usize = 20;
 /// The device's motors.
-pub const MOTORS: usize = 6;
+pub(crate) const MOTORS: usize = 6;
 /// Motor columns along the arm.
 const MOTOR_COLUMNS: usize = 3;
 /// The device's position name in the SDKs.
-pub const POSITION: &str = "ForearmL";
+pub(crate) const POSITION: &str = "ForearmL";
 
 /// Each motor's weight for each sleeve channel (rows: motors in index order: the first
 /// row's three from the elbow end, then the second row's).

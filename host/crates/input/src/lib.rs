@@ -5,7 +5,7 @@
 //!
 //! Hands on: tared frames `[T, rows, cols]` in psi at the sensor rate, NaN = no cell.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod recording;
 pub mod sanity;

@@ -292,7 +292,10 @@ impl Recording {
     }
 
     /// Parses and validates the bytes of a `.npy` file; `name` is used in errors.
-    pub fn from_npy_bytes(name: impl Into<String>, bytes: &[u8]) -> Result<Self, RecordingError> {
+    pub(crate) fn from_npy_bytes(
+        name: impl Into<String>,
+        bytes: &[u8],
+    ) -> Result<Self, RecordingError> {
         let name = name.into();
         let header = npy::parse_header(&name, bytes)?;
         let body = bytes.get(header.data_start..).unwrap_or_default();
@@ -301,7 +304,10 @@ impl Recording {
     }
 
     /// Parses and validates the bytes of a numpy `.npz` archive; `name` is used in errors.
-    pub fn from_npz_bytes(name: impl Into<String>, bytes: &[u8]) -> Result<Self, RecordingError> {
+    pub(crate) fn from_npz_bytes(
+        name: impl Into<String>,
+        bytes: &[u8],
+    ) -> Result<Self, RecordingError> {
         let name = name.into();
         let npz = npz::read(&name, bytes)?;
         Self::validated(name, npz.pressure, npz.rate_hz, npz.pitch_mm)

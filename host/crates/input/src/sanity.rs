@@ -5,7 +5,7 @@
 //! begins mid-touch under the paper's leading baseline, or given at the wrong rate or
 //! pitch, still compiles to a valid stimulus: the result is just not the touch that was
 //! recorded. Each check here gives the figure it saw and what to try. The unit checks
-//! ([`raw_counts`], [`falls_with_touch`]) come first: when either fires, the psi
+//! (`raw_counts`, `falls_with_touch`) come first: when either fires, the psi
 //! thresholds the later checks use mean nothing, so those are skipped.
 
 use ndarray::{ArrayView2, ArrayView3, Axis};
@@ -16,11 +16,11 @@ use touchc_model::config::{Baseline, Config, Sampling};
 
 /// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
 /// and looks like raw ADC counts.
-pub const RAW_COUNTS_MEDIAN: f64 = 100.0;
+pub(crate) const RAW_COUNTS_MEDIAN: f64 = 100.0;
 
 /// Contacts whose centroid moves at a median speed above this, mm/s, are implausibly
 /// fast for a hand (strokes reach about 1.5 m/s, shakes about 1 m/s).
-pub const MAX_PLAUSIBLE_SPEED_MM_S: f64 = 3000.0;
+pub(crate) const MAX_PLAUSIBLE_SPEED_MM_S: f64 = 3000.0;
 
 /// Fewest frame-to-frame centroid steps for the speed check to say anything.
 const MIN_STEPS: usize = 5;
@@ -80,7 +80,7 @@ fn median(values: &mut [f64]) -> Option<f64> {
 /// Whether the median is that far out is decided by counting, without a copy of the
 /// recording (97 MB for an hour of the paper's sleeve); only a recording that is
 /// warned about is copied, to name its median.
-pub fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
+pub(crate) fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
     use rayon::prelude::*;
     // Counts, so any order gives the same; by frames on the rayon pool.
     let count = |frame: ArrayView2<f64>| {
@@ -126,7 +126,7 @@ pub fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
 /// median: a contact covering most of the sleeve falls below nothing). A frame of
 /// fewer than [`MIN_FRAME_CELLS`] cells has no such median, and then the cells' answer
 /// stands alone.
-pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> {
+pub(crate) fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> {
     // Per cell: readings below and above its rest by more than `threshold`, and the
     // deepest fall.
     let cells = map_cell_series(raw, |cell| {
@@ -173,7 +173,7 @@ pub fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> 
 }
 
 /// Fewest cells a frame needs for its median to stand for the untouched sleeve.
-pub const MIN_FRAME_CELLS: usize = 8;
+pub(crate) const MIN_FRAME_CELLS: usize = 8;
 
 /// Readings that stand out from the rest of their frame, over some frames.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -276,7 +276,7 @@ pub fn erased_touch(rec: &Recording, cfg: &Config, sampling: &Sampling) -> Optio
 }
 
 /// A last axis this many times as long as each of the others reads as time.
-pub const TIME_LAST_RATIO: usize = 4;
+pub(crate) const TIME_LAST_RATIO: usize = 4;
 
 /// The shape of a recording saved as `[rows, cols, frames]` instead of `[frames,
 /// rows, cols]`: a last axis far longer than the other two (a recording holds more
@@ -302,12 +302,12 @@ pub fn transposed(shape: (usize, usize, usize)) -> Option<InputWarning> {
 
 /// Fewest frames in which a cell's rest can be told from its touch: one frame is its
 /// own baseline under either tare.
-pub const MIN_TARE_FRAMES: usize = 2;
+pub(crate) const MIN_TARE_FRAMES: usize = 2;
 
 /// The paper's leading baseline averages the first `tare_s`: touch there is subtracted
 /// from the whole recording. Compares each cell's mean in that window with its low
 /// quantile over the whole recording (the `robust` baseline's zero).
-pub fn touch_in_tare_window(
+pub(crate) fn touch_in_tare_window(
     raw: ArrayView3<f64>,
     cfg: &Config,
     sampling: &Sampling,
@@ -374,17 +374,8 @@ fn centroids(tared: ArrayView3<f64>, threshold: f64) -> Vec<Option<(f64, f64)>> 
         .collect()
 }
 
-/// Touch whose centroid moves faster than a hand: the rate or the pitch given is
-/// probably too high.
-pub fn implausible_speed(
-    tared: ArrayView3<f64>,
-    threshold: f64,
-    sampling: &Sampling,
-) -> Option<String> {
-    speed_of(&centroids(tared, threshold), sampling)
-}
-
-/// [`implausible_speed`] of the frames' centroids.
+/// Touch whose centroid (`cs`, one per frame) moves faster than a hand: the rate or
+/// the pitch given is probably too high.
 fn speed_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<String> {
     let mut speeds: Vec<f64> = cs
         .windows(2)
@@ -412,17 +403,9 @@ fn speed_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<String> {
     })
 }
 
-/// Every touch lasts a single frame: the rate given is probably far too low for the
-/// recording, or the sensor was sampled too slowly to follow touch.
-pub fn single_frame_touches(
-    tared: ArrayView3<f64>,
-    threshold: f64,
-    sampling: &Sampling,
-) -> Option<String> {
-    single_frames_of(&centroids(tared, threshold), sampling)
-}
-
-/// [`single_frame_touches`] of the frames' centroids.
+/// Every touch lasts a single frame (`cs`: the centroids, one per frame): the rate
+/// given is probably far too low for the recording, or the sensor was sampled too
+/// slowly to follow touch.
 fn single_frames_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<String> {
     let mut runs = Vec::new();
     let mut len = 0usize;

@@ -60,7 +60,7 @@ pub enum InputWarning {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TransposedBy {
-    /// The last axis is at least [`crate::sanity::TIME_LAST_RATIO`] times as long
+    /// The last axis is at least `crate::sanity::TIME_LAST_RATIO` times as long
     /// as either other one: recordings have many more frames than cells a side.
     LastAxisLongest,
     /// The first two axes are the sleeve's 8 x 21 cells.

@@ -224,7 +224,8 @@ impl<T: Transport> Client<T> {
     }
 
     /// Sets the timeouts.
-    pub fn with_timeouts(mut self, timeouts: Timeouts) -> Self {
+    #[cfg(test)]
+    pub(crate) fn with_timeouts(mut self, timeouts: Timeouts) -> Self {
         self.timeouts = timeouts;
         self
     }
@@ -232,11 +233,6 @@ impl<T: Transport> Client<T> {
     /// The transport, for a test that drives the other end.
     pub fn transport_mut(&mut self) -> &mut T {
         &mut self.transport
-    }
-
-    /// Gives the transport back.
-    pub fn into_transport(self) -> T {
-        self.transport
     }
 
     /// Frames from the device that did not decode so far.

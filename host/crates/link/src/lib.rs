@@ -8,7 +8,7 @@
 //!
 //! Pure Rust: no libusb, no libudev (ports are found through sysfs on Linux).
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 mod client;
 pub mod serial;

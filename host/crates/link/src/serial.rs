@@ -8,7 +8,7 @@ use std::time::Duration;
 use super::Transport;
 
 /// The baud rate of the sleeve's USART. A CDC-ACM port ignores it.
-pub const BAUD: u32 = 460_800;
+pub(crate) const BAUD: u32 = 460_800;
 
 /// A serial port opened for the link (8N1, no flow control).
 pub struct SerialTransport {
@@ -16,7 +16,7 @@ pub struct SerialTransport {
 }
 
 impl SerialTransport {
-    /// Opens `path` at [`BAUD`].
+    /// Opens `path` at `BAUD`.
     pub fn open(path: &Path) -> io::Result<SerialTransport> {
         let name = path.to_string_lossy();
         let port = serialport::new(name.as_ref(), BAUD)

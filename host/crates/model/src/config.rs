@@ -253,7 +253,7 @@ pub enum Baseline {
     Robust,
 }
 
-/// The crop of the active scene (see [`touchc_tracking::scene`]).
+/// The crop of the active scene (see `touchc_tracking::scene`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CropConfig {
@@ -336,7 +336,7 @@ pub struct TrackConfig {
     /// mm/s (paper: 50 squared pixels per frame, sqrt(50) x 25.4/7 mm x 20 Hz = 513 mm/s).
     pub max_speed_mm_s: f64,
     /// At most this many units of flow (trajectories). The paper's 200 is a count from
-    /// its short recordings; the `touch` preset sets [`MAX_TRAJECTORIES`], no limit in
+    /// its short recordings; the `touch` preset sets `MAX_TRAJECTORIES`, no limit in
     /// practice: the flow ends by itself when no further contact pays for its entry and
     /// exit, so the number of trajectories follows the touch, however long the
     /// recording. Reaching the limit is a warning.
@@ -358,7 +358,7 @@ impl Default for TrackConfig {
 }
 
 /// The largest `track.max_trajectories` a config may set, and the `touch` preset's.
-pub const MAX_TRAJECTORIES: usize = 1_000_000;
+pub(crate) const MAX_TRAJECTORIES: usize = 1_000_000;
 
 /// The paper's link gate, `d^2 < 50` pixels^2 per frame at 20 Hz on 25.4/7 mm pixels, as
 /// a speed. [`Sampling::gate_px2`] turns it back into exactly 50.
@@ -397,7 +397,7 @@ impl Default for PlacementConfig {
 /// Every transform it scores is a transform of the full grid with the full grid's score,
 /// so its result is never better than the exhaustive search, and equal to it whenever
 /// the best transform lies near one of the `keep` best coarse ones (see
-/// [`touchc_placement::place`]).
+/// `touchc_placement::place`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CoarseToFine {
@@ -455,7 +455,7 @@ impl Default for SignalConfig {
 ///
 /// The signal is band-limited by the low-pass, so the file holds keyframes the player
 /// interpolates; every candidate period and quantisation is played through the real
-/// player and compared with the compiler's f64 signal (see [`touchc_encoding::keyframes`]).
+/// player and compared with the compiler's f64 signal (see `touchc_encoding::keyframes`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct KeyframeConfig {
@@ -552,4 +552,4 @@ impl Bridge {
 }
 
 /// However fast the sensor, a link skips at most this many frames (graph size).
-pub const MAX_MISSING_FRAMES: usize = 16;
+pub(crate) const MAX_MISSING_FRAMES: usize = 16;

@@ -1,4 +1,4 @@
-//! The pipeline's timed steps, named once: [`touchc_pipeline::compile`] times each one and
+//! The pipeline's timed steps, named once: `touchc_pipeline::compile` times each one and
 //! reports the wall seconds under [`Stage::name`], so a step renamed here is renamed in
 //! every report and in every reader of one that looks it up by [`Stage`].
 

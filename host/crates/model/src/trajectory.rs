@@ -49,11 +49,6 @@ impl Trajectory {
         self.points.is_empty()
     }
 
-    /// The first detection's frame (`None` when empty).
-    pub fn first_frame(&self) -> Option<usize> {
-        self.points.first().map(|p| p.frame)
-    }
-
     /// The detection in frame `t`, if the trajectory has one there.
     pub fn at_frame(&self, t: usize) -> Option<&Point> {
         self.points

@@ -15,12 +15,13 @@ use touchc_input::recording::{Recording, RecordingError};
 use touchc_input::warning::InputWarning;
 use touchc_model::config::Config;
 use touchc_model::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
+use touchc_model::crop::Crop;
 use touchc_model::layout::Layout;
 use touchc_model::stage::{Shares, Stage};
 use touchc_placement::{self as placement, Placement, PlacementError};
 use touchc_rendering::condition::{self, ConditionError, LimitViolation};
 use touchc_rendering::signals::{self, ChannelSignals};
-use touchc_tracking::scene::{self, Crop};
+use touchc_tracking::scene;
 use touchc_tracking::track::{TrackError, TrackOutput};
 
 /// Everything `compile` needs besides the recording.
@@ -446,7 +447,7 @@ struct Scene {
 }
 
 /// Coverage below this share of the touch pressure is a warning.
-pub const COVERAGE_WARNING: f64 = 0.8;
+pub(crate) const COVERAGE_WARNING: f64 = 0.8;
 
 /// The coverage of the tracked contacts on `tared`, and where the rest lies; below
 /// [`COVERAGE_WARNING`] a warning with the likely causes and what to try.

@@ -149,7 +149,7 @@ pub fn measure(
 }
 
 /// The coverage of `tared` given its readings classified by [`classify`].
-pub fn measure_classified(tared: ArrayView3<f64>, cells: &Array3<Cell>) -> Coverage {
+pub(crate) fn measure_classified(tared: ArrayView3<f64>, cells: &Array3<Cell>) -> Coverage {
     let mut cov = Coverage::default();
     for (&v, &cell) in tared.iter().zip(cells.iter()) {
         match cell {
@@ -208,7 +208,7 @@ pub struct Misses {
 
 impl Misses {
     /// The likely causes, largest first, each with what to try.
-    pub fn advice(&self, t: &Tracking) -> Vec<String> {
+    pub(crate) fn advice(&self, t: &Tracking) -> Vec<String> {
         let mut out: Vec<(f64, String)> = Vec::new();
         let pct = |v: f64| (100.0 * v).round();
         // "try --preset touch, or ..." where that preset would change something.

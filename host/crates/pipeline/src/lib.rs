@@ -3,7 +3,7 @@
 //! of the touch the placement kept ([`coverage`]); [`track`] runs stages 0-3 alone, as
 //! `touchc track` does.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod compile;
 pub mod coverage;

@@ -3,7 +3,8 @@
 
 use touchc_input::recording::Recording;
 use touchc_model::config::{Config, Metadata, MetadataOverrides, Sampling};
-use touchc_tracking::scene::{track_cropped, Crop};
+use touchc_model::crop::Crop;
+use touchc_tracking::scene::track_cropped;
 use touchc_tracking::track::{TrackError, TrackOutput};
 
 /// Stages 0-3: tare, upsample and blur, detect, track, at the rate and pitch of the file

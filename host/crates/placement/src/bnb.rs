@@ -81,25 +81,25 @@ fn augment(i: usize, mask: u32, masks: &[u32], owner: &mut [usize; 32], seen: &m
 /// Nodes the subset search of one transform may visit, over all its connected
 /// components, before it keeps the best subset found so far: 80 times what the
 /// published workloads and the shipped examples need (at most 50 per component).
-pub const NODE_BUDGET: u64 = 1 << 12;
+pub(crate) const NODE_BUDGET: u64 = 1 << 12;
 
 /// Nodes the subset searches of one whole placement may visit: each transform gets an
 /// equal share, at most [`NODE_BUDGET`] and at least [`MIN_NODE_BUDGET`]. A dense
 /// scene (noise tracked as hundreds of crossing trajectories, found by fuzzing) then
 /// costs a bounded time per compile, whatever the grid: 16.8 M nodes on the paper's
 /// 4,200 transforms, 61 M on `exact`'s 60,060 (about a second and a few seconds).
-pub const COMPILE_NODE_BUDGET: u64 = 1 << 24;
+pub(crate) const COMPILE_NODE_BUDGET: u64 = 1 << 24;
 
 /// The least share of [`COMPILE_NODE_BUDGET`] a transform gets on a very fine grid.
-pub const MIN_NODE_BUDGET: u64 = 1 << 10;
+pub(crate) const MIN_NODE_BUDGET: u64 = 1 << 10;
 
 /// The node budget of each transform's subset search on a grid of `transforms`.
-pub fn transform_budget(transforms: usize) -> u64 {
+pub(crate) fn transform_budget(transforms: usize) -> u64 {
     let share = COMPILE_NODE_BUDGET / (transforms.max(1) as u64);
     share.clamp(MIN_NODE_BUDGET, NODE_BUDGET)
 }
 
-/// What [`SubsetProblem::solve_within`] found.
+/// What `SubsetProblem::solve_within` found.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Solution {
     /// Chosen vertices, ascending.
@@ -192,7 +192,7 @@ impl SubsetProblem {
     }
 
     /// The exact optimum, ascending; see the module docs for the tie rule. Unbounded
-    /// work: for tests and oracles. The pipeline calls [`SubsetProblem::solve_within`].
+    /// work: for tests and oracles. The pipeline calls `SubsetProblem::solve_within`.
     pub fn solve(&self) -> Vec<usize> {
         self.solve_within(u64::MAX).chosen
     }
@@ -203,7 +203,7 @@ impl SubsetProblem {
     /// a hundred trajectories all crossing the same workspaces (noise, found by fuzzing)
     /// took 24 M nodes for one transform, while the published workloads and the shipped
     /// examples never need more than 50.
-    pub fn solve_within(&self, node_budget: u64) -> Solution {
+    pub(crate) fn solve_within(&self, node_budget: u64) -> Solution {
         let n = self.len();
         // Union-find over constraints: independent components are solved separately.
         // Roots are the least vertex of their set, so the partition and its order do not

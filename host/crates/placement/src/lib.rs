@@ -23,7 +23,7 @@
 //! `PlacementConfig::coarse_to_fine` (the `fast` preset) scores a sub-grid first and the
 //! full grid only near its best transforms; every score it computes is the full grid's.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod bnb;
 
@@ -107,7 +107,7 @@ pub struct Placement {
     /// Transforms whose circles met a point and so needed a subset choice.
     pub transforms_evaluated: usize,
     /// Nodes each transform's subset search could visit: the compile's budget
-    /// ([`bnb::COMPILE_NODE_BUDGET`]) shared over the grid ([`bnb::transform_budget`]).
+    /// (`bnb::COMPILE_NODE_BUDGET`) shared over the grid (`bnb::transform_budget`).
     pub node_budget: u64,
     /// Transforms whose subset search ran out of its node budget and kept the best
     /// subset found by then: their score may be worse than the optimum. 0 on every

@@ -6,14 +6,14 @@
 //! 1. **Below-tare pressure is silence.** Negative samples (tare residue) become 0 psi:
 //!    the coil renders pressure by pressing out from its rest, and "less than no touch"
 //!    has no rendering; it would also make the filter ring above silence.
-//! 2. **Spike removal** ([`remove_spikes`]), jointly over all channels.
+//! 2. **Spike removal** (`remove_spikes`), jointly over all channels.
 //! 3. **Silence padding.** Frames of silence (0 psi) go after the recording, as many
 //!    as the low-pass takes to settle (its impulse response falls below 1e-6 of its
 //!    peak), so the filter rings out inside the stimulus instead of being cut off; as
 //!    many go before it for the zero-phase pass, and one for the causal filter (from
 //!    zero state, more silence in front would only come out as more silence). Zero padding (not scipy's odd extension) is the truth here: before and
 //!    after the recording nothing touches the arm.
-//! 4. **Low-pass** ([`design_lowpass`], [`lowpass`]): 5th-order 4 Hz Butterworth at the
+//! 4. **Low-pass** (`design_lowpass`, [`lowpass`]): 5th-order 4 Hz Butterworth at the
 //!    frame rate, as second-order sections, causal from zero state (the paper) or
 //!    forward-backward (`zero_phase`).
 //! 5. **Joint normalisation** to `[pre_dent, peak]`: `a = pre + (peak - pre) * clamp(p / P, 0, 1)`
@@ -144,7 +144,8 @@ pub struct Conditioned {
 impl Conditioned {
     /// Index into `output` of the sample at frame-rate frame `k` of `frames_a` (rounded
     /// down when the rates are not multiples), so plots and keyframes line up.
-    pub fn output_index_of_frame(&self, k: usize) -> usize {
+    #[cfg(test)]
+    pub(crate) fn output_index_of_frame(&self, k: usize) -> usize {
         self.ramp_samples + (k as f64 * OUTPUT_RATE_HZ / self.frame_rate_hz).floor() as usize
     }
 }
@@ -154,7 +155,7 @@ impl Conditioned {
 ///
 /// SOS only: at 1 kHz the 4 Hz poles sit so close to z = 1 that the single (b, a)
 /// polynomial loses them to rounding (in f32 a pole lands outside the unit circle).
-pub fn design_lowpass(
+pub(crate) fn design_lowpass(
     order: usize,
     cutoff_hz: f64,
     rate_hz: f64,
@@ -263,7 +264,7 @@ const QUIET: f64 = 1e-150;
 /// takes the larger of rise and drop, which before the filter would also flatten the
 /// first frame of every sharp onset that then eases off a little (0, 1, 0.95); the
 /// contract says "rises and then drops", so both must exceed the threshold.
-pub fn remove_spikes(channels: &mut [Vec<f64>; CHANNELS], fraction: f64) {
+pub(crate) fn remove_spikes(channels: &mut [Vec<f64>; CHANNELS], fraction: f64) {
     let (lo, hi) = channels
         .iter()
         .flatten()

@@ -4,7 +4,7 @@
 //!
 //! Hands on: 8 currents in amperes at the 1 kHz output rate.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod condition;
 pub mod signals;

@@ -32,7 +32,7 @@ pub enum Source {
     /// Nothing to render: the sample is 0 psi.
     Silent,
     /// The trajectory with this index into the `trajs` slice passed to
-    /// [`actuator_signals`] lies inside the circle.
+    /// `actuator_signals` lies inside the circle.
     Trajectory(usize),
     /// A row neighbour renders a trajectory; the sample is the maximum blurred pressure
     /// inside this actuator's circle.
@@ -120,7 +120,8 @@ fn circle_pixels(circle: &Circle, rows: usize, cols: usize, pitch_mm: f64) -> Ve
 /// filling does not propagate fill). A circle that covers no pixel centre of the frame
 /// cannot fill and stays silent (as in the published code). Selected indices outside
 /// `trajs` and trajectory points outside `[0, T)` are ignored; tracking never makes them.
-pub fn actuator_signals(
+#[cfg(test)]
+pub(crate) fn actuator_signals(
     trajs: &[Trajectory],
     selected: &[usize],
     circles: &[Circle; CHANNELS],
@@ -137,12 +138,12 @@ pub fn actuator_signals(
     )
 }
 
-/// [`actuator_signals`] without the blurred movie: `dim` is its shape `[T, rows_px,
+/// `actuator_signals` without the blurred movie: `dim` is its shape `[T, rows_px,
 /// cols_px]`, and `frame(t, read)` calls `read` with blurred frame `t`. Only the
 /// neighbour fill reads pixels, so `frame` is asked only for the frames where some
 /// channel fills, once each, from the threads of the rayon pool in any order: a caller
 /// can recompute just those frames instead of keeping every one.
-pub fn actuator_signals_with(
+pub(crate) fn actuator_signals_with(
     trajs: &[Trajectory],
     selected: &[usize],
     circles: &[Circle; CHANNELS],
@@ -230,7 +231,7 @@ pub fn actuator_signals_with(
     ChannelSignals { psi, source }
 }
 
-/// Stage 5 ([`actuator_signals`]) for the whole recording: silent outside the
+/// Stage 5 (`actuator_signals`) for the whole recording: silent outside the
 /// trajectories' frames, which lie in the crop. The blurred frames the neighbour fill
 /// reads are recomputed from `tared`, those frames only (bit for bit the pass's: the
 /// same operator on the same frame).

@@ -2,7 +2,7 @@
 //! its own, without dependencies, so that the layers' unit tests use it too; the test
 //! kit (`touchc-testkit`) re-exports it for the integration tests, benches and examples.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 /// Xorshift64 (13, 7, 17): the same numbers for the same seed on every machine.
 #[derive(Debug, Clone)]

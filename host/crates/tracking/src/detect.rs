@@ -226,7 +226,7 @@ touchc_wide::kernel! {
     /// tolerance. Only the few pixels that pass are looked at one by one.
     ///
     /// Compiled for AVX2 too, picked at run time: the same numbers either way.
-    pub fn near_maxima / near_maxima_baseline / near_maxima_avx2 (
+    pub(crate) fn near_maxima / near_maxima_baseline / near_maxima_avx2 (
         frame: ArrayView2<f64>,
         min_value: f64,
     ) -> Vec<(usize, usize, f64)> {
@@ -340,7 +340,7 @@ fn frame_min(f: &[f64]) -> f64 {
 ///
 /// For `x < 0` it uses `Phi(x) = erfcx(t) exp(-t^2) / 2` with `t = -x / sqrt 2`, so the
 /// Gaussian tail never underflows; for `x >= 0`, `log1p(-erfc(x / sqrt 2) / 2)`.
-pub fn log_ndtr(x: f64) -> f64 {
+pub(crate) fn log_ndtr(x: f64) -> f64 {
     if x < 0.0 {
         let t = -x * std::f64::consts::FRAC_1_SQRT_2;
         (0.5 * puruspe::erfcx(t)).ln() - t * t
@@ -360,7 +360,7 @@ fn log_add_exp(a: f64, b: f64) -> f64 {
 
 /// Detection cost `ln((1 - P) / P)` with `P = m Phi(z - sigma_k)`, in log space.
 ///
-/// `1 - P = (1 - m) + m Phi(sigma_k - z)`, so both logs come from [`log_ndtr`] and the
+/// `1 - P = (1 - m) + m Phi(sigma_k - z)`, so both logs come from `log_ndtr` and the
 /// cost is finite for any finite `z` (about `z^2 / 2` for very negative `z`, saturating
 /// at `ln((1 - m) / m)` for large `z`).
 pub fn detection_cost(z: f64, cfg: &DetectConfig) -> f64 {
@@ -377,7 +377,7 @@ pub fn detection_cost(z: f64, cfg: &DetectConfig) -> f64 {
 ///
 /// Cells are read at their centre pixels; a contact is a 4-connected group of cells
 /// above `min_value`; its top is the cells at or above `split.level` of its peak.
-pub fn lattice_points(
+pub(crate) fn lattice_points(
     frame: ArrayView2<f64>,
     upsample: usize,
     split: &Split,
@@ -440,7 +440,7 @@ pub fn lattice_points(
 }
 
 /// The local maxima and lattice points of one frame, row-major, each pixel once.
-pub fn with_lattice(
+pub(crate) fn with_lattice(
     maxima: Vec<(usize, usize, f64)>,
     lattice: Vec<(usize, usize, f64)>,
 ) -> Vec<(usize, usize, f64)> {
@@ -485,17 +485,6 @@ pub fn detect(blurred: &Blurred, cfg: &DetectConfig) -> Detections {
     score(maxima, blurred.mean, blurred.std, cfg)
 }
 
-/// [`detect`], with the lattice points of flat contacts when `cfg.split` asks for them
-/// (frames upsampled `upsample` times; see [`Split`]).
-pub fn detect_with(blurred: &Blurred, cfg: &DetectConfig, upsample: usize) -> Detections {
-    let points = blurred
-        .frames
-        .outer_iter()
-        .map(|f| frame_points(f, cfg, cfg.split.as_ref(), upsample))
-        .collect();
-    score(points, blurred.mean, blurred.std, cfg)
-}
-
 /// Scores per-frame local maxima (`maxima[t]` as returned by [`local_maxima`] for frame
 /// `t`, e.g. found during the blur) against the global mean and std; same result as
 /// [`detect`] on the same frames.
@@ -524,7 +513,7 @@ pub struct Candidates {
 
 impl Candidates {
     /// No frame yet, room for `frames` frames' offsets.
-    pub fn with_frames(frames: usize) -> Self {
+    pub(crate) fn with_frames(frames: usize) -> Self {
         let mut starts = Vec::with_capacity(frames + 1);
         starts.push(0);
         Candidates {
@@ -534,7 +523,7 @@ impl Candidates {
     }
 
     /// Appends the next frame's points.
-    pub fn push_frame(&mut self, found: impl IntoIterator<Item = (usize, usize, f64)>) {
+    pub(crate) fn push_frame(&mut self, found: impl IntoIterator<Item = (usize, usize, f64)>) {
         self.points.extend(found);
         self.starts.push(self.points.len());
     }
@@ -580,7 +569,7 @@ impl Candidates {
 }
 
 /// [`score`] on candidates gathered frame by frame.
-pub fn score_candidates(
+pub(crate) fn score_candidates(
     candidates: &Candidates,
     mean: f64,
     std: f64,

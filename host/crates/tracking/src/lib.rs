@@ -4,9 +4,9 @@
 //! blurs; [`detect`] finds the local maxima and their costs; [`track`] links them into
 //! trajectories by min-cost flow ([`flow`]).
 //!
-//! Hands on: [`trajectory::Trajectory`]s in sensor cells at the upsampled frame rate.
+//! Hands on: `trajectory::Trajectory`s in sensor cells at the upsampled frame rate.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod detect;
 pub mod flow;

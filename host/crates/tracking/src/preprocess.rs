@@ -92,7 +92,7 @@ pub fn gaussian_kernel(sigma: f64, truncate: f64) -> Vec<f64> {
 ///
 /// The extension is periodic with period `2n`, which also covers kernels wider than the
 /// axis (a 1-row recording upsampled x7 is narrower than the 25-tap kernel).
-pub fn reflect_index(i: i64, n: usize) -> usize {
+pub(crate) fn reflect_index(i: i64, n: usize) -> usize {
     let n = n as i64;
     let m = i.rem_euclid(2 * n);
     (if m >= n { 2 * n - 1 - m } else { m }) as usize
@@ -208,7 +208,7 @@ impl BlurOperator {
     }
 
     /// [`Self::apply`] into a caller-owned frame, reusing `scratch` between calls.
-    pub fn apply_into(
+    pub(crate) fn apply_into(
         &self,
         frame: ArrayView2<f64>,
         out: ArrayViewMut2<f64>,
@@ -302,7 +302,7 @@ fn validate(cfg: &Blur) -> Result<(), PreprocessError> {
 
 /// Upsamples and blurs every tared frame and computes the global mean and std: the
 /// whole blurred movie, for the stage benchmarks, the tests and the previews (the
-/// pipeline itself streams, see [`blur_stream`]).
+/// pipeline itself streams, see `blur_stream`).
 ///
 /// `tared` must be NaN-free (see [`touchc_input::recording::Recording::tare`]); `sampling` gives
 /// the cell pitch and upsampling factor.
@@ -327,7 +327,7 @@ pub fn preprocess(
 
 /// What the blurred movie's detection needs of it as a whole, from [`blur_stream`].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BlurStats {
+pub(crate) struct BlurStats {
     /// Mean of every blurred pixel of every frame.
     pub mean: f64,
     /// Population standard deviation of the same.
@@ -342,7 +342,7 @@ pub struct BlurStats {
 /// and keeps none: memory is one frame, whatever the recording's length. The mean and
 /// std are those [`preprocess`] gives, bit for bit (per-frame moments combined in the
 /// same order).
-pub fn blur_stream(
+pub(crate) fn blur_stream(
     tared: ArrayView3<f64>,
     cfg: &PreprocessConfig,
     sampling: &Sampling,
@@ -370,7 +370,7 @@ const CHUNK_FRAMES: usize = 64;
 /// are in flight at a time, so memory is what `merge` keeps plus those runs' states.
 /// The statistics are [`blur_stream`]'s, bit for bit: each frame's moments do not
 /// depend on the run it is in, and they are combined in frame order.
-pub fn blur_chunks<S: Send>(
+pub(crate) fn blur_chunks<S: Send>(
     tared: ArrayView3<f64>,
     cfg: &PreprocessConfig,
     sampling: &Sampling,
@@ -512,7 +512,7 @@ touchc_wide::kernel! {
     /// of squares neither overflows for 1e30-psi data nor underflows for 1e-30-psi data.
     ///
     /// Compiled for AVX2 too, picked at run time: the same numbers either way.
-    pub fn mean_std / mean_std_baseline / mean_std_avx2 (values: &[f64]) -> (f64, f64) {
+    pub(crate) fn mean_std / mean_std_baseline / mean_std_avx2 (values: &[f64]) -> (f64, f64) {
         if values.is_empty() {
             return (0.0, 0.0);
         }

@@ -11,7 +11,7 @@
 //! The statistics are those of the whole recording: the blur runs on every frame (the
 //! cheap stage, a few ms for 705 frames) so that the mean and standard deviation, and
 //! with them every detection cost, are bit-identical to the uncropped run. The crop is
-//! then checked against the blurred movie ([`exact_crop`]): where it would drop a pixel
+//! then checked against the blurred movie (`exact_crop`): where it would drop a pixel
 //! strong enough for a negative detection cost, it is widened to the whole recording in
 //! that dimension. What it drops can only score costs of 0 or more, which the min-cost
 //! flow never starts or ends a trajectory on. `host/tests/it/compile.rs` shows the compiled
@@ -21,36 +21,14 @@ use std::ops::Range;
 use std::time::{Duration, Instant};
 
 use ndarray::{s, Array3, ArrayView2, ArrayView3, Axis};
-use serde::Serialize;
 
 use crate::detect::{detection_cost, frame_points, score_candidates, Candidates, Detections};
 use crate::flow::FlowError;
 use crate::preprocess::{blur_chunks, Blur, BlurOperator, Blurred};
 use crate::track::{link, TrackError, TrackOutput};
 use touchc_model::config::{Config, Sampling};
+use touchc_model::crop::Crop;
 use touchc_model::stage::{Shares, Stage};
-
-/// The part of a tared recording the heavy stages look at, in frames and sensor cells.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-pub struct Crop {
-    /// Frames `[start, end)` after the tare and trim.
-    pub frames: Range<usize>,
-    /// Cell rows `[start, end)`.
-    pub rows: Range<usize>,
-    /// Cell columns `[start, end)`.
-    pub cols: Range<usize>,
-}
-
-impl Crop {
-    /// No crop: the whole recording of shape `(frames, rows, cols)`.
-    pub fn whole((t, r, c): (usize, usize, usize)) -> Self {
-        Crop {
-            frames: 0..t,
-            rows: 0..r,
-            cols: 0..c,
-        }
-    }
-}
 
 /// Readings above `threshold_psi` in the tared recording (the paper's touch filter).
 pub fn touch_readings(tared: ArrayView3<f64>, threshold_psi: f64) -> usize {
@@ -90,7 +68,7 @@ pub fn active_crop(tared: ArrayView3<f64>, cfg: &Config, sampling: &Sampling) ->
 /// The strongest blurred pixel of one frame, over the whole frame and outside a crop's
 /// pixel box: all [`exact_crop`] needs of the movie, so that the movie need not be kept.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FrameExtremes {
+pub(crate) struct FrameExtremes {
     /// Strongest pixel of the frame.
     pub all: f64,
     /// Strongest pixel outside the box (`-inf` when the box covers the frame).
@@ -150,17 +128,17 @@ fn pixel_box(crop: &Crop, k: usize) -> (Range<usize>, Range<usize>) {
 }
 
 /// Stages 1-3 on the crop, streaming: one pass blurs each frame, finds its detection
-/// candidates and its [`FrameExtremes`], and drops it. The statistics are those of the
-/// whole recording; the crop is then checked ([`exact_crop`]) and the detections of its
+/// candidates and its `FrameExtremes`, and drops it. The statistics are those of the
+/// whole recording; the crop is then checked (`exact_crop`) and the detections of its
 /// frames and cells are scored and linked. Memory is a few runs of blurred frames plus
 /// the candidates, whatever the recording's length. The pass runs on the current rayon
-/// pool, in runs of frames ([`blur_chunks`]); the result does not depend on the number
+/// pool, in runs of frames (`blur_chunks`); the result does not depend on the number
 /// of threads.
 ///
 /// With `keep_scene` the blurred frames are also kept in `blurred.frames` (the whole
 /// recording; previews draw them) and the scored detections in `detections`; otherwise
 /// `blurred.frames` has no frames, stage 5 recomputes the few it reads
-/// ([`recomputed_actuator_signals`](touchc_rendering::signals::recomputed_actuator_signals)), and `detections` is empty once linked. Trajectories are in
+/// (`recomputed_actuator_signals`), and `detections` is empty once linked. Trajectories are in
 /// whole-recording frames and pixels. The crop actually used is returned. `lap` is
 /// called with the stages whose work has just been done and the share of the time since
 /// its previous call that each took (the pass's time is split between blurring and
@@ -286,7 +264,7 @@ struct Run {
 /// forward, and the window holds every frame between the first and the last strong
 /// one). The cost only falls as the pressure rises, so the strongest dropped pixel
 /// decides.
-pub fn exact_crop(
+pub(crate) fn exact_crop(
     crop: &Crop,
     extremes: &[FrameExtremes],
     mean: f64,

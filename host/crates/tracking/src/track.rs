@@ -1,5 +1,5 @@
 //! Stage 3: trajectories by min-cost flow over the detections (Zhang, Li, Nevatia 2008),
-//! and [`track`], the pipeline entry for stages 0 to 3.
+//! and `track`, the pipeline entry for stages 0 to 3.
 //!
 //! Graph layout, matching the published code's node and edge order (it decides ties):
 //! source = node 0; detection `k` (frame-major, row-major) has an entry node `2k + 1` and
@@ -37,7 +37,7 @@ pub enum TrackError {
     /// A knob is out of its range (names the knob, the value and the range).
     #[error("config: {0}")]
     Config(#[from] touchc_model::config::ConfigError),
-    /// The detections link into a flow graph above [`MAX_FLOW_EDGES`].
+    /// The detections link into a flow graph above `MAX_FLOW_EDGES`.
     #[error(
         "the scene is too dense to track: {detections} detections would link into more \
          than {limit} edges; check the tare, or narrow the link gate with --max-speed-mm-s"
@@ -57,7 +57,7 @@ pub struct TrackOutput {
     /// stage reads actuator-circle pressures from these frames.
     pub blurred: Blurred,
     /// Every detection with its cost (empty when the tracking streamed, see
-    /// [`track_streaming`]; `detection_count` counts them either way).
+    /// `track_streaming`; `detection_count` counts them either way).
     pub detections: Detections,
     /// Detections scored in the tracked frames and cells.
     pub detection_count: usize,
@@ -65,7 +65,7 @@ pub struct TrackOutput {
     pub trajectories: Vec<Trajectory>,
     /// The min-cost flow's work, in edges scanned.
     pub flow_work: u64,
-    /// The flow stopped at [`flow_work_budget`] before it was optimal: weaker contacts
+    /// The flow stopped at `flow_work_budget` before it was optimal: weaker contacts
     /// may be untracked (the compile warns).
     pub flow_budget_reached: bool,
 }
@@ -77,7 +77,7 @@ pub struct Linked {
     pub trajectories: Vec<Trajectory>,
     /// Edges the min-cost flow scanned.
     pub work: u64,
-    /// The flow stopped at [`flow_work_budget`] before it was optimal.
+    /// The flow stopped at `flow_work_budget` before it was optimal.
     pub budget_reached: bool,
 }
 
@@ -91,7 +91,7 @@ pub struct Linked {
 /// other and sends hundreds of units through one part (dense noise on a small sensor
 /// under a gate wider than the sensor, when tied pixels counted as a detection each,
 /// took 600-860 scans per edge) is stopped at about a second with a warning.
-pub fn flow_work_budget(edges: usize) -> u64 {
+pub(crate) fn flow_work_budget(edges: usize) -> u64 {
     FLOW_WORK_PER_EDGE
         .saturating_mul(edges as u64)
         .saturating_add(FLOW_WORK_BASE)
@@ -103,15 +103,15 @@ pub fn flow_work_budget(edges: usize) -> u64 {
 /// [`FlowError::TooManyEdges`] (the tracking reports [`TrackError::TooDense`]) instead
 /// of asking for memory the scene does not justify; with the work budget
 /// ([`flow_work_budget`]) it bounds both the memory and the time of every part's solve.
-pub const MAX_FLOW_EDGES: usize = 1 << 24;
+pub(crate) const MAX_FLOW_EDGES: usize = 1 << 24;
 
-/// Edges scanned per graph edge the flow may spend ([`flow_work_budget`]): six times
+/// Edges scanned per graph edge the flow may spend (`flow_work_budget`): six times
 /// what real touch needs.
 pub const FLOW_WORK_PER_EDGE: u64 = 128;
 
 /// Work any graph may spend, however small ([`flow_work_budget`]): 2^24 edges scanned,
 /// about 0.1 s.
-pub const FLOW_WORK_BASE: u64 = 1 << 24;
+pub(crate) const FLOW_WORK_BASE: u64 = 1 << 24;
 
 impl TrackOutput {
     /// Global mean of the blurred frames (psi).
@@ -137,8 +137,8 @@ impl TrackOutput {
 
 /// Builds the flow graph of `detections`, solves it and extracts the trajectories. The
 /// link gate is `cfg.max_speed_mm_s` in squared pixels per frame at `sampling`; with
-/// `cfg.bridge` links also skip missing frames (see [`Bridge`]), without it the graph is
-/// the paper's. The flow stops at [`flow_work_budget`] edges scanned (`budget_reached`).
+/// `cfg.bridge` links also skip missing frames (see `Bridge`), without it the graph is
+/// the paper's. The flow stops at `flow_work_budget` edges scanned (`budget_reached`).
 pub fn link(
     detections: &Detections,
     cfg: &TrackConfig,

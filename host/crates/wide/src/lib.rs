@@ -11,7 +11,7 @@
 //! `#[target_feature(enable = "avx2")]`, so that the compiler generates the body, and
 //! whatever it inlines, for each.
 
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 /// Whether this CPU runs AVX2 (cached by the standard library after the first call).
 #[inline]

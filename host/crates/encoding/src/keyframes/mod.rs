@@ -627,7 +627,8 @@ fn try_encoding(
 /// Plays `bytes` through the protocol player and compares its output, code by code
 /// converted back to amperes, with `signal`; both are 0 A outside their lengths.
 /// Returns RMS and max error as fractions of the full scale.
-pub fn playback_error(
+#[cfg(test)]
+pub(crate) fn playback_error(
     bytes: &[u8],
     signal: &[[f64; CHANNELS]],
     full_scale_ma: u16,
@@ -637,7 +638,7 @@ pub fn playback_error(
     measure(&stim, signal, full_scale_ma, limits, None)
 }
 
-/// [`playback_error`] on a decoded stimulus. With `bounds = (rms, max)`, gives up as
+/// The playback error on a decoded stimulus. With `bounds = (rms, max)`, gives up as
 /// soon as the error is sure to exceed them, and reports `(INFINITY, INFINITY)`.
 ///
 /// A long stimulus (an hour is 3.6 M ticks) is played on a thread of its own while this

@@ -46,7 +46,7 @@ fn not_npz(name: &str, detail: impl std::fmt::Display) -> RecordingError {
 /// The most end-of-central-directory signatures an archive may hold: numpy writes one;
 /// the rest allows for the 4-byte signature turning up by chance in an entry's data
 /// (about once in 4 GB of random bytes).
-pub const MAX_END_RECORDS: usize = 16;
+pub(crate) const MAX_END_RECORDS: usize = 16;
 
 /// End-of-central-directory signatures in `bytes`, counted up to one past
 /// [`MAX_END_RECORDS`], in one pass.

@@ -90,7 +90,7 @@ impl Mask {
     }
 
     /// True when cell `(r, c)` carries a sensor.
-    pub fn has_cell(self, r: usize, c: usize) -> bool {
+    pub(crate) fn has_cell(self, r: usize, c: usize) -> bool {
         c < self.row_widths()[r]
     }
 }

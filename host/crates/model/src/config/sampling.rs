@@ -88,11 +88,6 @@ impl Sampling {
         let px_per_frame = speed_mm_s * self.upsample as f64 / (self.pitch_mm * self.rate_hz);
         snap(px_per_frame * px_per_frame)
     }
-
-    /// A distance in pixels per frame as a speed in mm/s (for messages).
-    pub fn speed_mm_s(&self, px_per_frame: f64) -> f64 {
-        px_per_frame * self.pixel_mm() * self.rate_hz
-    }
 }
 
 /// A non-negative whole number as a count; NaN and negatives give 0, huge values

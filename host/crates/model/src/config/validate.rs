@@ -42,12 +42,12 @@ pub enum ConfigError {
 }
 
 /// Largest blur kernel radius, pixels: a 2,049-tap kernel (the paper's is 25).
-pub const MAX_KERNEL_RADIUS_PX: f64 = 1024.0;
+pub(crate) const MAX_KERNEL_RADIUS_PX: f64 = 1024.0;
 /// Largest upsampled frame, pixels per side.
-pub const MAX_FRAME_PX: usize = 4096;
+pub(crate) const MAX_FRAME_PX: usize = 4096;
 /// Largest link gate radius, pixels per frame (a gate wider than the frame links
 /// everything anyway).
-pub const MAX_GATE_PX: f64 = 4096.0;
+pub(crate) const MAX_GATE_PX: f64 = 4096.0;
 
 /// `v` as a user typed it: `1e308` and `5e-324` in exponent form rather than 300 digits.
 fn num(v: f64) -> String {

@@ -45,7 +45,7 @@ pub enum FlowError {
         /// Nodes in the graph.
         n_nodes: usize,
     },
-    /// The graph would hold more edges than its limit ([`FlowGraph::with_edge_limit`]).
+    /// The graph would hold more edges than its limit (`FlowGraph::with_edge_limit`).
     #[error("the graph would exceed its limit of {limit} edges")]
     TooManyEdges {
         /// The most edges the graph may hold.
@@ -98,7 +98,7 @@ impl FlowGraph {
     /// ([`FlowError::TooManyEdges`]) before allocating for it: a caller that builds a
     /// graph from data bounds its memory with this (the edge list grows by doubling, so
     /// a power of two is never overshot).
-    pub fn with_edge_limit(n_nodes: usize, max_edges: usize) -> Self {
+    pub(crate) fn with_edge_limit(n_nodes: usize, max_edges: usize) -> Self {
         Self {
             n_nodes,
             edges: Vec::new(),
@@ -135,11 +135,6 @@ impl FlowGraph {
     /// The edges, in insertion order.
     pub fn edges(&self) -> &[FlowEdge] {
         &self.edges
-    }
-
-    /// Number of nodes.
-    pub fn n_nodes(&self) -> usize {
-        self.n_nodes
     }
 }
 

@@ -23,7 +23,7 @@ use super::{
 /// graph). Once it is spent the remaining parts send only their first path, and
 /// `budget_reached` is set: each part's flow is then a min-cost flow of its units. The
 /// parts are solved on the rayon pool with the result of that loop in part order, bit
-/// for bit ([`solve_in_order`]).
+/// for bit (`solve_in_order`).
 pub fn min_cost_flow_by_parts(
     g: &FlowGraph,
     source: usize,

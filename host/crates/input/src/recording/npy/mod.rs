@@ -75,7 +75,7 @@ impl Header {
     }
 
     /// The shape as numpy prints it, `(2, 3)`, for messages.
-    pub fn shape_str(&self) -> String {
+    pub(crate) fn shape_str(&self) -> String {
         shape_str(&self.shape)
     }
 }
