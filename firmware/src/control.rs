@@ -963,7 +963,7 @@ fn gesture(event: Event) -> wire::Gesture {
 mod tests {
     use super::*;
     use crate::output::{device_config, FULL_SCALE_MA, HARD_LIMITS};
-    use crate::testutil::{bank, constant_stimulus, stimulus_from};
+    use crate::testutil::{bank, constant_stimulus, for_layout, stimulus_from};
     use touch_protocol::player::code_to_amps;
     use touch_protocol::{Limits, CHANNELS, IDLE_CODE};
 
@@ -1055,12 +1055,7 @@ mod tests {
     fn a_slot_for_another_layout_is_refused_and_never_plays() {
         // A bank holds one layout (its decode refuses a mix), and boot refuses a bank
         // for another; the controller still checks each slot on its own.
-        let mut other = constant_stimulus("other", 300, 200);
-        let s = Stimulus::decode(&other).unwrap();
-        let mut h = *s.header();
-        h.layout_hash = LAYOUT_HASH ^ 1;
-        let frames: std::vec::Vec<_> = s.keyframes().collect();
-        other = touch_protocol::stimulus::encode(h, &frames).unwrap();
+        let other = for_layout(&constant_stimulus("other", 300, 200), LAYOUT_HASH ^ 1);
         let image = bank(&[other]);
         let mut c = Controller::new(Bank::decode(&image).unwrap(), device_config());
         let refusal = Error::WrongLayout {

@@ -14,7 +14,7 @@
 //!
 //! The binary (`src/main.rs`, target only) wires these to TIM3/TIM4/DAC, TIM7,
 //! EXTI and the watchdog.
-#![cfg_attr(not(any(test, feature = "sim")), no_std)]
+#![cfg_attr(not(any(test, feature = "sim", feature = "testutil")), no_std)]
 #![warn(missing_docs)]
 
 pub mod boot;
@@ -25,5 +25,5 @@ pub mod led;
 pub mod link;
 pub mod output;
 
-#[cfg(test)]
-mod testutil;
+#[cfg(any(test, feature = "testutil"))]
+pub mod testutil;

@@ -4,8 +4,7 @@
 
 use std::hint::black_box;
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use touchc::compile::{compile, CompileOptions};

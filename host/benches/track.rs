@@ -1,8 +1,7 @@
 //! Stages 0-3 on a 705-frame 8 x 21 recording (the length of the longest public one),
 //! per stage and end to end. The published Python takes about 1.0 s for these stages.
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 use std::hint::black_box;
 

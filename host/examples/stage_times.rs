@@ -1,8 +1,7 @@
 //! CPU time per stage of `touchc track` on one recording (default: the bench's
 //! synthetic 705-frame recording). `cargo run --release --example stage_times [REC.npy]`
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 /// Nanoseconds this thread has spent on a CPU (Linux schedstat): on a machine shared with
 /// other builds, wall time mostly measures the neighbours.

@@ -22,6 +22,9 @@ const LAYERS: &[(&str, u32)] = &[
     ("touchc-input", 2),
     ("touchc-export", 2),
     ("touchc-tracking", 3),
+    // The fixtures of touchc's tests, benches and examples: recordings from the input
+    // stage's synthesiser, reference trajectories as the model's type.
+    ("touchc-testkit", 3),
     ("touchc-placement", 4),
     ("touchc-rendering", 5),
     ("touchc-encoding", 6),

@@ -8,9 +8,6 @@
 #![no_std]
 #![no_main]
 
-mod crc32;
-mod scenario;
-
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -26,6 +23,7 @@ use sleeve_firmware::engine::{Engine, Watchdog};
 use sleeve_firmware::link::port::STAGED_STREAM;
 use sleeve_firmware::link::{Channels, Control, LinkPort};
 use sleeve_firmware::output::{device_config, pwm_compare, Frame, PWM_PERIOD};
+use sleeve_qemu_shared::{crc32, scenario};
 use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
 use touch_protocol::link::StreamParams;
 use touch_protocol::player::{DeviceConfig, Player, Status};

@@ -368,7 +368,7 @@ mod tests {
     use super::model::FlashModel;
     use super::*;
     use crate::boot::{bank_source, check_bank};
-    use crate::testutil::{bank, constant_stimulus};
+    use crate::testutil::{bank, constant_stimulus, for_layout};
 
     fn upload(flash: &mut FlashModel, image: &[u8], chunk: usize) -> Result<Committed, LinkError> {
         let mut w = BankWriter::new();
@@ -473,11 +473,7 @@ mod tests {
     #[test]
     fn a_bank_for_another_layout_is_refused_at_commit() {
         let good = constant_stimulus("good", 300, 200);
-        let s = touch_protocol::Stimulus::decode(&good).unwrap();
-        let mut h = *s.header();
-        h.layout_hash = crate::output::LAYOUT_HASH.wrapping_add(1);
-        let frames: Vec<_> = s.keyframes().collect();
-        let other = touch_protocol::stimulus::encode(h, &frames).unwrap();
+        let other = for_layout(&good, crate::output::LAYOUT_HASH.wrapping_add(1));
         let image = bank(&[other.clone(), other]);
         let mut f = FlashModel::with(&[]);
         assert_eq!(

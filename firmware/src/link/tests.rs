@@ -13,7 +13,7 @@ use super::bank::bank_crc;
 use super::sim::Device;
 use crate::button::Event as Button;
 use crate::output::{device_config, IDLE_FRAME};
-use crate::testutil::{bank, constant_stimulus, stimulus_from};
+use crate::testutil::{bank, constant_stimulus, for_layout, stimulus_from};
 
 /// The host's side, as a test drives it: sends requests, collects frames.
 struct Host {
@@ -779,11 +779,10 @@ fn uploads_wait_for_rest_and_lock_the_bank() {
 #[test]
 fn a_bank_for_another_layout_is_refused_at_commit_and_never_boots() {
     let s = constant_stimulus("mirrored", 200, 100);
-    let d = Stimulus::decode(&s).unwrap();
-    let mut h = *d.header();
-    h.layout_hash = touch_protocol::layout::SLEEVE_HASH.rotate_left(8);
-    let frames: Vec<_> = d.keyframes().collect();
-    let other = bank(&[touch_protocol::stimulus::encode(h, &frames).unwrap()]);
+    let other = bank(&[for_layout(
+        &s,
+        touch_protocol::layout::SLEEVE_HASH.rotate_left(8),
+    )]);
     let mut h = host();
     assert_eq!(
         upload(&mut h, &other, 64),
@@ -981,26 +980,16 @@ fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
         .iter()
         .any(|e| e.1 == Event::Finished(Source::Stream)));
     // The stored player, on a stimulus of the same keyframes: the same codes.
-    let header = touch_protocol::stimulus::Header {
-        channels: 8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: 20,
-        keyframe_count: ks.len() as u32,
-        duration_ms: (ks.len() as u32 - 1) * 20,
-        ramp_ms: 20,
-        full_scale_ma: 1000,
-        quant_shift: 0,
-        layout_hash: 1,
-        layout: "test",
-        limits: Limits::SLEEVE,
-        name: "s",
-    };
-    let file = touch_protocol::stimulus::encode(header, &ks).unwrap();
-    let expected: Vec<_> =
-        touch_protocol::Player::new(&Stimulus::decode(&file).unwrap(), &device_config())
-            .take(header.duration_ms as usize)
-            .map(|t| t.codes)
-            .collect();
+    let file = touch_protocol::stimulus::Builder::new("s", 20)
+        .ramp_ms(20)
+        .layout("test", 1)
+        .encode(&ks)
+        .unwrap();
+    let stored = Stimulus::decode(&file).unwrap();
+    let expected: Vec<_> = touch_protocol::Player::new(&stored, &device_config())
+        .take(stored.duration_ms() as usize)
+        .map(|t| t.codes)
+        .collect();
     assert_eq!(
         &h.dev.outputs()[started..started + expected.len()],
         &expected[..]

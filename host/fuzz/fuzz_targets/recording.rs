@@ -6,11 +6,7 @@
 use libfuzzer_sys::fuzz_target;
 use touchc::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
 use touchc::input::recording::Recording;
-
-#[path = "../../tests/common/poison.rs"]
-mod poison;
-
-use poison::Entry;
+use touchc_testkit::poison::{self, Entry};
 
 fuzz_target!(|data: &[u8]| {
     check(data);

@@ -465,24 +465,13 @@ pub(crate) fn round_to(v: f64, digits: i32) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use touch_protocol::{stimulus, Limits};
+    use touch_protocol::stimulus;
 
     /// A 2 s stimulus: each channel a different slow wave, signed.
     fn waves(layout_hash: u32) -> Vec<u8> {
-        let header = stimulus::Header {
-            channels: 8,
-            output_rate_hz: 1000,
-            keyframe_period_ms: 20,
-            keyframe_count: 0,
-            duration_ms: 0,
-            ramp_ms: 10,
-            full_scale_ma: 1000,
-            quant_shift: 4,
-            layout_hash,
-            layout: "paper-2x4",
-            limits: Limits::SLEEVE,
-            name: "waves",
-        };
+        let builder = stimulus::Builder::new("waves", 20)
+            .quant_shift(4)
+            .layout("paper-2x4", layout_hash);
         let kf: Vec<[i16; CHANNELS]> = (0..=100)
             .map(|k| {
                 let x = k as f64 / 100.0;
@@ -492,7 +481,7 @@ mod tests {
                 })
             })
             .collect();
-        stimulus::encode(header, &kf).unwrap()
+        builder.encode(&kf).unwrap()
     }
 
     #[test]

@@ -42,7 +42,7 @@ pub(super) fn allocate<'a>(
     shift: u8,
     tol: f64,
     (rms_model, max_model): (f64, f64),
-    header: &impl Fn(u8) -> stimulus::Header<'a>,
+    builder: &impl Fn(u8) -> stimulus::Builder<'a>,
 ) -> Result<Option<Vec<u8>>, KeyframeError> {
     let unit = (ALLOCATE_UNIT_MS / period).max(1);
     let factors: Vec<f64> = ALLOCATE_FACTORS
@@ -127,7 +127,7 @@ pub(super) fn allocate<'a>(
             let (keyframes, rms, max, _) =
                 tube_scheduled(signal, fs_a, period, shift, &schedule, false);
             if rms / 32768.0 <= rms_model && max / 32768.0 <= max_model {
-                let bytes = stimulus::encode(header(shift), &keyframes)?;
+                let bytes = builder(shift).encode(&keyframes)?;
                 if best.as_ref().is_none_or(|b| bytes.len() < b.len()) {
                     best = Some(bytes);
                 }

@@ -202,7 +202,7 @@ fn encode_lines(
     for period in faithful_periods(signal, opts) {
         let p = usize::from(period.max(1));
         let windows = search_windows(signal, p);
-        let header = |shift| header(fields, opts, period, shift);
+        let builder = |shift| builder(fields, opts, period, shift);
         // The largest tolerance whose modelled error passes, per shift. The RMS error
         // grows about in proportion to the tolerance, so each guess interpolates the RMS
         // between the passing and failing tolerances tried (regula falsi, aiming just
@@ -223,7 +223,7 @@ fn encode_lines(
                 TOLERANCE_STEPS
             };
             for _ in 0..steps {
-                let (bytes, rms, max) = tube_bytes(&windows, fs_a, p, shift, tol, &header)?;
+                let (bytes, rms, max) = tube_bytes(&windows, fs_a, p, shift, tol, &builder)?;
                 if rms <= rms_model && max <= max_model {
                     if best.as_ref().is_none_or(|b| bytes.len() < b.0.len()) {
                         best = Some((bytes, period, shift, tol));
@@ -270,9 +270,17 @@ fn encode_lines(
         && density > bounds.allocate_above_bytes_per_s
     {
         // A tolerance per second and channel instead of one for all, where that is smaller.
-        let header = |shift| header(fields, opts, period, shift);
+        let builder = |shift| builder(fields, opts, period, shift);
         let p = usize::from(period.max(1));
-        if let Some(b) = allocate(signal, fs_a, p, shift, tol, (rms_model, max_model), &header)? {
+        if let Some(b) = allocate(
+            signal,
+            fs_a,
+            p,
+            shift,
+            tol,
+            (rms_model, max_model),
+            &builder,
+        )? {
             if b.len() < bytes.len() {
                 bytes = b;
             }
@@ -286,7 +294,7 @@ fn encode_lines(
         for _ in 0..TOLERANCE_STEPS {
             let (keyframes, rms, max) = tube_keyframes(signal, fs_a, p, shift, tol * 32768.0);
             if rms / 32768.0 <= rms_model && max / 32768.0 <= max_model {
-                bytes = stimulus::encode(header(fields, opts, period, shift), &keyframes)?;
+                bytes = builder(fields, opts, period, shift).encode(&keyframes)?;
                 fits = true;
                 break;
             }
@@ -370,12 +378,12 @@ fn tube_bytes<'a>(
     period: usize,
     shift: u8,
     tol: f64,
-    header: &impl Fn(u8) -> stimulus::Header<'a>,
+    builder: &impl Fn(u8) -> stimulus::Builder<'a>,
 ) -> Result<(Vec<u8>, f64, f64), KeyframeError> {
     let (mut bytes, mut sum2, mut max, mut ticks) = (Vec::new(), 0.0, 0.0f64, 0usize);
     for w in windows {
         let (keyframes, rms, worst) = tube_keyframes(w, fs_a, period, shift, tol * 32768.0);
-        bytes.extend(stimulus::encode(header(shift), &keyframes)?);
+        bytes.extend(builder(shift).encode(&keyframes)?);
         let n = w.len() * CHANNELS;
         sum2 += rms * rms * n as f64;
         ticks += n;
@@ -570,27 +578,19 @@ fn to_q15(amps: f64, fs_a: f64) -> i16 {
     (amps / fs_a * 32768.0).round().clamp(-32768.0, 32767.0) as i16
 }
 
-/// The stimulus header of an encoding (count and duration are the encoder's).
-fn header<'a>(
+/// The stimulus encoder of an encoding's header fields.
+fn builder<'a>(
     fields: HeaderFields<'a>,
     opts: &KeyframeOptions,
     period: u16,
     shift: u8,
-) -> stimulus::Header<'a> {
-    stimulus::Header {
-        channels: CHANNELS as u8,
-        output_rate_hz: stimulus::OUTPUT_RATE_HZ,
-        keyframe_period_ms: period,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: opts.encoding.ramp_ms,
-        full_scale_ma: opts.full_scale_ma,
-        quant_shift: shift,
-        layout_hash: fields.layout_hash,
-        layout: fields.layout,
-        limits: fields.limits,
-        name: fields.name,
-    }
+) -> stimulus::Builder<'a> {
+    stimulus::Builder::new(fields.name, period)
+        .ramp_ms(opts.encoding.ramp_ms)
+        .full_scale_ma(opts.full_scale_ma)
+        .quant_shift(shift)
+        .layout(fields.layout, fields.layout_hash)
+        .limits(fields.limits)
 }
 
 /// Keyframes rounded one by one at `period` and `2^shift`, encoded, played and measured
@@ -610,7 +610,7 @@ fn try_encoding(
     let keyframes: Vec<[i16; CHANNELS]> = (0..count)
         .map(|k| signal[(k * p).min(signal.len() - 1)].map(|a| to_q15(a, fs_a)))
         .collect();
-    let bytes = stimulus::encode(header(fields, opts, period, shift), &keyframes)?;
+    let bytes = builder(fields, opts, period, shift).encode(&keyframes)?;
     let stim = Stimulus::decode(&bytes)?;
     let (rms, max) = measure(&stim, signal, opts.full_scale_ma, fields.limits, bounds)?;
     Ok(Encoded {
@@ -1236,11 +1236,9 @@ mod tests {
             e.quant_shift,
             e.tolerance_fs * 32768.0,
         );
-        let uniform = stimulus::encode(
-            header(fields(), opts, e.period_ms, e.quant_shift),
-            &keyframes,
-        )
-        .unwrap();
+        let uniform = builder(fields(), opts, e.period_ms, e.quant_shift)
+            .encode(&keyframes)
+            .unwrap();
         (e, uniform)
     }
 

@@ -24,32 +24,20 @@ fn silent(frames: usize) -> [Vec<f64>; CHANNELS] {
     std::array::from_fn(|_| vec![0.0; frames])
 }
 
-/// Deterministic pseudo-random numbers in [0, 1) (no dev-dependency needed).
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// A scene of smooth presses at random places and times on every channel, with silence
 /// between them: the shape of the paper's data.
 fn scene(frames: usize, seed: u64) -> [Vec<f64>; CHANNELS] {
-    let mut rng = Lcg(seed);
+    let mut rng = touchc_test_rng::Xorshift::mixed(seed);
     let mut psi = silent(frames);
     for x in psi.iter_mut() {
-        let mut t = (rng.next() * 20.0) as usize;
+        let mut t = (rng.uniform() * 20.0) as usize;
         while t < frames {
-            let len = 3 + (rng.next() * 30.0) as usize;
-            let height = 0.1 + rng.next() * 2.0;
+            let len = 3 + (rng.uniform() * 30.0) as usize;
+            let height = 0.1 + rng.uniform() * 2.0;
             for k in 0..len.min(frames - t) {
                 x[t + k] = height * (std::f64::consts::PI * (k as f64 + 0.5) / len as f64).sin();
             }
-            t += len + (rng.next() * 40.0) as usize;
+            t += len + (rng.uniform() * 40.0) as usize;
         }
     }
     psi

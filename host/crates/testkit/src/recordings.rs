@@ -1,26 +1,10 @@
-//! Fixtures shared by the integration tests and the benches: synthetic recordings,
-//! and the published Python code's reference vectors.
-
-// Each test crate and bench uses a different part of this module.
-#![allow(dead_code)]
+//! Synthetic recordings the tests, benches and examples share, and a CPU clock for
+//! the benches.
 
 use ndarray::Array3;
-use touchc::input::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
+use touchc_input::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
 
-/// Deterministic uniform noise in [-1, 1) (xorshift), so fixtures need no RNG crate.
-pub struct Noise(u64);
-
-impl Noise {
-    pub fn new(seed: u64) -> Self {
-        Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    pub fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
-}
+use crate::rng::Xorshift;
 
 /// True where the 8 x 21 sleeve has a sensor cell: 142 cells (26 NaN at two edges).
 pub fn sleeve_mask(r: usize, c: usize) -> bool {
@@ -30,7 +14,7 @@ pub fn sleeve_mask(r: usize, c: usize) -> bool {
 /// `[frames, 8, 21]` psi: quiet tare frames, then `blobs` Gaussian contacts moving along
 /// the arm, 0.004 psi noise, NaN outside the 142-cell sleeve.
 pub fn moving_blobs(frames: usize, blobs: usize, seed: u64) -> Array3<f64> {
-    let mut noise = Noise::new(seed);
+    let mut noise = Xorshift::mixed(seed);
     let mut a = Array3::<f64>::zeros((frames, 8, 21));
     for t in 0..frames {
         for r in 0..8 {
@@ -39,7 +23,7 @@ pub fn moving_blobs(frames: usize, blobs: usize, seed: u64) -> Array3<f64> {
                     a[[t, r, c]] = f64::NAN;
                     continue;
                 }
-                let mut v = 0.004 * noise.next();
+                let mut v = 0.004 * noise.signed();
                 if t >= 20 && t + 20 < frames {
                     for b in 0..blobs {
                         // Blob b recurs every 90 + 17 b frames, pressing for 60 of them
@@ -60,69 +44,6 @@ pub fn moving_blobs(frames: usize, blobs: usize, seed: u64) -> Array3<f64> {
         }
     }
     a
-}
-
-/// The reference vectors shipped with the repository (`tests/data/reference/`, see its
-/// README for where they come from).
-pub fn reference_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/reference")
-}
-
-use serde::Deserialize;
-use touchc::trajectory::{Columns, Trajectory};
-
-/// One trajectory as the reference stores it.
-#[derive(Deserialize)]
-pub struct RefTrajectory {
-    pub times: Vec<usize>,
-    pub rows: Vec<usize>,
-    pub cols: Vec<usize>,
-    pub costs: Vec<f64>,
-    pub total_cost: f64,
-}
-
-/// The parts of a reference file that placement is checked against.
-#[derive(Deserialize)]
-pub struct Reference {
-    /// `[T, rows, cols]` of the tared frames, in sensor cells.
-    pub tared_shape: [usize; 3],
-    pub trajectories: Vec<RefTrajectory>,
-    pub n_transforms: usize,
-    pub transform_scores: Vec<f64>,
-    pub best_transform_index: usize,
-    pub best_transform: [f64; 5],
-    pub best_score: f64,
-    pub selected_trajectories: Vec<usize>,
-}
-
-impl Reference {
-    /// Reads `tests/data/{name}.reference.json` (exact float parsing is on for tests).
-    pub fn load(name: &str) -> Reference {
-        let path = format!(
-            "{}/tests/data/{name}.reference.json",
-            env!("CARGO_MANIFEST_DIR")
-        );
-        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-        serde_json::from_str(&text).unwrap_or_else(|e| panic!("{path}: {e}"))
-    }
-
-    /// The trajectories as the tracking stage hands them over (pressures are not stored
-    /// in the reference and placement does not read them).
-    pub fn trajectories(&self) -> Vec<Trajectory> {
-        self.trajectories
-            .iter()
-            .map(|t| {
-                Trajectory::try_from(Columns {
-                    frames: t.times.clone(),
-                    rows: t.rows.clone(),
-                    cols: t.cols.clone(),
-                    costs: t.costs.clone(),
-                    values: vec![0.0; t.times.len()],
-                })
-                .expect("a reference trajectory's arrays have one length")
-            })
-            .collect()
-    }
 }
 
 /// The compile bench's recording: `touchc synth stroke tap pat squeeze shake (x3)
@@ -174,7 +95,7 @@ pub fn touch_spec(sensor: Sensor, gestures: &[Gesture], tuning: Tuning) -> Synth
     }
 }
 
-/// The real-touch cases of issue 12 on `sensor` (`host/tests/it/touch.rs` measures them,
+/// The real-touch cases on `sensor` (`host/tests/it/touch.rs` measures them,
 /// `examples/sizes.rs` encodes them): a name and a spec each, seed 1.
 pub fn touch_cases(sensor: Sensor) -> Vec<(String, SynthSpec)> {
     let mut out = Vec::new();

@@ -5,8 +5,6 @@
 //! tare needs 41), each cell's value a byte times a step of 1e-8 to 1e7 psi, 0xff = NaN,
 //! missing bytes 0.
 
-#![allow(dead_code)]
-
 use ndarray::Array3;
 
 /// The recording the compile target builds from `data`; `None` when `data` is shorter

@@ -3,8 +3,6 @@
 //! library would write these files, and the reader's own library must not be the
 //! oracle for what an archive holds).
 
-#![allow(dead_code)]
-
 use std::io::Write;
 
 /// A version 1.0 `.npy` file: magic, this header text as is, then `body`.
@@ -67,14 +65,18 @@ pub fn crc32(bytes: &[u8]) -> u32 {
 
 /// One member of a hand-built archive.
 pub struct Entry<'a> {
+    /// Its file name in the archive.
     pub name: &'a str,
+    /// Its uncompressed bytes.
     pub data: Vec<u8>,
+    /// Deflated (else stored).
     pub deflate: bool,
     /// Uncompressed size to write in the headers instead of the true one.
     pub declared: Option<u32>,
 }
 
 impl<'a> Entry<'a> {
+    /// `data` stored as `name`, its true size in the headers.
     pub fn stored(name: &'a str, data: Vec<u8>) -> Self {
         Self {
             name,
@@ -83,6 +85,8 @@ impl<'a> Entry<'a> {
             declared: None,
         }
     }
+
+    /// `data` deflated as `name`, its true size in the headers.
     pub fn deflated(name: &'a str, data: Vec<u8>) -> Self {
         Self {
             deflate: true,

@@ -4,14 +4,26 @@ use std::io::Write;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-/// A `touchc` command, to add arguments, a working directory or standard input to.
-pub fn command() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_touchc"))
-}
+/// An executable under test: its path, as cargo gives it to an integration test or
+/// bench of the package that builds it (`Bin(env!("CARGO_BIN_EXE_touchc"))`; the kit
+/// cannot name it itself, being another package).
+#[derive(Debug, Clone, Copy)]
+pub struct Bin(pub &'static str);
 
-/// Runs `touchc ARGS...` to the end and returns its status and output.
-pub fn touchc(args: &[&str]) -> Output {
-    command().args(args).output().unwrap()
+impl Bin {
+    /// A command running the executable, to add arguments, a working directory or
+    /// standard input to.
+    pub fn command(self) -> Command {
+        Command::new(self.0)
+    }
+
+    /// Runs it with `args` to the end and returns its status and output.
+    pub fn run(self, args: &[&str]) -> Output {
+        self.command()
+            .args(args)
+            .output()
+            .unwrap_or_else(|e| panic!("{}: {e}", self.0))
+    }
 }
 
 /// Runs `cmd` with `input` on its standard input (written from another thread, so a
