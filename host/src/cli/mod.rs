@@ -13,10 +13,12 @@ mod params;
 mod plot;
 mod preview;
 mod render;
+mod report_json;
 mod sleeve;
 mod synth;
 mod track;
 mod trade;
+mod warning;
 
 use std::io::Read;
 use std::path::Path;
