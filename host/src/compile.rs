@@ -3,7 +3,6 @@
 //! Each stage lives in its own module; this one only hands each stage's output to
 //! the next, measures it, and gathers the figures of the [`Report`].
 
-use std::collections::BTreeMap;
 use std::time::Instant;
 
 use crate::config::Config;
@@ -16,7 +15,7 @@ use crate::placement::layout::Layout;
 use crate::placement::{self, Placement, PlacementError};
 use crate::rendering::condition::{self, ConditionError, LimitViolation};
 use crate::rendering::signals::ChannelSignals;
-use crate::stage::{Shares, Stage};
+use crate::stage::{Shares, Stage, StageSeconds};
 use crate::tracking::scene::{self, Crop};
 use crate::tracking::track::{TrackError, TrackOutput};
 use touch_protocol::{Limits, CHANNELS};
@@ -121,8 +120,8 @@ pub struct Report {
     pub flow_work: u64,
     /// True when the min-cost flow stopped at its work budget (a warning says so).
     pub flow_budget_reached: bool,
-    /// Wall seconds per stage, keyed by [`Stage::name`], and `total`.
-    pub seconds: BTreeMap<&'static str, f64>,
+    /// Wall seconds per stage that ran, and [`Stage::Total`].
+    pub seconds: StageSeconds,
     /// Size of the stimulus file.
     pub bytes: usize,
     /// Length of the stimulus signal, seconds.
@@ -208,7 +207,7 @@ pub fn stimulus_name(name: &str) -> &str {
 }
 
 struct Clock {
-    seconds: BTreeMap<&'static str, f64>,
+    seconds: StageSeconds,
     start: Instant,
     lap: Instant,
 }
@@ -217,7 +216,7 @@ impl Clock {
     fn new() -> Self {
         let now = Instant::now();
         Clock {
-            seconds: BTreeMap::new(),
+            seconds: StageSeconds::default(),
             start: now,
             lap: now,
         }
@@ -232,14 +231,14 @@ impl Clock {
         let now = Instant::now();
         let elapsed = (now - self.lap).as_secs_f64();
         for &(stage, share) in shares {
-            *self.seconds.entry(stage.name()).or_insert(0.0) += share * elapsed;
+            self.seconds.add(stage, share * elapsed);
         }
         self.lap = now;
     }
 
-    fn finish(mut self) -> BTreeMap<&'static str, f64> {
+    fn finish(mut self) -> StageSeconds {
         self.seconds
-            .insert(Stage::Total.name(), self.start.elapsed().as_secs_f64());
+            .add(Stage::Total, self.start.elapsed().as_secs_f64());
         self.seconds
     }
 }

@@ -222,7 +222,7 @@ fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
         r.trajectories,
         r.coverage,
         r.metadata.describe(),
-        1e3 * r.seconds.get(touchc::stage::Stage::Total.name()).copied().unwrap_or(0.0),
+        1e3 * r.seconds.total(),
     )
 }
 
@@ -307,11 +307,7 @@ fn write_summary(
                 r.bytes,
                 100.0 * r.rms_error_fs,
                 format!("{}/{}", r.selected.len(), r.trajectories),
-                1e3 * r
-                    .seconds
-                    .get(touchc::stage::Stage::Total.name())
-                    .copied()
-                    .unwrap_or(0.0)
+                1e3 * r.seconds.total()
             )?,
             Err(_) => writeln!(w, "{name:<32} {:>6}", "FAILED")?,
         }

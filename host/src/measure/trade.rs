@@ -22,6 +22,7 @@ use crate::geometry::pixel_centre_mm;
 use crate::input::recording::Recording;
 use crate::input::synth::Truth;
 use crate::measure::evaluate::evaluate_compiled;
+use crate::stage::{Stage, StageSeconds};
 use crate::tracking::track::TrackOutput;
 use touch_protocol::CHANNELS;
 
@@ -33,7 +34,7 @@ pub struct TradeRow {
     /// The preset.
     pub preset: Preset,
     /// Wall seconds per stage and `total` (the fastest of the repeats).
-    pub seconds: BTreeMap<&'static str, f64>,
+    pub seconds: StageSeconds,
     /// Transforms scored (met a trajectory) and in the grid.
     pub transforms: (usize, usize),
     /// Placement score (lower is better).
@@ -100,7 +101,7 @@ pub fn trade(
             Ok(TradeRow {
                 input: rec.name().to_string(),
                 preset: *preset,
-                seconds: c.report.seconds.clone(),
+                seconds: c.report.seconds,
                 transforms: (c.report.transforms_evaluated, c.report.transforms),
                 score: c.report.score,
                 score_gap_pct: score_gap_pct(c.report.score, exact.report.score),
@@ -117,11 +118,7 @@ pub fn trade(
 }
 
 fn total(c: &Compiled) -> f64 {
-    c.report
-        .seconds
-        .get("total")
-        .copied()
-        .unwrap_or(f64::INFINITY)
+    c.report.seconds.get(Stage::Total).unwrap_or(f64::INFINITY)
 }
 
 /// `(score - reference) / |reference|` in percent; an absolute difference when the
@@ -282,13 +279,7 @@ pub fn plot_svg(rows: &[TradeRow]) -> Result<String, crate::viz::VizError> {
 
     register_font()?;
     let draw = |e: &dyn std::fmt::Display| VizError::Draw(e.to_string());
-    let ms = |r: &TradeRow| {
-        1e3 * r
-            .seconds
-            .get(crate::stage::Stage::Total.name())
-            .copied()
-            .unwrap_or(0.0)
-    };
+    let ms = |r: &TradeRow| 1e3 * r.seconds.total();
     let (lo, hi) = rows
         .iter()
         .map(ms)
