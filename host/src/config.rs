@@ -24,7 +24,7 @@ mod sampling;
 mod validate;
 
 pub use sampling::{Metadata, MetadataOverrides, Sampling, Source, Sourced};
-pub use validate::ConfigError;
+pub use validate::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
 
 /// All stage parameters. `Config::default()` is the `touch` preset;
 /// `Config::preset(Preset::Paper)` reproduces the paper.

@@ -425,7 +425,7 @@ fn layered(
     })?;
     config
         .validate()
-        .map_err(|e| anyhow::anyhow!("config: {e}"))?;
+        .map_err(|e| anyhow::anyhow!("config: {}", super::config_error::describe(&e)))?;
     Ok(config)
 }
 
