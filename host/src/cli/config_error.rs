@@ -46,12 +46,12 @@ pub fn describe(e: &ConfigError) -> String {
             min,
             max,
         } => {
-            let (name, unit) = match knob {
-                SamplingKnob::RateHz => ("rate_hz (--rate)", Unit::Hz),
-                SamplingKnob::PitchMm => ("pitch_mm (--pitch-mm)", Unit::Mm),
+            let (flag, unit) = match knob {
+                SamplingKnob::RateHz => ("--rate", Unit::Hz),
+                SamplingKnob::PitchMm => ("--pitch-mm", Unit::Mm),
             };
             format!(
-                "{name} = {} is out of range: must be finite, in [{}, {}]{}",
+                "{knob} ({flag}) = {} is out of range: must be finite, in [{}, {}]{}",
                 Shortest(*value),
                 Shortest(*min),
                 Shortest(*max),

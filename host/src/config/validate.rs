@@ -132,6 +132,16 @@ pub enum SamplingKnob {
     PitchMm,
 }
 
+impl fmt::Display for SamplingKnob {
+    /// The name of the quantity in a `.npz` recording and in [`super::Metadata`].
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            SamplingKnob::RateHz => "rate_hz",
+            SamplingKnob::PitchMm => "pitch_mm",
+        })
+    }
+}
+
 /// What a knob becomes at a recording's sampling, and the bound it breaks.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
@@ -145,14 +155,14 @@ pub enum DerivedLimit {
         /// The least radius, pixels.
         min_px: f64,
     },
-    /// The blur kernel is wider than [`MAX_KERNEL_RADIUS_PX`].
+    /// The blur kernel is wider than a 2,049-tap kernel.
     KernelTooWide {
         /// The kernel radius, pixels.
         radius_px: f64,
         /// The largest radius, pixels.
         max_px: f64,
     },
-    /// The upsampled frame is larger than [`MAX_FRAME_PX`] along its longer side.
+    /// The upsampled frame is too large along its longer side.
     FrameTooLarge {
         /// The longer side, pixels.
         side_px: usize,
@@ -163,7 +173,7 @@ pub enum DerivedLimit {
         /// The largest side, pixels.
         max_px: usize,
     },
-    /// The link gate is wider than [`MAX_GATE_PX`].
+    /// The link gate is wider than any frame needs.
     GateTooWide {
         /// The gate's radius, pixels per frame.
         gate_px: f64,
@@ -231,7 +241,7 @@ pub enum ConfigError {
         max: usize,
     },
     /// The recording's rate or pitch is outside the range any recording may have.
-    #[error("the recording's {} = {value} is out of range [{min}, {max}]", match knob { SamplingKnob::RateHz => "rate_hz", SamplingKnob::PitchMm => "pitch_mm" })]
+    #[error("the recording's {knob} = {value} is out of range [{min}, {max}]")]
     SamplingOutOfRange {
         /// Which.
         knob: SamplingKnob,
