@@ -77,7 +77,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let compiled = compile(&recording, &opts).with_context(|| format!("{name}: cannot compile"))?;
     let rate = compiled.report.metadata.rate_hz.value;
     for w in &compiled.report.warnings {
-        super::warn(&args.recording, w);
+        super::warn(&args.recording, &super::warning::describe(w));
     }
     let image = if gif {
         preview::gif(&compiled, &recording, args.every, rate)

@@ -158,7 +158,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
 /// Milliseconds of `stage`; 0 for a stage that did not run (no touch: no placement).
 fn ms(r: &TradeRow, stage: Stage) -> f64 {
-    1e3 * r.seconds.get(stage.name()).copied().unwrap_or(0.0)
+    1e3 * r.seconds.get(stage).unwrap_or(0.0)
 }
 
 /// The numeric columns after the recording and preset, formatted; the transforms as

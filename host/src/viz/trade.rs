@@ -79,13 +79,7 @@ pub fn plot_svg(rows: &[TradeRow]) -> Result<String, VizError> {
 
     register_font()?;
     let draw = |e: &dyn std::fmt::Display| VizError::Draw(e.to_string());
-    let ms = |r: &TradeRow| {
-        1e3 * r
-            .seconds
-            .get(crate::stage::Stage::Total.name())
-            .copied()
-            .unwrap_or(0.0)
-    };
+    let ms = |r: &TradeRow| 1e3 * r.seconds.total();
     let (lo, hi) = rows
         .iter()
         .map(ms)

@@ -22,6 +22,7 @@ use touchc_input::recording::Recording;
 use touchc_input::synth::Truth;
 use touchc_model::config::{Config, Preset};
 use touchc_model::geometry::pixel_centre_mm;
+use touchc_model::stage::{Stage, StageSeconds};
 use touchc_pipeline::compile::{compile, CompileError, CompileOptions, Compiled};
 use touchc_tracking::track::TrackOutput;
 
@@ -33,7 +34,7 @@ pub struct TradeRow {
     /// The preset.
     pub preset: Preset,
     /// Wall seconds per stage and `total` (the fastest of the repeats).
-    pub seconds: BTreeMap<&'static str, f64>,
+    pub seconds: StageSeconds,
     /// Transforms scored (met a trajectory) and in the grid.
     pub transforms: (usize, usize),
     /// Placement score (lower is better).
@@ -100,7 +101,7 @@ pub fn trade(
             Ok(TradeRow {
                 input: rec.name().to_string(),
                 preset: *preset,
-                seconds: c.report.seconds.clone(),
+                seconds: c.report.seconds,
                 transforms: (c.report.transforms_evaluated, c.report.transforms),
                 score: c.report.score,
                 score_gap_pct: score_gap_pct(c.report.score, exact.report.score),
@@ -117,11 +118,7 @@ pub fn trade(
 }
 
 fn total(c: &Compiled) -> f64 {
-    c.report
-        .seconds
-        .get("total")
-        .copied()
-        .unwrap_or(f64::INFINITY)
+    c.report.seconds.get(Stage::Total).unwrap_or(f64::INFINITY)
 }
 
 /// `(score - reference) / |reference|` in percent; an absolute difference when the

@@ -28,6 +28,60 @@ const MIN_STEPS: usize = 5;
 /// Fewest separate touches, all a single frame long, before that is called implausible.
 const MIN_SINGLE_FRAME_TOUCHES: usize = 3;
 
+/// A recording that compiles but probably does not mean what the compile assumes, with
+/// the figures that say so (a front end words them, with what to try).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum SanityWarning {
+    /// The median reading is at least [`RAW_COUNTS_MEDIAN`] from 0: raw ADC counts
+    /// rather than psi.
+    RawCounts {
+        /// The median of the finite readings.
+        median: f64,
+    },
+    /// Readings deviate from their cell's resting level mostly downwards: a sensor whose
+    /// reading falls with pressure.
+    FallsWithTouch {
+        /// Readings more than the threshold below their cell's rest.
+        below: usize,
+        /// Readings more than the threshold above it.
+        above: usize,
+        /// The touch threshold the deviations are counted against, psi.
+        threshold_psi: f64,
+        /// The deepest fall below a cell's rest (negative).
+        deepest: f64,
+    },
+    /// Cells read well above their rest in the leading baseline's window, which is
+    /// subtracted from the whole recording: the recording may begin mid-touch.
+    TouchInTareWindow {
+        /// Cells whose mean in the window lies above their rest by more than the
+        /// touch threshold.
+        cells: usize,
+        /// The largest such excess, psi.
+        highest_psi: f64,
+        /// The window, seconds (`input.tare_s`).
+        tare_s: f64,
+        /// The window, frames.
+        frames: usize,
+    },
+    /// The touch's centroid moves faster than a hand at this rate and pitch.
+    ImplausibleSpeed {
+        /// The median centroid speed, mm/s.
+        median_mm_s: f64,
+        /// The frame rate it was measured at, Hz.
+        rate_hz: f64,
+        /// The cell pitch it was measured at, mm.
+        pitch_mm: f64,
+    },
+    /// Every touch lasts a single frame.
+    SingleFrameTouches {
+        /// Separate touches.
+        touches: usize,
+        /// The frame rate, Hz.
+        rate_hz: f64,
+    },
+}
+
 /// Every sanity warning for `rec`, whose tared and trimmed frames are `tared`, compiled
 /// with `cfg` at `sampling`.
 pub fn check(
@@ -35,7 +89,7 @@ pub fn check(
     tared: ArrayView3<f64>,
     cfg: &Config,
     sampling: &Sampling,
-) -> Vec<String> {
+) -> Vec<SanityWarning> {
     let raw = rec.data();
     let threshold = cfg.input.touch_threshold_psi;
     let mut out = Vec::new();
@@ -80,7 +134,7 @@ fn median(values: &mut [f64]) -> Option<f64> {
 /// Whether the median is that far out is decided by counting, without a copy of the
 /// recording (97 MB for an hour of the paper's sleeve); only a recording that is
 /// warned about is copied, to name its median.
-pub(crate) fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
+pub(crate) fn raw_counts(raw: ArrayView3<f64>) -> Option<SanityWarning> {
     use rayon::prelude::*;
     // Counts, so any order gives the same; by frames on the rayon pool.
     let count = |frame: ArrayView2<f64>| {
@@ -105,12 +159,7 @@ pub(crate) fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
     }
     let mut values: Vec<f64> = raw.iter().copied().filter(|v| v.is_finite()).collect();
     let m = median(&mut values)?;
-    (m.abs() >= RAW_COUNTS_MEDIAN).then(|| {
-        format!(
-            "the median reading is {m:.0}, but psi from a skin-touch sensor is rarely above \
-             10: these look like raw ADC counts; convert them to psi before compiling"
-        )
-    })
+    (m.abs() >= RAW_COUNTS_MEDIAN).then_some(SanityWarning::RawCounts { median: m })
 }
 
 /// The dominant deviation from each cell's resting level (its median) is negative: a
@@ -126,7 +175,7 @@ pub(crate) fn raw_counts(raw: ArrayView3<f64>) -> Option<String> {
 /// median: a contact covering most of the sleeve falls below nothing). A frame of
 /// fewer than [`MIN_FRAME_CELLS`] cells has no such median, and then the cells' answer
 /// stands alone.
-pub(crate) fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<String> {
+pub(crate) fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<SanityWarning> {
     // Per cell: readings below and above its rest by more than `threshold`, and the
     // deepest fall.
     let cells = map_cell_series(raw, |cell| {
@@ -164,12 +213,12 @@ pub(crate) fn falls_with_touch(raw: ArrayView3<f64>, threshold: f64) -> Option<S
     if !decided {
         return None;
     }
-    Some(format!(
-        "pressure seems to fall with touch: {below} readings lie more than {threshold} \
-         below their cell's resting level (down to {deepest:.3}) against {above} above \
-         it; if the sensor's reading falls with pressure, convert it so that touch is \
-         positive psi (e.g. rest minus reading, scaled to psi)"
-    ))
+    Some(SanityWarning::FallsWithTouch {
+        below,
+        above,
+        threshold_psi: threshold,
+        deepest,
+    })
 }
 
 /// Fewest cells a frame needs for its median to stand for the untouched sleeve.
@@ -311,7 +360,7 @@ pub(crate) fn touch_in_tare_window(
     raw: ArrayView3<f64>,
     cfg: &Config,
     sampling: &Sampling,
-) -> Option<String> {
+) -> Option<SanityWarning> {
     let frames = sampling.frames(cfg.input.tare_s).min(raw.dim().0);
     if frames == 0 {
         return None;
@@ -340,14 +389,11 @@ pub(crate) fn touch_in_tare_window(
         .filter(|&e| e > threshold)
         .collect();
     let (cells, highest) = (over.len(), over.iter().fold(0.0f64, |m, &e| m.max(e)));
-    (cells > 0).then(|| {
-        format!(
-            "touch in the tare window: {cells} cell(s) read up to {highest:.3} psi above \
-             their resting level during the first {} s ({frames} frames), which the \
-             leading baseline subtracts from the whole recording; if the recording begins \
-             mid-touch, try --set input.baseline=robust",
-            cfg.input.tare_s
-        )
+    (cells > 0).then_some(SanityWarning::TouchInTareWindow {
+        cells,
+        highest_psi: highest,
+        tare_s: cfg.input.tare_s,
+        frames,
     })
 }
 
@@ -376,7 +422,7 @@ fn centroids(tared: ArrayView3<f64>, threshold: f64) -> Vec<Option<(f64, f64)>> 
 
 /// Touch whose centroid (`cs`, one per frame) moves faster than a hand: the rate or
 /// the pitch given is probably too high.
-fn speed_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<String> {
+fn speed_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<SanityWarning> {
     let mut speeds: Vec<f64> = cs
         .windows(2)
         .filter_map(|w| match (w[0], w[1]) {
@@ -391,22 +437,17 @@ fn speed_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<String> {
         return None;
     }
     let m = median(&mut speeds)?;
-    (m > MAX_PLAUSIBLE_SPEED_MM_S).then(|| {
-        format!(
-            "the touch moves at a median {:.1} m/s at {} Hz and {} mm cells, while hands \
-             rarely exceed 1.5 m/s: if the recording's rate is lower or its cells are \
-             smaller, give them with --rate / --pitch-mm",
-            m / 1000.0,
-            sampling.rate_hz,
-            sampling.pitch_mm,
-        )
+    (m > MAX_PLAUSIBLE_SPEED_MM_S).then_some(SanityWarning::ImplausibleSpeed {
+        median_mm_s: m,
+        rate_hz: sampling.rate_hz,
+        pitch_mm: sampling.pitch_mm,
     })
 }
 
 /// Every touch lasts a single frame (`cs`: the centroids, one per frame): the rate
 /// given is probably far too low for the recording, or the sensor was sampled too
 /// slowly to follow touch.
-fn single_frames_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<String> {
+fn single_frames_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<SanityWarning> {
     let mut runs = Vec::new();
     let mut len = 0usize;
     for touched in cs.iter().map(Option::is_some).chain([false]) {
@@ -417,15 +458,12 @@ fn single_frames_of(cs: &[Option<(f64, f64)>], sampling: &Sampling) -> Option<St
             len = 0;
         }
     }
-    (runs.len() >= MIN_SINGLE_FRAME_TOUCHES && runs.iter().all(|&n| n == 1)).then(|| {
-        format!(
-            "all {} touches last a single frame ({:.0} ms at {} Hz), while taps last 50 ms \
-             and more: if the recording's rate is higher, give it with --rate",
-            runs.len(),
-            1000.0 / sampling.rate_hz,
-            sampling.rate_hz
-        )
-    })
+    (runs.len() >= MIN_SINGLE_FRAME_TOUCHES && runs.iter().all(|&n| n == 1)).then_some(
+        SanityWarning::SingleFrameTouches {
+            touches: runs.len(),
+            rate_hz: sampling.rate_hz,
+        },
+    )
 }
 
 #[cfg(test)]
@@ -493,7 +531,7 @@ mod tests {
         a
     }
 
-    fn run(a: &Array3<f64>, cfg: &Config, sampling: &Sampling) -> Vec<String> {
+    fn run(a: &Array3<f64>, cfg: &Config, sampling: &Sampling) -> Vec<SanityWarning> {
         let rec = Recording::from_array("x", a.view()).unwrap();
         let tared = rec.tare(&cfg.input, sampling).unwrap();
         check(&rec, tared.view(), cfg, sampling)
@@ -516,8 +554,10 @@ mod tests {
             &Config::default(),
             &Sampling::PAPER,
         );
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(w[0].contains("median reading is 512") && w[0].contains("ADC counts"));
+        assert!(
+            matches!(w[..], [SanityWarning::RawCounts { median }] if (median - 512.0).abs() < 0.5),
+            "{w:?}"
+        );
     }
 
     #[test]
@@ -528,16 +568,26 @@ mod tests {
             &Config::default(),
             &Sampling::PAPER,
         );
-        assert_eq!(w.len(), 2, "{w:?}");
-        assert!(w[1].contains("fall with touch") && w[1].contains("120 readings"));
+        assert!(
+            matches!(
+                w[..],
+                [
+                    SanityWarning::RawCounts { .. },
+                    SanityWarning::FallsWithTouch { below: 120, .. }
+                ]
+            ),
+            "{w:?}"
+        );
         // The same in psi-like units: only the falling warning.
         let w = run(
             &recording(5.0, -2.0, 5),
             &Config::default(),
             &Sampling::PAPER,
         );
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(w[0].contains("down to -2.0"), "{w:?}");
+        assert!(
+            matches!(w[..], [SanityWarning::FallsWithTouch { deepest, .. }] if (deepest + 2.0).abs() < 0.01),
+            "{w:?}"
+        );
     }
 
     #[test]
@@ -549,11 +599,12 @@ mod tests {
         // The paper's leading baseline is the one the warning is about.
         let paper = Config::preset(touchc_model::config::Preset::Paper);
         let w = run(&a, &paper, &Sampling::PAPER);
-        assert_eq!(w.len(), 1, "{w:?}");
         assert!(
-            w[0].contains("1 cell(s)")
-                && w[0].contains("1.50")
-                && w[0].contains("input.baseline=robust"),
+            matches!(
+                w[..],
+                [SanityWarning::TouchInTareWindow { cells: 1, highest_psi, frames: 20, .. }]
+                    if (highest_psi - 1.5).abs() < 0.005
+            ),
             "{w:?}"
         );
         let mut robust = paper;
@@ -573,8 +624,14 @@ mod tests {
         let mut short = Config::default();
         (short.input.tare_s, short.input.trim_s) = (0.1, 0.1);
         let w = run(&a, &short, &fast);
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(w[0].contains("median 5.1 m/s") && w[0].contains("--rate"));
+        assert!(
+            matches!(
+                w[..],
+                [SanityWarning::ImplausibleSpeed { median_mm_s, rate_hz: 200.0, .. }]
+                    if (median_mm_s / 1000.0 - 5.1).abs() < 0.05
+            ),
+            "{w:?}"
+        );
     }
 
     #[test]
@@ -584,8 +641,13 @@ mod tests {
             a[[t, 3, 3]] += 1.0;
         }
         let w = run(&a, &Config::default(), &Sampling::PAPER);
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(w[0].contains("all 4 touches") && w[0].contains("50 ms at 20 Hz"));
+        assert_eq!(
+            w,
+            [SanityWarning::SingleFrameTouches {
+                touches: 4,
+                rate_hz: 20.0
+            }]
+        );
         // Two frames each: plausible.
         for t in [31, 46, 61, 76] {
             a[[t, 3, 3]] += 1.0;

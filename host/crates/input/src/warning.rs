@@ -1,8 +1,5 @@
 //! What the input stage noticed about a recording that still compiles: typed, so a
-//! report can carry the figures and a front end can word them ([`std::fmt::Display`]
-//! gives the command line's sentence).
-
-use std::fmt;
+//! report can carry the figures and a front end can word them.
 
 use serde::Serialize;
 
@@ -82,99 +79,4 @@ pub enum ErasedBy {
     /// Each touched cell is pressed for most of the recording, so its low quantile is
     /// the touch itself.
     TouchThroughout,
-}
-
-/// A count with its noun, singular or plural.
-fn count(n: usize, noun: &str) -> String {
-    format!("{n} {noun}{}", if n == 1 { "" } else { "s" })
-}
-
-impl fmt::Display for InputWarning {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            InputWarning::NanInTareWindow {
-                tare_frames,
-                cells,
-                readings,
-                unread_cells,
-                quantile,
-            } => {
-                write!(
-                    f,
-                    "{} missing (NaN) in the tare window (the first {}) of {}: each is \
-                     tared by the mean of the readings it has there",
-                    count(*readings, "reading"),
-                    count(*tare_frames, "frame"),
-                    count(*cells, "cell"),
-                )?;
-                if *unread_cells > 0 {
-                    write!(
-                        f,
-                        ", and the {} with none there by its {quantile} quantile over the \
-                         whole recording",
-                        count(*unread_cells, "cell"),
-                    )?;
-                }
-                Ok(())
-            }
-            InputWarning::LikelyTransposed { shape, reason } => {
-                let [a, b, c] = *shape;
-                write!(
-                    f,
-                    "the array {a} x {b} x {c} is read as {} of {b} x {c} cells, but ",
-                    count(a, "frame")
-                )?;
-                match reason {
-                    TransposedBy::LastAxisLongest => {
-                        write!(f, "its last axis ({c}) is far longer than the others")?
-                    }
-                    TransposedBy::SleeveGridFirst => {
-                        write!(f, "its first two axes are the sleeve's {a} x {b} cells")?
-                    }
-                }
-                f.write_str(
-                    ": if it was saved as [rows, cols, frames], save it as [frames, rows, \
-                     cols] (numpy: np.moveaxis(a, -1, 0))",
-                )
-            }
-            InputWarning::TareErasedTouch {
-                baseline,
-                frames,
-                raw_touch_readings,
-                highest_psi,
-                cause,
-            } => {
-                write!(
-                    f,
-                    "the tare removed the touch: the raw frames hold {} up to {highest_psi:.3} \
-                     psi above the rest of their frame, the tared ones none, so the stimulus \
-                     is silent; ",
-                    count(*raw_touch_readings, "touch reading"),
-                )?;
-                match (cause, baseline) {
-                    (ErasedBy::TooShort { needed }, _) => write!(
-                        f,
-                        "{} is too short to tell a cell's rest from its touch: record at \
-                         least {needed} frames, with rest before or after the touch",
-                        count(*frames, "frame"),
-                    ),
-                    (ErasedBy::TouchInTareWindow, _) => f.write_str(
-                        "the recording begins mid-touch and the leading baseline subtracts \
-                         the first seconds from all of it: use the default preset (touch) \
-                         or --set input.baseline=robust",
-                    ),
-                    (ErasedBy::TouchThroughout, Baseline::Leading) => f.write_str(
-                        "the touch is held from the tare window on: use the default preset \
-                         (touch) or --set input.baseline=robust, and record rest before or \
-                         after the touch",
-                    ),
-                    (ErasedBy::TouchThroughout, Baseline::Robust) => f.write_str(
-                        "each touched cell is pressed for most of the recording, so its low \
-                         quantile (input.baseline_quantile) is the touch: record rest before \
-                         or after the touch",
-                    ),
-                }
-            }
-        }
-    }
 }

@@ -23,7 +23,7 @@ mod validate;
 
 pub use bounds::{grid_size, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE, RATE_HZ_RANGE};
 pub use sampling::{FileMetadata, Metadata, MetadataOverrides, Sampling, Source, Sourced};
-pub use validate::ConfigError;
+pub use validate::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
 
 /// All stage parameters. `Config::default()` is the `touch` preset;
 /// `Config::preset(Preset::Paper)` reproduces the paper.

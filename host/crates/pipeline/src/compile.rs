@@ -3,10 +3,7 @@
 //! Each stage lives in its own module; this one only hands each stage's output to
 //! the next, measures it, and gathers the figures of the [`Report`].
 
-use std::collections::BTreeMap;
 use std::time::Instant;
-
-use serde::Serialize;
 
 use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
 use touch_protocol::{Limits, CHANNELS};
@@ -17,12 +14,16 @@ use touchc_model::config::Config;
 use touchc_model::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
 use touchc_model::crop::Crop;
 use touchc_model::layout::Layout;
-use touchc_model::stage::{Shares, Stage};
+use touchc_model::stage::{Shares, Stage, StageSeconds};
 use touchc_placement::{self as placement, Placement, PlacementError};
 use touchc_rendering::condition::{self, ConditionError, LimitViolation};
 use touchc_rendering::signals::{self, ChannelSignals};
 use touchc_tracking::scene;
 use touchc_tracking::track::{TrackError, TrackOutput};
+
+mod warning;
+
+pub use warning::Warning;
 
 /// Everything `compile` needs besides the recording.
 #[derive(Debug, Clone)]
@@ -92,7 +93,7 @@ pub enum CompileError {
 }
 
 /// The figures of one compile (`touchc compile --report`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Report {
     /// The recording's name (its file).
     pub input: String,
@@ -120,8 +121,8 @@ pub struct Report {
     pub flow_work: u64,
     /// True when the min-cost flow stopped at its work budget (a warning says so).
     pub flow_budget_reached: bool,
-    /// Wall seconds per stage, keyed by [`Stage::name`], and `total`.
-    pub seconds: BTreeMap<&'static str, f64>,
+    /// Wall seconds per stage that ran, and [`Stage::Total`].
+    pub seconds: StageSeconds,
     /// Size of the stimulus file.
     pub bytes: usize,
     /// Length of the stimulus signal, seconds.
@@ -154,10 +155,9 @@ pub struct Report {
     pub coverage_detail: Coverage,
     /// Where the unexplained touch lies (absent without touch).
     pub misses: Option<Misses>,
-    /// Things the user should know.
-    pub warnings: Vec<String>,
-    /// The input stage's warnings with their figures (each also worded in `warnings`).
-    pub input_warnings: Vec<InputWarning>,
+    /// Things the user should know, the input stage's first (what the later ones say
+    /// may follow from them).
+    pub warnings: Vec<Warning>,
     /// The recording's rate and pitch as used, each with its source (cli, file,
     /// default).
     pub metadata: Metadata,
@@ -166,6 +166,16 @@ pub struct Report {
     pub config: Config,
     /// The actuator layout's id.
     pub layout: String,
+}
+
+impl Report {
+    /// The input stage's warnings among [`Report::warnings`].
+    pub fn input_warnings(&self) -> impl Iterator<Item = &InputWarning> {
+        self.warnings.iter().filter_map(|w| match w {
+            Warning::Input(w) => Some(w),
+            _ => None,
+        })
+    }
 }
 
 /// A compiled stimulus with its report and the intermediate results (for plots).
@@ -198,7 +208,7 @@ pub fn stimulus_name(name: &str) -> &str {
 }
 
 struct Clock {
-    seconds: BTreeMap<&'static str, f64>,
+    seconds: StageSeconds,
     start: Instant,
     lap: Instant,
 }
@@ -207,7 +217,7 @@ impl Clock {
     fn new() -> Self {
         let now = Instant::now();
         Clock {
-            seconds: BTreeMap::new(),
+            seconds: StageSeconds::default(),
             start: now,
             lap: now,
         }
@@ -222,14 +232,14 @@ impl Clock {
         let now = Instant::now();
         let elapsed = (now - self.lap).as_secs_f64();
         for &(stage, share) in shares {
-            *self.seconds.entry(stage.name()).or_insert(0.0) += share * elapsed;
+            self.seconds.add(stage, share * elapsed);
         }
         self.lap = now;
     }
 
-    fn finish(mut self) -> BTreeMap<&'static str, f64> {
+    fn finish(mut self) -> StageSeconds {
         self.seconds
-            .insert(Stage::Total.name(), self.start.elapsed().as_secs_f64());
+            .add(Stage::Total, self.start.elapsed().as_secs_f64());
         self.seconds
     }
 }
@@ -281,12 +291,11 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         .into_iter()
         .chain(tare_note)
         .collect();
-    warnings.extend(touchc_input::sanity::check(
-        &rec,
-        tared.view(),
-        cfg,
-        &sampling,
-    ));
+    warnings.extend(
+        touchc_input::sanity::check(&rec, tared.view(), cfg, &sampling)
+            .into_iter()
+            .map(Warning::Sanity),
+    );
     let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
     let silent = touched <= cfg.input.min_touch_readings;
     if silent {
@@ -297,21 +306,20 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     drop(rec);
     clock.stage(Stage::Tare);
     // The input's own warnings first: what the later ones say may follow from them.
-    for (i, note) in notes.iter().enumerate() {
-        warnings.insert(i, note.to_string());
-    }
+    warnings.splice(0..0, notes.into_iter().map(Warning::Input));
     if silent {
-        warnings.push(format!(
-            "no touch: {touched} readings above {} psi (needs more than {}); the stimulus is silent",
-            cfg.input.touch_threshold_psi, cfg.input.min_touch_readings
-        ));
+        warnings.push(Warning::NoTouch {
+            readings: touched,
+            threshold_psi: cfg.input.touch_threshold_psi,
+            min_readings: cfg.input.min_touch_readings,
+        });
         let signal = vec![[0.0; CHANNELS]];
         return finish(
             (&input_name, shape),
             opts,
             &metadata,
             clock,
-            (warnings, notes),
+            warnings,
             signal,
             1.0,
             None,
@@ -342,29 +350,22 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     );
     if tracked.trajectories.len() >= cfg.track.max_trajectories {
         // The flow stops at this many units: a further contact would have needed one more.
-        warnings.push(format!(
-            "the trajectory limit was reached ({} of track.max_trajectories = {}): \
-             contacts beyond it are not tracked; raise it with --max-trajectories \
-             (coverage {:.2} says how much touch is explained)",
-            tracked.trajectories.len(),
-            cfg.track.max_trajectories,
-            covered.0.ratio(),
-        ));
+        warnings.push(Warning::TrajectoryLimit {
+            trajectories: tracked.trajectories.len(),
+            max_trajectories: cfg.track.max_trajectories,
+            coverage: covered.0.ratio(),
+        });
     }
     if tracked.flow_budget_reached {
-        warnings.push(format!(
-            "tracking stopped at its work budget ({} edges scanned by the min-cost flow, \
-             {} per edge of its graph) after {} trajectories: weaker contacts may be \
-             untracked (coverage {:.2}); a scene this dense is usually noise: check the \
-             tare, or narrow the link gate with --max-speed-mm-s",
-            tracked.flow_work,
-            touchc_tracking::track::FLOW_WORK_PER_EDGE,
-            tracked.trajectories.len(),
-            covered.0.ratio(),
-        ));
+        warnings.push(Warning::FlowBudget {
+            flow_work: tracked.flow_work,
+            work_per_edge: touchc_tracking::track::FLOW_WORK_PER_EDGE,
+            trajectories: tracked.trajectories.len(),
+            coverage: covered.0.ratio(),
+        });
     }
     let placement = if tracked.trajectories.is_empty() {
-        warnings.push("no trajectory was tracked: every actuator stays at rest".into());
+        warnings.push(Warning::NoTrajectory);
         None
     } else {
         Some(placement::place(
@@ -385,18 +386,15 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         None => ChannelSignals::silent(frames),
     };
     if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {
-        warnings.push(format!(
-            "placement: the trajectory-subset search ran out of its budget of {} nodes per transform on \
-             {} of {} transforms ({} trajectories; a scene this dense is usually noise): \
-             those transforms kept the best subset found, which may not be optimal",
-            p.node_budget,
-            p.transforms_inexact,
-            p.transforms_evaluated,
-            tracked.trajectories.len(),
-        ));
+        warnings.push(Warning::SubsetBudget {
+            node_budget: p.node_budget,
+            transforms_inexact: p.transforms_inexact,
+            transforms_evaluated: p.transforms_evaluated,
+            trajectories: tracked.trajectories.len(),
+        });
     }
     if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
-        warnings.push("no trajectory passes through an actuator's workspace: silent".into());
+        warnings.push(Warning::OutsideWorkspaces);
     }
     // The tared copy of the recording is not read after stage 5.
     drop(tared);
@@ -430,7 +428,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         opts,
         &metadata,
         clock,
-        (warnings, notes),
+        warnings,
         signal,
         fit_scale,
         Some(scene),
@@ -450,13 +448,13 @@ struct Scene {
 pub(crate) const COVERAGE_WARNING: f64 = 0.8;
 
 /// The coverage of the tracked contacts on `tared`, and where the rest lies; below
-/// [`COVERAGE_WARNING`] a warning with the likely causes and what to try.
+/// [`COVERAGE_WARNING`] a warning with the likely causes.
 fn measure_coverage(
     tared: ndarray::ArrayView3<f64>,
     tracked: &TrackOutput,
     cfg: &Config,
     sampling: &Sampling,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> (Coverage, Misses) {
     let points = coverage::contact_points(&tracked.trajectories, sampling.upsample);
     let threshold = cfg.input.touch_threshold_psi;
@@ -465,17 +463,12 @@ fn measure_coverage(
     let tracking = tracking_figures(cfg, sampling);
     let misses = coverage::explain(tared, &cells, &points, &tracking);
     if cov.ratio() < COVERAGE_WARNING {
-        let mut w = format!(
-            "the tracked contacts explain {:.0}% of the touch pressure (coverage {:.2}, \
-             below {COVERAGE_WARNING}): touch is lost",
-            100.0 * cov.ratio(),
-            cov.ratio()
-        );
-        for a in misses.advice(&tracking) {
-            w.push_str("; ");
-            w.push_str(&a);
-        }
-        warnings.push(w);
+        warnings.push(Warning::LowCoverage {
+            coverage: cov.ratio(),
+            threshold: COVERAGE_WARNING,
+            causes: misses.causes(&tracking),
+            touch_tracking: tracking.touch_tracking,
+        });
     }
     (cov, misses)
 }
@@ -510,7 +503,7 @@ fn finish(
     opts: &CompileOptions,
     metadata: &Metadata,
     mut clock: Clock,
-    (mut warnings, input_warnings): (Vec<String>, Vec<InputWarning>),
+    mut warnings: Vec<Warning>,
     mut signal: Vec<[f64; CHANNELS]>,
     mut fit_scale: f64,
     scene: Option<Scene>,
@@ -551,15 +544,11 @@ fn finish(
         }
     };
     if fit_scale < 1.0 {
-        warnings.push(format!(
-            "scaled by {fit_scale:.4} ({:.1} dB) to pass the limits{}",
-            20.0 * fit_scale.log10(),
-            if refits > 0 {
-                format!(" ({refits} steps of {REFIT_STEP} after the fit, for the played codes)")
-            } else {
-                String::new()
-            }
-        ));
+        warnings.push(Warning::Fitted {
+            scale: fit_scale,
+            refits,
+            refit_step: REFIT_STEP,
+        });
     }
     clock.stage(Stage::Keyframes);
     let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
@@ -604,9 +593,9 @@ fn finish(
         // Coverage is of the recorded touch: when the tare removed it, none is played.
         coverage: match &covered {
             Some(c) => c.0.ratio(),
-            None if input_warnings
+            None if warnings
                 .iter()
-                .any(|w| matches!(w, InputWarning::TareErasedTouch { .. })) =>
+                .any(|w| matches!(w, Warning::Input(InputWarning::TareErasedTouch { .. }))) =>
             {
                 0.0
             }
@@ -615,7 +604,6 @@ fn finish(
         coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
         misses: covered.map(|c| c.1),
         warnings,
-        input_warnings,
         metadata: *metadata,
         config: opts.config.clone(),
         layout: opts.layout.id().to_string(),

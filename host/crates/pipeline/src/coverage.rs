@@ -206,68 +206,104 @@ pub struct Misses {
     pub speed_p90_mm_s: f64,
 }
 
+/// A likely cause of touch no contact explains, with the figures that point at it
+/// (from [`Misses::causes`]; a front end words it, with what to try).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MissCause {
+    /// Touches too short for a trajectory to pay its entry and exit costs.
+    Brief {
+        /// Share of the missed touch, 0 to 1.
+        share: f64,
+        /// The fewest frames a trajectory of strong detections needs.
+        min_frames: usize,
+        /// Those frames, ms.
+        min_ms: f64,
+    },
+    /// Frames of longer touches where no contact was tracked at all.
+    Untracked {
+        /// Share of the missed touch, 0 to 1.
+        share: f64,
+        /// Why, as far as the figures tell.
+        why: UntrackedBy,
+    },
+    /// Touch beyond the radius of the contact tracked in its frame: a large contact or a
+    /// second one.
+    Beside {
+        /// Share of the missed touch, 0 to 1.
+        share: f64,
+        /// The radius, cells ([`DEFAULT_RADIUS_CELLS`]).
+        radius_cells: f64,
+    },
+}
+
+/// Why frames of a touch went untracked.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum UntrackedBy {
+    /// The touch moves faster than the link gate follows.
+    TooFast {
+        /// The touch's 90th percentile speed, mm/s.
+        speed_p90_mm_s: f64,
+        /// The link gate's speed, mm/s.
+        gate_mm_s: f64,
+    },
+    /// The touch drops out for a frame or two and the pieces are too short (only
+    /// without the `touch` preset's tracking, which links across such gaps).
+    Dropouts {
+        /// How many times.
+        count: usize,
+    },
+    /// Its detections are too weak to start a trajectory.
+    Weak,
+}
+
+impl MissCause {
+    /// The share of the missed touch this cause holds, 0 to 1.
+    pub fn share(&self) -> f64 {
+        match *self {
+            MissCause::Brief { share, .. }
+            | MissCause::Untracked { share, .. }
+            | MissCause::Beside { share, .. } => share,
+        }
+    }
+}
+
 impl Misses {
-    /// The likely causes, largest first, each with what to try.
-    pub(crate) fn advice(&self, t: &Tracking) -> Vec<String> {
-        let mut out: Vec<(f64, String)> = Vec::new();
-        let pct = |v: f64| (100.0 * v).round();
-        // "try --preset touch, or ..." where that preset would change something.
-        let touch_or = if t.touch_tracking {
-            "try"
-        } else {
-            "try --preset touch, or"
-        };
+    /// The likely causes, largest first.
+    pub fn causes(&self, t: &Tracking) -> Vec<MissCause> {
+        let mut out = Vec::new();
         if self.brief > 0.0 {
-            out.push((
-                self.brief,
-                format!(
-                    "{}% of the missed touch is in touches shorter than {} frames ({:.0} ms), the least a trajectory needs to pay its entry and exit costs: {touch_or} lower --entry-cost and --exit-cost",
-                    pct(self.brief),
-                    t.min_frames,
-                    1000.0 * t.min_frames as f64 / t.rate_hz
-                ),
-            ));
+            out.push(MissCause::Brief {
+                share: self.brief,
+                min_frames: t.min_frames,
+                min_ms: 1000.0 * t.min_frames as f64 / t.rate_hz,
+            });
         }
         if self.untracked > 0.0 {
-            let fast = self.speed_p90_mm_s > t.gate_mm_s;
-            let why = if fast {
-                format!(
-                    "the touch moves at up to {:.2} m/s (90th percentile), the link gate follows {:.2} m/s: {touch_or} a wider link gate (--max-speed-mm-s)",
-                    self.speed_p90_mm_s / 1000.0,
-                    t.gate_mm_s / 1000.0
-                )
+            let why = if self.speed_p90_mm_s > t.gate_mm_s {
+                UntrackedBy::TooFast {
+                    speed_p90_mm_s: self.speed_p90_mm_s,
+                    gate_mm_s: t.gate_mm_s,
+                }
             } else if self.dropouts > 0 && !t.touch_tracking {
-                format!(
-                    "the touch drops out for one or two frames {} times (flicker) and the pieces are too short to track: try --preset touch (links across missing frames)",
-                    self.dropouts
-                )
+                UntrackedBy::Dropouts {
+                    count: self.dropouts,
+                }
             } else {
-                format!("its detections are too weak to start a trajectory: {touch_or} lower --entry-cost and --exit-cost")
+                UntrackedBy::Weak
             };
-            out.push((
-                self.untracked,
-                format!(
-                    "{}% of the missed touch is in frames where no contact was tracked; {why}",
-                    pct(self.untracked)
-                ),
-            ));
+            out.push(MissCause::Untracked {
+                share: self.untracked,
+                why,
+            });
         }
         if self.beside > 0.0 {
-            out.push((
-                self.beside,
-                format!(
-                    "{}% of the missed touch lies more than {DEFAULT_RADIUS_CELLS} cells from the contact tracked in its frame: a large contact (a flat hand) or a second one; {}",
-                    pct(self.beside),
-                    if t.touch_tracking {
-                        "contact splitting is on: try a finer lattice (--set detect.split.spacing_cells=1)"
-                    } else {
-                        "try --preset touch (contact splitting)"
-                    }
-                ),
-            ));
+            out.push(MissCause::Beside {
+                share: self.beside,
+                radius_cells: DEFAULT_RADIUS_CELLS,
+            });
         }
-        out.sort_by(|a, b| b.0.total_cmp(&a.0));
-        out.into_iter().map(|(_, s)| s).collect()
+        out.sort_by(|a, b| b.share().total_cmp(&a.share()));
+        out
     }
 }
 
@@ -489,19 +525,41 @@ mod tests {
         assert_eq!(m.dropouts, 1);
         // 3 cells a frame at 20 Hz and 25.4 mm = 1.52 m/s, above the 0.5 m/s gate.
         assert!(m.speed_p90_mm_s > 1000.0, "{m:?}");
-        let advice = m.advice(&t);
-        assert!(advice[0].contains("no contact was tracked") && advice[0].contains("gate"));
-        assert!(advice[1].contains("2 cells") && advice[2].contains("shorter than 3 frames"));
-        assert!(advice.iter().all(|a| a.contains("--preset touch")));
-        // Under the touch preset's tracking the advice names what else to try instead.
-        let on_touch = m.advice(&Tracking {
-            touch_tracking: true,
-            ..t
-        });
+        let causes = m.causes(&t);
         assert!(
-            on_touch.iter().all(|a| !a.contains("--preset touch")),
-            "{on_touch:?}"
+            matches!(
+                causes[..],
+                [
+                    MissCause::Untracked {
+                        why: UntrackedBy::TooFast { .. },
+                        ..
+                    },
+                    MissCause::Beside {
+                        radius_cells: 2.0,
+                        ..
+                    },
+                    MissCause::Brief { min_frames: 3, .. },
+                ]
+            ),
+            "{causes:?}"
         );
-        assert!(on_touch[0].contains("--max-speed-mm-s") && on_touch[1].contains("spacing_cells"));
+        // Slower than the gate, the dropout is the cause named; under the touch preset's
+        // tracking (which links across dropouts) the detections are too weak instead.
+        let slow = Tracking {
+            gate_mm_s: 5000.0,
+            ..t
+        };
+        let why = |t: &Tracking| {
+            m.causes(t).iter().find_map(|c| match c {
+                MissCause::Untracked { why, .. } => Some(*why),
+                _ => None,
+            })
+        };
+        assert_eq!(why(&slow), Some(UntrackedBy::Dropouts { count: 1 }));
+        let on_touch = Tracking {
+            touch_tracking: true,
+            ..slow
+        };
+        assert_eq!(why(&on_touch), Some(UntrackedBy::Weak));
     }
 }
