@@ -16,7 +16,7 @@ use touchc_model::config::{Baseline, Config, Sampling};
 
 /// A median reading above this many "psi" is far above skin touch (rarely over ~10 psi)
 /// and looks like raw ADC counts.
-pub(crate) const RAW_COUNTS_MEDIAN: f64 = 100.0;
+pub const RAW_COUNTS_MEDIAN: f64 = 100.0;
 
 /// Contacts whose centroid moves at a median speed above this, mm/s, are implausibly
 /// fast for a hand (strokes reach about 1.5 m/s, shakes about 1 m/s).

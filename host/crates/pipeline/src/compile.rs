@@ -445,7 +445,7 @@ struct Scene {
 }
 
 /// Coverage below this share of the touch pressure is a warning.
-pub(crate) const COVERAGE_WARNING: f64 = 0.8;
+pub const COVERAGE_WARNING: f64 = 0.8;
 
 /// The coverage of the tracked contacts on `tared`, and where the rest lies; below
 /// [`COVERAGE_WARNING`] a warning with the likely causes.

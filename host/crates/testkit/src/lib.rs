@@ -3,7 +3,7 @@
 //!
 //! - [`recordings`]: synthetic recordings (moving blobs, the compile bench's
 //!   combination, the real-touch cases) and a CPU clock for the benches.
-//! - [`reference`]: the published Python code's reference vectors and their loader.
+//! - [`mod@reference`]: the published Python code's reference vectors and their loader.
 //! - [`rng`]: the one seeded generator of the tests (`touchc-test-rng`, which the
 //!   layers' unit tests use directly).
 //! - [`stimuli`]: stimulus files for the tests that drive the CLI.
