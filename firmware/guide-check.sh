@@ -5,9 +5,14 @@
 # fails the check). Up to the probe itself: a command that needs a probe on a board is
 # not run and is named as skipped (probe-rs itself; `cargo run` in firmware/, whose
 # runner is probe-rs, runs as the `cargo build` it starts with; installing probe-rs),
-# and so is one that needs a sleeve on a cable (`touchc sleeve`, which the twin runs
-# against the release firmware instead) or the USB-serial adapter (udevadm).
-# A `cargo install` of a tool already on PATH is skipped, said so.
+# and so is one that needs the USB-serial adapter (udevadm).
+# A `touchc sleeve` line runs as written but on a port that does not exist (a sleeve
+# on this machine's cable is never touched): it must read its files, then say in one
+# line that no sleeve is attached and exit 1, with the `touchc` the guide installed.
+# The twin runs `touchc sleeve` against the release firmware.
+# `cargo install --path ...` installs into the clone's scratch folder, which is first
+# on PATH for the blocks that follow; a `cargo install` of a tool already on PATH is
+# skipped, said so.
 #
 # `bash firmware/ci.sh` (the Checks section) is not run again: scripts/check.sh runs it
 # on this checkout just before.
@@ -32,6 +37,9 @@ cleanup() {
 }
 trap cleanup EXIT
 export CARGO_TARGET_DIR="${GUIDE_TARGET_DIR:-$root/target/guide-check}"
+# Where the guide's `cargo install --path` puts its tools, ahead of any other on PATH.
+installed="$work/cargo"
+export PATH="$installed/bin:$PATH"
 
 head_commit="$(git -C "$root" rev-parse HEAD)"
 if [ -n "$(git -C "$root" status --porcelain -- firmware/README.md)" ]; then
@@ -66,6 +74,29 @@ skip() {
     printf 'echo %q\n' "SKIPPED ($1): $line"
     skipped=$((skipped + 1))
 }
+
+# `no_sleeve LINE COMMAND`, called by the blocks' scripts: runs the guide's `touchc
+# sleeve` LINE as COMMAND (the same on a port that does not exist) and fails unless
+# that ends in one line saying no sleeve is attached, status 1, and nothing on stdout.
+no_sleeve() {
+    local line=$1 cmd=$2 rc=0
+    local out="$GUIDE_WORK/no-sleeve.out" err="$GUIDE_WORK/no-sleeve.err"
+    if [ "$(command -v touchc)" != "$GUIDE_INSTALLED/bin/touchc" ]; then
+        echo "firmware/README.md: '$line' runs a touchc that the guide did not install before it (cargo install --path host)" >&2
+        return 1
+    fi
+    (eval "$cmd") >"$out" 2>"$err" || rc=$?
+    if [ "$rc" != 1 ] || [ "$(wc -l <"$err")" != 1 ] || ! grep -q 'no sleeve' "$err" || [ -s "$out" ]; then
+        echo "firmware/README.md: '$line' without a sleeve: expected one line saying so and exit 1, got exit $rc:" >&2
+        cat "$out" "$err" >&2
+        return 1
+    fi
+    echo "NO SLEEVE, as expected (exit 1, $(cat "$err")): $line"
+}
+export -f no_sleeve
+export GUIDE_WORK="$work" GUIDE_INSTALLED="$installed"
+nowhere="$work/no-sleeve-here"
+no_sleeve_checked=0
 for block in "${blocks[@]}"; do
     n="$(basename "$block")"
     where="$(head -n1 "$block")"
@@ -88,9 +119,16 @@ for block in "${blocks[@]}"; do
             "bash firmware/ci.sh"*) skip "scripts/check.sh runs it on this checkout" ;;
             "sudo udevadm "*) skip "needs the USB-serial adapter plugged in" ;;
             "touchc sleeve "*)
-                skip "needs a sleeve on a cable; firmware/twin's StudyScript runs touchc sleeve against the release firmware"
+                # The line's own --port goes: the port is one that does not exist.
+                rest="${line#touchc sleeve }"
+                if [[ $rest =~ ^(.*)--port[[:space:]]+[^[:space:]]+(.*)$ ]]; then
+                    rest="${BASH_REMATCH[1]}${BASH_REMATCH[2]}"
+                fi
+                printf 'no_sleeve %q %q\n' "$line" "touchc sleeve --port $(printf %q "$nowhere") $rest"
+                no_sleeve_checked=$((no_sleeve_checked + 1))
                 ;;
             "cargo install probe-rs-tools"*) skip "probe-rs is for the board; CI does not need it" ;;
+            "cargo install --path "*) echo "$line --root $(printf %q "$installed")" ;;
             "cargo install "*)
                 tool="$(awk '{ print $3 }' <<<"$line")"
                 if command -v "$tool" >/dev/null; then
@@ -123,5 +161,5 @@ for block in "${blocks[@]}"; do
         exit 1
     fi
 done
-printf '\nguide check: %d blocks ran in a fresh clone; %d commands skipped (named above)\n' \
-    "${#blocks[@]}" "$skipped"
+printf '\nguide check: %d blocks ran in a fresh clone; %d touchc sleeve commands ran without a sleeve; %d commands skipped (named above)\n' \
+    "${#blocks[@]}" "$no_sleeve_checked" "$skipped"

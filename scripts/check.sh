@@ -23,7 +23,7 @@ cargo clippy --all-targets --locked -- -D warnings
 step "clippy (protocol for the MCU, with defmt)"
 cargo clippy -p touch-protocol --target thumbv7em-none-eabihf --features defmt --locked -- -D warnings
 
-# The AVX2 comparisons (host/src/wide.rs) can only run on a CPU that has AVX2: there a
+# The AVX2 comparisons (host/crates/wide/src/lib.rs) can only run on a CPU that has AVX2: there a
 # skip is a failure; elsewhere each skip prints a SKIPPED line, and this says why.
 if grep -qw avx2 /proc/cpuinfo 2>/dev/null; then
     export TOUCHC_REQUIRE_AVX2=1
@@ -35,6 +35,10 @@ fi
 # (the firmware logic's own run is in firmware/ci.sh: cargo test -p sleeve-firmware).
 step "tests: protocol alone"
 cargo test --locked -p touch-protocol
+step "tests: the host's layer crates (host/crates/)"
+cargo test --locked -p touchc-model -p touchc-wide -p touchc-test-rng -p touchc-input \
+    -p touchc-tracking -p touchc-placement -p touchc-rendering -p touchc-encoding \
+    -p touchc-pipeline -p touchc-eval -p touchc-export -p touchc-link -p touchc-testkit
 step "tests: touchc alone"
 cargo test --locked -p touchc
 step "tests: end-to-end alone"

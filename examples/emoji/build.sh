@@ -39,3 +39,8 @@ for line in "${emoji[@]}"; do
     stimuli+=("$out/$name.touch")
 done
 touchc bank "${stimuli[@]}" -o "$out/emoji.bank" >/dev/null
+# The firmware builds in its own copy (firmware/build.rs; tests/tests/copies.rs holds
+# the two equal): rebuilding the bank here rebuilds that copy too.
+if [ "$out" = "$here" ]; then
+    cp "$out/emoji.bank" "$here/../../firmware/emoji.bank"
+fi

@@ -20,7 +20,6 @@ use std::process::ExitCode;
 
 use sleeve_firmware::output::{device_config, FULL_SCALE_MA, LAYOUT_HASH};
 use touch_protocol::player::Status;
-use touch_protocol::stimulus::OUTPUT_RATE_HZ;
 use touch_protocol::{bank, stimulus, Bank, Limits, Player, CHANNELS};
 
 /// Slot 0 of the `hot` bank: longer than a cold coil can carry at the lowered budget.
@@ -70,10 +69,15 @@ fn run(args: &[String]) -> Result<(), String> {
         ("play", []) => play(&stimulus, None),
         ("play", [n]) => play(&stimulus, Some(number(n)?)),
         ("limit", [peak, out]) => {
-            let mut header = *stimulus.header();
-            header.limits.peak_ma = number(peak)?;
+            let limits = Limits {
+                peak_ma: number(peak)?,
+                ..stimulus.limits()
+            };
             let frames: Vec<_> = stimulus.keyframes().collect();
-            let one = stimulus::encode(header, &frames).map_err(|e| format!("{e:?}"))?;
+            let one = stimulus::Builder::like(stimulus.header())
+                .limits(limits)
+                .encode(&frames)
+                .map_err(|e| format!("{e:?}"))?;
             let image = bank::encode(&[&one]).map_err(|e| format!("{e:?}"))?;
             std::fs::write(out, image).map_err(|e| format!("{out}: {e}"))
         }
@@ -91,21 +95,13 @@ fn hot(budget_ma2s: u32, out: &str) -> Result<(), String> {
     let period_ms = 100u16;
     let one = |name: &str, ms: u32| {
         let frames = vec![HOT_LEVELS; (ms / u32::from(period_ms)) as usize + 1];
-        let header = stimulus::Header {
-            channels: CHANNELS as u8,
-            output_rate_hz: OUTPUT_RATE_HZ,
-            keyframe_period_ms: period_ms,
-            keyframe_count: 0,
-            duration_ms: 0,
-            ramp_ms: 40,
-            full_scale_ma: FULL_SCALE_MA,
-            quant_shift: 0,
-            layout_hash: LAYOUT_HASH,
-            layout: touch_protocol::layout::SLEEVE_NAME,
-            limits,
-            name,
-        };
-        stimulus::encode(header, &frames).map_err(|e| format!("{name}: {e:?}"))
+        stimulus::Builder::new(name, period_ms)
+            .ramp_ms(40)
+            .full_scale_ma(FULL_SCALE_MA)
+            .layout(touch_protocol::layout::SLEEVE_NAME, LAYOUT_HASH)
+            .limits(limits)
+            .encode(&frames)
+            .map_err(|e| format!("{name}: {e:?}"))
     };
     let (long, short) = (one("hot", HOT_MS)?, one("short", SHORT_MS)?);
     let image = bank::encode(&[&long, &short]).map_err(|e| format!("{e:?}"))?;

@@ -1,15 +1,6 @@
 //! Makes the test bank with the protocol crate's encoder, plays every slot with the
 //! host's player, and writes the bank and the expected tick counts and code hashes
-//! for the target to check against. Links with the workspace's `memory.x`.
-
-#[path = "src/crc32.rs"]
-mod crc32;
-#[path = "src/scenario.rs"]
-mod scenario;
-// The firmware's test fixtures (the boot check's worst-case bank); not all used here.
-#[allow(dead_code)]
-#[path = "../src/testutil.rs"]
-mod testutil;
+//! for the target to check against. Links with the firmware's `memory.x`.
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -20,6 +11,8 @@ use sleeve_firmware::button::{Buttons, Mode};
 use sleeve_firmware::control::Controller;
 use sleeve_firmware::engine::{Engine, Watchdog};
 use sleeve_firmware::output::{device_config, Frame};
+use sleeve_firmware::testutil;
+use sleeve_qemu_shared::{crc32, scenario};
 use touch_protocol::player::{DeviceConfig, Player, Status};
 use touch_protocol::{bank, stimulus, Bank, Limits, OutputSink, CHANNELS};
 
@@ -66,21 +59,13 @@ fn encode(
     limits: Limits,
     frames: Vec<[i16; CHANNELS]>,
 ) -> Vec<u8> {
-    let header = stimulus::Header {
-        channels: CHANNELS as u8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: period_ms,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: 50,
-        full_scale_ma,
-        quant_shift: 4,
-        layout_hash: touch_protocol::layout::SLEEVE_HASH,
-        layout: touch_protocol::layout::SLEEVE_NAME,
-        limits,
-        name,
-    };
-    stimulus::encode(header, &frames).expect("test stimulus encodes")
+    stimulus::Builder::new(name, period_ms)
+        .ramp_ms(50)
+        .full_scale_ma(full_scale_ma)
+        .quant_shift(4)
+        .limits(limits)
+        .encode(&frames)
+        .expect("test stimulus encodes")
 }
 
 /// Like the paper's signals: coils rest pre-indented at -0.9 A and a touch moves
@@ -132,18 +117,18 @@ fn bold() -> Vec<u8> {
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("set by cargo"));
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("set by cargo"));
-    let root = manifest
-        .join("../..")
+    let firmware = manifest
+        .join("..")
         .canonicalize()
-        .expect("workspace root");
-    println!("cargo:rustc-link-search={}", root.display());
+        .expect("the firmware crate");
+    println!("cargo:rustc-link-search={}", firmware.display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
-    println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+    println!(
+        "cargo:rerun-if-changed={}",
+        firmware.join("memory.x").display()
+    );
     println!("cargo:rerun-if-changed=build.rs");
-    println!("cargo:rerun-if-changed=src/crc32.rs");
-    println!("cargo:rerun-if-changed=src/scenario.rs");
     println!("cargo:rerun-if-changed=../../protocol/src");
-    println!("cargo:rerun-if-changed=../src/testutil.rs");
 
     // The boot check's worst case: a whole region of two-byte records.
     let dense = testutil::dense_bank(touch_protocol::bank::REGION_LEN);

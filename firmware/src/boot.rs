@@ -81,7 +81,7 @@ pub fn check_bank(region: &[u8]) -> Result<Bank<'_>, BootError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{bank, constant_stimulus};
+    use crate::testutil::{bank, constant_stimulus, for_layout};
     use proptest::prelude::*;
 
     fn region_with(image: &[u8]) -> Vec<u8> {
@@ -103,12 +103,8 @@ mod tests {
     #[test]
     fn a_bank_for_another_layout_geometry_is_refused_at_boot() {
         let s = constant_stimulus("mirrored", 200, 100);
-        let d = touch_protocol::Stimulus::decode(&s).unwrap();
-        let mut h = *d.header();
         // Same name as the sleeve's layout, other geometry: refused on the hash.
-        h.layout_hash = crate::output::LAYOUT_HASH.rotate_left(8);
-        let frames: std::vec::Vec<_> = d.keyframes().collect();
-        let image = bank(&[touch_protocol::stimulus::encode(h, &frames).unwrap()]);
+        let image = bank(&[for_layout(&s, crate::output::LAYOUT_HASH.rotate_left(8))]);
         let e = check_bank(&region_with(&image)).unwrap_err();
         assert!(
             matches!(e, BootError::OtherLayout(Error::WrongLayout { .. })),
@@ -163,7 +159,7 @@ mod tests {
     #[test]
     fn bank_region_matches_memory_x() {
         use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
-        let text = include_str!("../../memory.x");
+        let text = include_str!("../memory.x");
         let line = text
             .lines()
             .find(|l| l.trim_start().starts_with("BANK"))

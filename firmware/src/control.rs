@@ -12,22 +12,34 @@
 //! Every slot is decoded once, at boot (by [`Bank::decode`] in the boot check):
 //! decoding checks a stimulus's CRC and every record, far too slow for the tick, so
 //! [`Controller::new`] only reads each slot's header back and checks that it was
-//! compiled for this sleeve ([`LAYOUT_HASH`]), and starting one in the tick is only
-//! [`Player::with_thermal`]. A slot for another layout is never played.
+//! compiled for this sleeve ([`LAYOUT_HASH`]). A slot for another layout is never
+//! played.
+//!
+//! Building a player is still more than a tick can add to its own work, so with
+//! the link attached ([`Controller::attach`]) the link's task builds it, outside the
+//! tick: the player for the selected slot waits ready, and the tick that starts a
+//! slot only takes it ([`TickPort::take_player`]: a swap, and the coils' heat handed
+//! in). A start whose player is not ready yet (another slot's button, a press that
+//! races a `play`) waits for it a tick or two, as a queued start. Without the link
+//! (the host tests of the controller alone), the tick builds the player itself.
 
 use touch_protocol::bank::MAX_SLOTS;
 use touch_protocol::link::{self as wire, LinkError, Source, StreamStop};
 use touch_protocol::player::{Fault, Status};
 use touch_protocol::thermal::TooHot;
-use touch_protocol::{Bank, DeviceConfig, Error, LiveParams, Player, Stimulus, Thermal};
+use touch_protocol::{Bank, DeviceConfig, Error, Limits, LiveParams, Player, Stimulus, Thermal};
 
 use crate::button::Event;
-use crate::link::{Answer, Control, Snapshot, TickPort, TickReply};
+use crate::link::port::{STAGED_STREAM, STAGED_STREAM_ONE};
+use crate::link::{Answer, Control, TickPort, TickReply};
 use crate::output::{Frame, IDLE_FRAME, LAYOUT_HASH};
 
 /// What happened, for the log (the tick interrupt never logs itself).
+// A word-sized tag puts the fields on word boundaries: the tick copies a report in
+// a few loads and stores instead of a `memcpy` call (some 65 instructions).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(all(target_os = "none", feature = "hw"), derive(defmt::Format))]
+#[repr(u32)]
 pub enum Report {
     /// Slot started playing.
     Started(usize),
@@ -64,6 +76,27 @@ pub enum StreamReport {
     TooHot(TooHot),
 }
 
+/// What the tick that starts a slot leaves to the next tick to tell the host (it
+/// has no room left for it): the same messages, with the same ticks, a
+/// millisecond later.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct Later {
+    /// A `Play` that started its slot: its sequence number, the slot and the tick
+    /// of the first frame.
+    play: Option<(u16, u8, u32)>,
+    /// A button gesture and its tick.
+    gesture: Option<(wire::Gesture, u32)>,
+    /// A report, the tick of the frames it describes, and whether the log has it
+    /// yet.
+    report: Option<(Report, u32, bool)>,
+}
+
+impl Later {
+    fn is_empty(&self) -> bool {
+        self.play.is_none() && self.gesture.is_none() && self.report.is_none()
+    }
+}
+
 /// What plays: a bank slot or the host's stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Playing {
@@ -97,20 +130,34 @@ struct StreamClock {
 pub struct Controller<'a> {
     /// The bank's slots, or why each is refused.
     stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
+    /// Each slot's start limits ([`Controller::start_limits`]), worked out once.
+    limits: [Limits; MAX_SLOTS as usize],
+    /// Each slot's keyframe period, ms.
+    periods: [u16; MAX_SLOTS as usize],
     device: DeviceConfig,
     selected: usize,
-    /// What plays (or ramps down) and its player.
-    playing: Option<(Playing, Player<'a>)>,
+    /// What plays (or ramps down). Its player is in the link's tick port, or in
+    /// `own` without a link.
+    playing: Option<Playing>,
+    /// The player, when the tick built it (no link attached).
+    own: Option<Player<'a>>,
     /// True once the playing slot was asked to stop or ended: it ramps down.
     stopping: bool,
+    /// The tick at which what plays started, and its keyframe period in ms: the
+    /// ticks on which its player takes its next keyframe (see `keyframe_tick`).
+    keyframes: (u32, u32),
     /// Slot to start as soon as the current one reached 0 A.
     queued: Option<usize>,
+    /// What this tick tells the host at the next one (see [`Later`]).
+    later: Later,
+    /// True once this tick sent what the last one left: it takes no command then.
+    sent_later: bool,
     /// The coils' heat while nothing plays (while a player plays, it holds it).
     thermal: Thermal,
     /// Ticks since power-up (the tick being computed): the link's clock.
     now: u32,
     /// The link's end in the tick, if a link runs.
-    link: Option<TickPort<'a>>,
+    link: Option<TickPort<'a, 'a>>,
     stream: StreamState,
     clock: StreamClock,
     /// An upload owns the bank region: nothing from the bank may start.
@@ -141,13 +188,31 @@ impl<'a> Controller<'a> {
         stimuli: heapless::Vec<Result<Stimulus<'a>, Error>, { MAX_SLOTS as usize }>,
         device: DeviceConfig,
     ) -> Self {
+        let mut limits = [device.limits; MAX_SLOTS as usize];
+        let mut periods = [0; MAX_SLOTS as usize];
+        for ((l, p), s) in limits.iter_mut().zip(&mut periods).zip(&stimuli) {
+            if let Ok(s) = s {
+                *l = s.limits().min(device.limits);
+                *p = s.header().keyframe_period_ms;
+            }
+        }
         Controller {
             stimuli,
+            limits,
+            periods,
             device,
             selected: 0,
             playing: None,
+            own: None,
             stopping: false,
+            keyframes: (0, 0),
             queued: None,
+            later: Later {
+                play: None,
+                gesture: None,
+                report: None,
+            },
+            sent_later: false,
             thermal: Thermal::COLD,
             now: 0,
             link: None,
@@ -165,7 +230,8 @@ impl<'a> Controller<'a> {
 
     /// Connects the link: the controller takes its commands and stream keyframes on
     /// every tick and answers through it.
-    pub fn attach(&mut self, port: TickPort<'a>) {
+    pub fn attach(&mut self, mut port: TickPort<'a, 'a>) {
+        port.want(self.selected as u8);
         self.link = Some(port);
     }
 
@@ -174,21 +240,49 @@ impl<'a> Controller<'a> {
         self.now
     }
 
-    /// True when the tick queued answers the link has not looked at yet.
+    /// True when the tick queued answers, or asked for a player, and the link has
+    /// not looked since (the firmware wakes the link's task on it).
     pub fn link_answered(&self) -> bool {
         self.link.as_ref().is_some_and(|p| p.answered())
     }
 
     /// True while the host's stream plays (or ramps down).
     pub fn streaming(&self) -> bool {
-        matches!(self.playing, Some((Playing::Stream, _)))
+        self.playing == Some(Playing::Stream)
     }
 
     /// The coils' heat now.
     pub fn thermal(&self) -> Thermal {
-        match &self.playing {
-            Some((_, player)) => player.thermal(),
+        match self.player() {
+            Some(player) => player.thermal(),
             None => self.thermal,
+        }
+    }
+
+    /// The player of what plays, if anything does.
+    fn player(&self) -> Option<&Player<'a>> {
+        self.playing?;
+        match &self.link {
+            Some(port) => Some(port.player_ref()),
+            None => self.own.as_ref(),
+        }
+    }
+
+    /// The player of what plays, if anything does.
+    fn player_mut(&mut self) -> Option<&mut Player<'a>> {
+        self.playing?;
+        match &mut self.link {
+            Some(port) => Some(port.player()),
+            None => self.own.as_mut(),
+        }
+    }
+
+    /// Starts `slot` after what plays ramped down (or, if nothing does, as soon as
+    /// its player is ready): asks the link for that player now.
+    fn queue(&mut self, slot: usize) {
+        self.queued = Some(slot);
+        if let Some(port) = &mut self.link {
+            port.want(slot as u8);
         }
     }
 
@@ -214,17 +308,28 @@ impl<'a> Controller<'a> {
     /// The slot playing or ramping down, if any.
     pub fn playing(&self) -> Option<usize> {
         match self.playing {
-            Some((Playing::Slot(slot), _)) => Some(slot),
+            Some(Playing::Slot(slot)) => Some(slot),
             _ => None,
         }
     }
 
     /// Applies one button event; returns what to log.
     pub fn handle(&mut self, event: Event) -> Option<Report> {
-        self.send(Answer::Event(self.now, wire::Event::Button(gesture(event))));
+        // With the link, the host hears of the first press of a tick (and of what
+        // it did) at the next tick, which has room for it.
+        let later = self.link.is_some() && self.later.is_empty();
+        if later {
+            self.later.gesture = Some((gesture(event), self.now));
+        } else {
+            self.send(Answer::Event(self.now, wire::Event::Button(gesture(event))));
+        }
         let report = self.press(event);
         if let Some(r) = report {
-            self.announce(r);
+            if later {
+                self.later.report = Some((r, self.now.wrapping_add(1), true));
+            } else {
+                self.announce(r);
+            }
         }
         report
     }
@@ -241,6 +346,9 @@ impl<'a> Controller<'a> {
                 self.queued = None;
                 self.stop();
                 self.selected = (self.selected + 1) % self.slots().max(1);
+                if let Some(port) = &mut self.link {
+                    port.want(self.selected as u8);
+                }
                 Some(Report::Selected(self.selected))
             }
         }
@@ -250,13 +358,13 @@ impl<'a> Controller<'a> {
     /// ramped down, if another plays).
     fn toggle(&mut self, slot: usize) -> Option<Report> {
         match self.playing {
-            Some((Playing::Slot(current), _)) if current == slot && !self.stopping => {
+            Some(Playing::Slot(current)) if current == slot && !self.stopping => {
                 self.queued = None;
                 self.stop()
             }
             Some(_) => {
                 self.stop();
-                self.queued = Some(slot);
+                self.queue(slot);
                 None
             }
             None => self.start(slot),
@@ -264,13 +372,13 @@ impl<'a> Controller<'a> {
     }
 
     fn stop(&mut self) -> Option<Report> {
-        let (what, player) = self.playing.as_mut()?;
+        let what = self.playing?;
         if self.stopping {
             return None;
         }
-        player.stop();
+        self.player_mut()?.stop();
         self.stopping = true;
-        Some(match *what {
+        Some(match what {
             Playing::Slot(slot) => Report::Stopping(slot),
             Playing::Stream => {
                 self.stream = StreamState::Off;
@@ -284,56 +392,139 @@ impl<'a> Controller<'a> {
             // An upload erased (or is erasing) the region the stimuli live in.
             return Some(Report::BadSlot(slot, Error::NoSuchSlot(slot as u16)));
         }
-        match self.slot(slot) {
-            Ok(stimulus) => {
-                let limits = stimulus.limits().min(self.device.limits);
-                if let Err(hot) = self.thermal.check_start(&limits) {
-                    return Some(Report::TooHot(slot, hot));
-                }
-                let player = Player::with_thermal(&stimulus, &self.device, self.thermal);
-                self.playing = Some((Playing::Slot(slot), player));
-                self.stopping = false;
-                Some(Report::Started(slot))
-            }
+        match self.start_limits(slot) {
+            Ok(limits) => self.start_with(slot, &limits),
             Err(e) => Some(Report::BadSlot(slot, e)),
+        }
+    }
+
+    /// Starts `slot`, whose start limits ([`Controller::start_limits`]) are `limits`,
+    /// unless a coil is too hot for them.
+    fn start_with(&mut self, slot: usize, limits: &Limits) -> Option<Report> {
+        if let Err(hot) = self.thermal.check_start(limits) {
+            return Some(Report::TooHot(slot, hot));
+        }
+        match &mut self.link {
+            Some(port) => {
+                if !port.take_player(slot as u8, &self.thermal) {
+                    // Not built yet: the link's task builds it, the start waits for
+                    // it as a queued one.
+                    self.queue(slot);
+                    return None;
+                }
+                // The next press's player.
+                port.want(self.selected as u8);
+            }
+            None => {
+                if let Some(Ok(stimulus)) = self.stimuli.get(slot) {
+                    self.own = Some(Player::with_thermal(stimulus, &self.device, self.thermal));
+                }
+            }
+        }
+        self.playing = Some(Playing::Slot(slot));
+        self.keyframes = (self.now, u32::from(self.periods[slot % self.periods.len()]));
+        self.stopping = false;
+        Some(Report::Started(slot))
+    }
+
+    /// The limits a start of `slot` is judged by, the stricter of the slot's and the
+    /// device's (the player holds the same while it plays), or why the slot never
+    /// plays.
+    pub fn start_limits(&self, slot: usize) -> Result<Limits, Error> {
+        match self.stimuli.get(slot) {
+            Some(Ok(_)) => Ok(self.limits[slot]),
+            Some(Err(e)) => Err(*e),
+            None => Err(Error::NoSuchSlot(u16::try_from(slot).unwrap_or(u16::MAX))),
         }
     }
 
     /// Computes the next frame; returns it and what to log.
     pub fn next_frame(&mut self) -> (Frame, Option<Report>) {
-        let mut early = self.serve_link();
-        let (frame, report) = self.step();
-        if let Some(r) = report {
-            self.announce(r);
-        }
-        // A link command's report and the tick's rarely coincide; the tick's wins the
-        // log, both went to the host.
-        early = report.or(early);
-        self.now = self.now.wrapping_add(1);
-        (frame, early)
+        let mut logged = None;
+        let mut log = |r| logged = Some(r);
+        self.send_later(&mut log);
+        let frame = self.tick(log);
+        (frame, logged)
     }
 
-    fn step(&mut self) -> (Frame, Option<Report>) {
+    /// Computes the next frame and hands what to log to `log`, in order (the tick's
+    /// form of [`Controller::next_frame`]: a report is handed on where it arises,
+    /// not moved around when there is none). [`Controller::send_later`] comes
+    /// first, before the buttons' events.
+    #[inline(always)]
+    pub fn tick(&mut self, mut log: impl FnMut(Report)) -> Frame {
+        if !core::mem::take(&mut self.sent_later) {
+            self.serve_link(&mut log);
+        }
+        let frame = self.step(&mut log);
+        self.now = self.now.wrapping_add(1);
+        frame
+    }
+
+    /// Sends what the last tick left for this one ([`Later`]), before anything
+    /// else this tick tells the host (the engine calls it before the buttons'). The
+    /// tick that does takes no link command.
+    #[inline(always)]
+    pub fn send_later(&mut self, log: &mut impl FnMut(Report)) {
+        if !self.later.is_empty() {
+            self.send_later_now(log);
+        }
+    }
+
+    #[inline(never)]
+    fn send_later_now(&mut self, log: &mut dyn FnMut(Report)) {
+        let later = core::mem::take(&mut self.later);
+        if let Some((seq, slot, tick)) = later.play {
+            let reply = TickReply::Play {
+                slot,
+                tick,
+                now: true,
+            };
+            self.send(Answer::Reply(seq, reply));
+        }
+        if let Some((gesture, tick)) = later.gesture {
+            self.send(Answer::Event(tick, wire::Event::Button(gesture)));
+        }
+        if let Some((r, tick, logged)) = later.report {
+            self.announce_at(r, tick);
+            if !logged {
+                log(r);
+            }
+        }
+        self.sent_later = true;
+    }
+
+    /// Tells the host and the log what a report of this tick says.
+    fn emit(&mut self, report: Report, log: &mut (impl FnMut(Report) + ?Sized)) {
+        self.announce(report);
+        log(report);
+    }
+
+    fn step(&mut self, log: &mut impl FnMut(Report)) -> Frame {
         if self.playing.is_none() {
             if let Some(slot) = self.queued.take() {
-                let report = self.start(slot);
+                if let Some(r) = self.start(slot) {
+                    self.emit(r, log);
+                }
                 if self.playing.is_none() {
                     self.thermal.idle_tick(&self.device.limits);
-                    return (IDLE_FRAME, report);
-                }
-                if let Some(r) = report {
-                    self.announce(r);
+                    return IDLE_FRAME;
                 }
             }
         }
-        let stream_report = self.stream_tick();
-        let Some((what, player)) = self.playing.as_mut() else {
+        if let Some(r) = self.stream_tick() {
+            self.emit(r, log);
+        }
+        let Some(what) = self.playing else {
             self.thermal.idle_tick(&self.device.limits);
-            return (IDLE_FRAME, stream_report);
+            return IDLE_FRAME;
         };
-        let what = *what;
+        let stopping = self.stopping;
+        let Some(player) = self.player_mut() else {
+            return IDLE_FRAME;
+        };
         let tick = player.tick();
-        let underrun = what == Playing::Stream && player.underrun() && !self.stopping;
+        let underrun = what == Playing::Stream && player.underrun() && !stopping;
         let report = match tick.status {
             Status::Playing => None,
             Status::RampingDown => {
@@ -349,13 +540,23 @@ impl<'a> Controller<'a> {
                     kind: fault.kind.into(),
                     channel: fault.channel,
                 });
+                if let Some(port) = &mut self.link {
+                    port.publish_faults(self.faults, self.last_fault);
+                }
                 Some(match what {
                     Playing::Slot(slot) => Report::Fault(slot, fault),
                     Playing::Stream => Report::Stream(StreamReport::Fault(fault)),
                 })
             }
             Status::Finished => {
-                self.thermal = player.thermal();
+                if let Some(player) = self.player() {
+                    // Through a local the compiler must keep: assigned straight
+                    // from the player's place, the copy may overlap as far as it
+                    // knows, and it links compiler_builtins' memmove (1.5 KB of
+                    // flash) for this copy alone.
+                    let heat = core::hint::black_box(player.thermal().heat_ma2ms());
+                    self.thermal = Thermal::from_heat_ma2ms(heat);
+                }
                 self.playing = None;
                 self.stopping = false;
                 Some(match what {
@@ -374,9 +575,15 @@ impl<'a> Controller<'a> {
             } else {
                 StreamStop::Underrun
             };
-            return (tick.codes, report.or(self.stop_stream(why)));
+            let stopped = self.stop_stream(why);
+            if let (None, Some(r)) = (report, stopped) {
+                self.emit(r, log);
+            }
         }
-        (tick.codes, report.or(stream_report))
+        if let Some(r) = report {
+            self.emit(r, log);
+        }
+        tick.codes
     }
 
     /// The stream's part of a tick: the deadline, the start once two keyframes are
@@ -384,7 +591,16 @@ impl<'a> Controller<'a> {
     #[inline(never)]
     fn stream_tick(&mut self) -> Option<Report> {
         if self.stream == StreamState::Off {
-            self.drain_keyframes();
+            // What a stopped stream left, a few a tick: all of them at once (up to
+            // 32) would cost the tick that stops it some 390 instructions. A new
+            // stream drains the rest before it is armed.
+            if let Some(port) = self.link.as_mut() {
+                for _ in 0..4 {
+                    if port.next_keyframe().is_none() {
+                        break;
+                    }
+                }
+            }
             return None;
         }
         let port = self.link.as_mut()?;
@@ -416,20 +632,35 @@ impl<'a> Controller<'a> {
                     self.stream = StreamState::Off;
                     return Some(Report::Stream(StreamReport::TooHot(hot)));
                 }
-                let first = port.next_keyframe().unwrap_or([0; 8]);
-                let second = port.next_keyframe().unwrap_or(first);
-                let player = Player::live(&params, first, second, &self.device, self.thermal);
-                self.playing = Some((Playing::Stream, player));
+                // The link's task built the player from these keyframes (both, or
+                // the only one of a stream that ended after it); if not (the
+                // selection moved meanwhile), the tick builds it.
+                let tag = if ready >= 2 {
+                    STAGED_STREAM
+                } else {
+                    STAGED_STREAM_ONE
+                };
+                if port.take_player(tag, &self.thermal) {
+                    port.next_keyframe();
+                    if tag == STAGED_STREAM {
+                        port.next_keyframe();
+                    }
+                } else {
+                    let first = port.next_keyframe().unwrap_or([0; 8]);
+                    let second = port.next_keyframe().unwrap_or(first);
+                    let player = Player::live(&params, first, second, &self.device, self.thermal);
+                    port.put_player(player);
+                }
+                self.playing = Some(Playing::Stream);
+                self.keyframes = (self.now, u32::from(params.keyframe_period_ms));
                 self.stopping = false;
                 self.stream = StreamState::On;
                 Some(Report::Stream(StreamReport::Started))
             }
             StreamState::On => {
-                if let Some((Playing::Stream, player)) = self.playing.as_mut() {
-                    if player.wants_keyframe() {
-                        if let Some(k) = port.next_keyframe() {
-                            let _ = player.push_keyframe(k);
-                        }
+                if self.playing == Some(Playing::Stream) && port.player().wants_keyframe() {
+                    if let Some(k) = port.next_keyframe() {
+                        let _ = port.player().push_keyframe(k);
                     }
                 }
                 None
@@ -441,11 +672,13 @@ impl<'a> Controller<'a> {
     /// Ramps the stream down (or forgets an armed one) for `why`.
     fn stop_stream(&mut self, why: StreamStop) -> Option<Report> {
         let was = self.stream;
+        // Its keyframes left in the queue drain while it is off (`stream_tick`).
         self.stream = StreamState::Off;
-        self.drain_keyframes();
-        match self.playing.as_mut() {
-            Some((Playing::Stream, player)) if !self.stopping => {
-                player.stop();
+        match self.playing {
+            Some(Playing::Stream) if !self.stopping => {
+                if let Some(player) = self.player_mut() {
+                    player.stop();
+                }
                 self.stopping = true;
                 Some(Report::Stream(StreamReport::Stopping(why)))
             }
@@ -462,16 +695,24 @@ impl<'a> Controller<'a> {
         }
     }
 
-    /// Takes at most one link command per tick and answers it.
+    /// Takes at most one link command per tick and answers it; what it did goes to
+    /// `log` (and to the host) as it happens, as the tick's own reports do.
     #[inline(never)]
-    fn serve_link(&mut self) -> Option<Report> {
-        let control = self.link.as_mut()?.next_control()?;
+    fn serve_link(&mut self, log: &mut dyn FnMut(Report)) {
+        // Left in the queue until it is done with: a `Play` may wait for its player.
+        let Some(&control) = self.link.as_ref().and_then(|p| p.peek_control()) else {
+            return;
+        };
         let first = self.now.wrapping_add(1);
-        let (answer, report) = match control {
-            Control::Play { seq, slot } => self.link_play(seq, usize::from(slot)),
+        match control {
+            Control::Play { seq, slot } => {
+                if !self.link_play(seq, usize::from(slot), log) {
+                    return;
+                }
+            }
             Control::Stop { seq } => {
                 self.queued = None;
-                let source = self.playing.as_ref().map(|(what, _)| source(*what));
+                let source = self.playing.map(source);
                 let report = match self.stream {
                     StreamState::Armed(_) => self.stop_stream(StreamStop::Ended),
                     _ => self.stop(),
@@ -480,26 +721,21 @@ impl<'a> Controller<'a> {
                     source,
                     tick: if source.is_some() { first } else { self.now },
                 };
-                (Answer::Reply(seq, reply), report)
-            }
-            Control::Status { seq } => {
-                let snapshot = self.snapshot();
-                let sent = self
-                    .link
-                    .as_mut()
-                    .is_some_and(|p| p.send_snapshot(snapshot));
-                if sent {
-                    (Answer::Status(seq), None)
-                } else {
-                    (
-                        Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)),
-                        None,
-                    )
+                self.send(Answer::Reply(seq, reply));
+                if let Some(r) = report {
+                    self.emit(r, log);
                 }
+            }
+            // A player that takes its next keyframe decodes it in that tick: the
+            // snapshot waits a tick rather than add to it.
+            Control::Status { .. } if self.keyframe_tick() => return,
+            Control::Status { seq } => {
+                self.publish();
+                self.send(Answer::Status(seq));
             }
             Control::StreamBegin { seq, params } => {
                 if let Some(e) = self.refuse_start() {
-                    (Answer::Refused(seq, e), None)
+                    self.send(Answer::Refused(seq, e));
                 } else {
                     self.drain_keyframes();
                     self.stream = StreamState::Armed(params);
@@ -510,38 +746,41 @@ impl<'a> Controller<'a> {
                         ended: false,
                     };
                     let capacity = self.link.as_ref().map_or(0, |p| p.keyframe_capacity());
-                    (
-                        Answer::Reply(seq, TickReply::StreamBegin { capacity }),
-                        None,
-                    )
+                    self.send(Answer::Reply(seq, TickReply::StreamBegin { capacity }));
                 }
             }
             Control::StreamEnd { seq } => {
                 if self.stream == StreamState::Off {
-                    (Answer::Refused(seq, LinkError::NoStream), None)
+                    self.send(Answer::Refused(seq, LinkError::NoStream));
                 } else {
                     self.clock.ended = true;
-                    (Answer::Reply(seq, TickReply::StreamEnd), None)
+                    self.send(Answer::Reply(seq, TickReply::StreamEnd));
                 }
             }
             Control::Lock { seq } => {
                 if self.playing.is_some() || self.stream != StreamState::Off {
-                    (
-                        Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)),
-                        None,
-                    )
+                    self.send(Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)));
                 } else {
                     self.locked = true;
                     self.queued = None;
-                    (Answer::Locked(seq), None)
+                    self.send(Answer::Locked(seq));
                 }
             }
-        };
-        self.send(answer);
-        if let Some(r) = report {
-            self.announce(r);
         }
-        report
+        if let Some(port) = &mut self.link {
+            port.next_control();
+        }
+    }
+
+    /// True if this tick's player takes its next keyframe (a player's `k`-th tick
+    /// from its start does when `k + 1` is a multiple of the period), while it plays
+    /// its keyframes. Never with a period under 2 ms, where every tick does.
+    fn keyframe_tick(&self) -> bool {
+        let (start, period) = self.keyframes;
+        self.playing.is_some()
+            && !self.stopping
+            && period >= 2
+            && self.now.wrapping_sub(start) % period == period - 1
     }
 
     /// Why nothing may start now, if so: an upload owns the bank, a stream is on.
@@ -557,79 +796,110 @@ impl<'a> Controller<'a> {
         }
     }
 
-    fn link_play(&mut self, seq: u16, slot: usize) -> (Answer, Option<Report>) {
+    /// A `Play`: answers it (and hands on what it did), or returns false while it
+    /// waits for its player (it stays in the queue, the link's task builds it).
+    fn link_play(&mut self, seq: u16, slot: usize, log: &mut dyn FnMut(Report)) -> bool {
         let slots = self.slots() as u8;
         let first = self.now.wrapping_add(1);
-        let refuse = |e| (Answer::Refused(seq, e), None);
-        if self.locked {
-            return refuse(LinkError::Busy(wire::Busy::Uploading));
-        }
-        if self.stream != StreamState::Off || self.streaming() {
-            return refuse(LinkError::Busy(wire::Busy::Streaming));
-        }
-        let stimulus = match self.slot(slot) {
-            Err(Error::NoSuchSlot(_)) => {
-                return refuse(LinkError::NoSuchSlot {
-                    slot: slot.min(255) as u8,
-                    slots,
-                })
+        let limits = match self.start_limits(slot) {
+            _ if self.locked => Err(LinkError::Busy(wire::Busy::Uploading)),
+            _ if self.stream != StreamState::Off || self.streaming() => {
+                Err(LinkError::Busy(wire::Busy::Streaming))
             }
-            Err(_) => return refuse(LinkError::BadSlot { slot: slot as u8 }),
-            Ok(s) => s,
+            Err(Error::NoSuchSlot(_)) => Err(LinkError::NoSuchSlot {
+                slot: slot.min(255) as u8,
+                slots,
+            }),
+            Err(_) => Err(LinkError::BadSlot { slot: slot as u8 }),
+            Ok(limits) => Ok(limits),
+        };
+        let limits = match limits {
+            Ok(limits) => limits,
+            Err(e) => {
+                self.send(Answer::Refused(seq, e));
+                return true;
+            }
         };
         let wire_slot = slot as u8;
         if self.playing.is_some() {
             // As a press on another slot: the one playing ramps down first.
             let report = self.stop();
-            self.queued = Some(slot);
+            self.queue(slot);
             let reply = TickReply::Play {
                 slot: wire_slot,
                 tick: first,
                 now: false,
             };
-            return (Answer::Reply(seq, reply), report);
+            self.send(Answer::Reply(seq, reply));
+            if let Some(r) = report {
+                self.emit(r, log);
+            }
+            return true;
         }
-        let limits = stimulus.limits().min(self.device.limits);
-        if let Err(hot) = self.thermal.check_start(&limits) {
-            let e = LinkError::TooHot {
-                channel: hot.channel,
-                permille: hot.permille,
-                cooldown_ms: hot.cooldown_ms,
-            };
-            return refuse(e);
-        }
-        self.selected = slot;
-        let report = self.start(slot);
-        let reply = TickReply::Play {
-            slot: wire_slot,
-            tick: first,
-            now: true,
+        // A press's start still waiting for its player gives way to the host's.
+        self.queued = None;
+        let Some(port) = self.link.as_mut() else {
+            return true;
         };
-        (Answer::Reply(seq, reply), report)
+        if !port.staged(wire_slot) {
+            // The server stages the player before it forwards the `Play`; a press
+            // took it or asked for another meanwhile.
+            port.want(wire_slot);
+            return false;
+        }
+        let selected = self.selected;
+        self.selected = slot;
+        // The thermal check is the start's own, as for a press.
+        match self.start_with(slot, &limits) {
+            Some(Report::TooHot(_, hot)) => {
+                self.selected = selected;
+                let e = LinkError::TooHot {
+                    channel: hot.channel,
+                    permille: hot.permille,
+                    cooldown_ms: hot.cooldown_ms,
+                };
+                self.send(Answer::Refused(seq, e));
+            }
+            report => {
+                // Answered by the next tick (`send_later`).
+                self.later.play = Some((seq, wire_slot, first));
+                match report {
+                    Some(r) if self.later.report.is_none() => {
+                        self.later.report = Some((r, first, false));
+                    }
+                    Some(r) => self.emit(r, log),
+                    None => {}
+                }
+            }
+        }
+        true
     }
 
-    /// The state the link's `Status` reports (the per-mille arithmetic is the link
-    /// server's, outside the tick).
-    fn snapshot(&self) -> Snapshot {
-        Snapshot {
-            tick: self.now,
-            playing: self.playing.as_ref().map(|(what, _)| source(*what)),
-            stopping: self.stopping,
-            selected: self.selected as u8,
-            thermal: self.thermal(),
-            faults: self.faults,
-            last_fault: self.last_fault,
+    /// Publishes the state the link's `Status` reports (the per-mille arithmetic is
+    /// the link server's, outside the tick; the faults were published as they came).
+    fn publish(&mut self) {
+        let (tick, playing, stopping) = (self.now, self.playing.map(source), self.stopping);
+        let selected = self.selected as u8;
+        let limits = &self.limits[self.selected % self.limits.len()];
+        if let Some(port) = &mut self.link {
+            // While something plays its player holds the heat (in the port).
+            let idle = playing.is_none().then_some(&self.thermal);
+            port.publish_status(tick, playing, stopping, selected, limits, idle);
         }
     }
 
     /// Tells the host what a report says (the frames it describes go out at the next
     /// tick).
-    #[inline(never)]
     fn announce(&mut self, report: Report) {
+        self.announce_at(report, self.now.wrapping_add(1));
+    }
+
+    /// Tells the host what a report says, with the tick of the frames it describes.
+    #[inline(never)]
+    fn announce_at(&mut self, report: Report, tick: u32) {
         if self.link.is_none() {
             return;
         }
-        let tick = self.now.wrapping_add(1);
         let slot = |s: usize| Source::Slot(s as u8);
         let event = match report {
             Report::Started(s) => wire::Event::Started(slot(s)),
@@ -693,7 +963,7 @@ fn gesture(event: Event) -> wire::Gesture {
 mod tests {
     use super::*;
     use crate::output::{device_config, FULL_SCALE_MA, HARD_LIMITS};
-    use crate::testutil::{bank, constant_stimulus, stimulus_from};
+    use crate::testutil::{bank, constant_stimulus, for_layout, stimulus_from};
     use touch_protocol::player::code_to_amps;
     use touch_protocol::{Limits, CHANNELS, IDLE_CODE};
 
@@ -785,12 +1055,7 @@ mod tests {
     fn a_slot_for_another_layout_is_refused_and_never_plays() {
         // A bank holds one layout (its decode refuses a mix), and boot refuses a bank
         // for another; the controller still checks each slot on its own.
-        let mut other = constant_stimulus("other", 300, 200);
-        let s = Stimulus::decode(&other).unwrap();
-        let mut h = *s.header();
-        h.layout_hash = LAYOUT_HASH ^ 1;
-        let frames: std::vec::Vec<_> = s.keyframes().collect();
-        other = touch_protocol::stimulus::encode(h, &frames).unwrap();
+        let other = for_layout(&constant_stimulus("other", 300, 200), LAYOUT_HASH ^ 1);
         let image = bank(&[other]);
         let mut c = Controller::new(Bank::decode(&image).unwrap(), device_config());
         let refusal = Error::WrongLayout {

@@ -43,16 +43,13 @@ impl<'a, S: OutputSink, W: Watchdog, const N: usize> Engine<'a, S, W, N> {
     pub fn tick(&mut self, edges: [Option<bool>; N], mut log: impl FnMut(Report)) {
         self.sink.write(&self.next);
         self.watchdog.feed();
+        self.controller.send_later(&mut log);
         for event in self.buttons.tick(edges) {
             if let Some(report) = self.controller.handle(event) {
                 log(report);
             }
         }
-        let (frame, report) = self.controller.next_frame();
-        if let Some(report) = report {
-            log(report);
-        }
-        self.next = frame;
+        self.next = self.controller.tick(&mut log);
     }
 
     /// Applies an event as if a button had produced it (for tests and a debugger).

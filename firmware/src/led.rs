@@ -206,7 +206,7 @@ impl Led {
 mod tests {
     use super::*;
     use crate::boot::check_bank;
-    use crate::testutil::{bank, constant_stimulus};
+    use crate::testutil::{bank, constant_stimulus, for_layout};
     use std::string::String;
     use std::vec::Vec;
     use touch_protocol::thermal::TooHot;
@@ -298,11 +298,7 @@ mod tests {
 
         // 6: a bank compiled for another layout geometry.
         let one = constant_stimulus("mirrored", 200, 100);
-        let d = touch_protocol::Stimulus::decode(&one).unwrap();
-        let mut h = *d.header();
-        h.layout_hash = crate::output::LAYOUT_HASH ^ 1;
-        let frames: Vec<_> = d.keyframes().collect();
-        let other = bank(&[touch_protocol::stimulus::encode(h, &frames).unwrap()]);
+        let other = bank(&[for_layout(&one, crate::output::LAYOUT_HASH ^ 1)]);
         let (e, seen) = refused_bank_reads(&other);
         assert!(matches!(e, BootError::OtherLayout(_)), "{e:?}");
         assert!(seen.starts_with("-......|-......|"), "{seen}");

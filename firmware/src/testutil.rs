@@ -1,6 +1,6 @@
 //! Stimuli and banks for the host tests, made with the protocol crate's encoder.
 
-use touch_protocol::{bank as tbank, stimulus, Limits, CHANNELS};
+use touch_protocol::{bank as tbank, stimulus, Limits, Stimulus, CHANNELS};
 
 /// Ramp used by the test stimuli: slow enough for a 1 A step under the slew limit.
 pub const RAMP_MS: u16 = 40;
@@ -12,21 +12,22 @@ pub fn stimulus_from(
     keyframes: &[[i16; CHANNELS]],
     limits: Limits,
 ) -> Vec<u8> {
-    let header = stimulus::Header {
-        channels: CHANNELS as u8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: period_ms,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: RAMP_MS,
-        full_scale_ma: 1000,
-        quant_shift: 0,
-        layout_hash: touch_protocol::layout::SLEEVE_HASH,
-        layout: touch_protocol::layout::SLEEVE_NAME,
-        limits,
-        name,
-    };
-    stimulus::encode(header, keyframes).expect("test stimulus encodes")
+    stimulus::Builder::new(name, period_ms)
+        .ramp_ms(RAMP_MS)
+        .limits(limits)
+        .encode(keyframes)
+        .expect("test stimulus encodes")
+}
+
+/// `file` encoded again for the layout geometry `layout_hash` under the same layout
+/// name, as a compile for another sleeve would carry it.
+pub fn for_layout(file: &[u8], layout_hash: u32) -> Vec<u8> {
+    let s = Stimulus::decode(file).expect("test stimulus decodes");
+    let frames: Vec<_> = s.keyframes().collect();
+    stimulus::Builder::like(s.header())
+        .layout(s.header().layout, layout_hash)
+        .encode(&frames)
+        .expect("test stimulus encodes")
 }
 
 /// All channels at `ma` milliamperes (channel c at `ma` * (c + 1) / 8) for `duration_ms`.

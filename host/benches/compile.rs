@@ -4,18 +4,17 @@
 
 use std::hint::black_box;
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use touchc::compile::{compile, CompileOptions};
 use touchc::config::{Config, Preset};
 use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::input::recording::Recording;
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 use touchc::placement::place;
 use touchc::rendering::condition;
-use touchc::tracking::{detect, preprocess, scene, track};
+use touchc::tracking::{detect, preprocess, track};
 
 /// The 698-frame combination ([`common::combination_698`]).
 fn long_recording() -> Recording {
@@ -117,7 +116,7 @@ fn bench(c: &mut Criterion) {
     }
     c.bench_function("stage/signals", |b| {
         b.iter(|| {
-            scene::recomputed_actuator_signals(
+            touchc::rendering::signals::recomputed_actuator_signals(
                 black_box(tracked),
                 placement,
                 tared.view(),

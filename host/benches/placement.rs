@@ -1,13 +1,12 @@
 //! The whole 4,200-transform search on the reference trajectories (the published Python
 //! needs 6.4 s for stroke_60 and 12.8 s for tap_pat_200 on this machine kind).
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 use common::Reference;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 use touchc::placement::place;
 
 fn bench(c: &mut Criterion) {

@@ -1,17 +1,17 @@
 //! Stages 0-3 on a 705-frame 8 x 21 recording (the length of the longest public one),
 //! per stage and end to end. The published Python takes about 1.0 s for these stages.
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use ndarray_npy::WriteNpyExt;
 use touchc::input::recording::Recording;
+use touchc::track::track;
 use touchc::tracking::detect::detect;
 use touchc::tracking::preprocess::preprocess;
-use touchc::tracking::track::{link, track};
+use touchc::tracking::track::link;
 
 fn stages(c: &mut Criterion) {
     let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);

@@ -17,8 +17,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 use touchc::compile::{compile, compile_owned, CompileOptions};
 use touchc::config::{Config, Preset};

@@ -23,8 +23,7 @@
 
 use std::path::{Path, PathBuf};
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 use ndarray::Array3;
 use touch_protocol::{Limits, CHANNELS};

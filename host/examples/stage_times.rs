@@ -1,8 +1,7 @@
 //! CPU time per stage of `touchc track` on one recording (default: the bench's
 //! synthetic 705-frame recording). `cargo run --release --example stage_times [REC.npy]`
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use touchc_testkit as common;
 
 /// Nanoseconds this thread has spent on a CPU (Linux schedstat): on a machine shared with
 /// other builds, wall time mostly measures the neighbours.
@@ -35,9 +34,10 @@ impl std::ops::Sub for Instant {
 
 use ndarray_npy::WriteNpyExt;
 use touchc::input::recording::Recording;
+use touchc::track::track;
 use touchc::tracking::detect::detect;
 use touchc::tracking::preprocess::preprocess;
-use touchc::tracking::track::{link, track};
+use touchc::tracking::track::link;
 
 fn main() -> anyhow::Result<()> {
     let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);

@@ -1,46 +1,40 @@
 //! touchc: recorded touch -> trajectories -> actuator placement -> stimulus file.
 //!
-//! One folder per step of the pipeline, in data-flow order:
+//! The pipeline lives in one crate per layer under `host/crates/` (see
+//! `docs/architecture.md`); this package is the `touchc` command line and its pictures
+//! ([`viz`]), and names the layers' crates under the modules its tests, benchmarks and
+//! fuzz targets use:
 //!
-//! | stage | module | hands on |
+//! | stage | module (crate) | hands on |
 //! |---|---|---|
-//! | 0 load, tare | [`input`] ([`input::recording`]) | tared frames |
-//! | 1 crop, upsample, blur (streamed) | [`tracking`] ([`tracking::scene`], the driver of 1-3; [`tracking::preprocess`]) | each blurred frame in turn, mean, std |
-//! | 2 detections | [`tracking::detect`] | detections with costs |
-//! | 3 trajectories | [`tracking::track`] (on [`tracking::flow`]) | [`tracking::trajectory::Trajectory`] |
-//! | 4 placement | [`placement`] (on [`placement::layout`], [`placement::bnb`]) | circles, chosen trajectories |
-//! | 5 actuator signals | [`rendering::signals`] | 8 pressures at the frame rate |
-//! | 6 conditioning | [`rendering::condition`] | 8 currents at 1 kHz |
-//! | 7 keyframes | [`encoding::keyframes`] | the stimulus file |
+//! | - | [`config`], [`crop`], [`display`], [`geometry`], [`layout`], [`stage`], [`trajectory`] (`touchc-model`) | the model every stage shares |
+//! | 0 load, tare | [`input`] (`touchc-input`) | tared frames |
+//! | 1-3 crop, blur, detections, trajectories | [`tracking`] (`touchc-tracking`) | [`trajectory::Trajectory`] |
+//! | 4 placement | [`placement`] (`touchc-placement`) | circles, chosen trajectories |
+//! | 5-6 actuator signals, conditioning | [`rendering`] (`touchc-rendering`) | 8 currents at 1 kHz |
+//! | 7 keyframes | [`encoding`] (`touchc-encoding`) | the stimulus file |
 //!
-//! [`compile`] runs them in order on the active scene, timing each [`stage::Stage`]; [`measure`] says how much of the
-//! touch a compile kept ([`measure::coverage`], [`measure::evaluate`]) and measures the
-//! presets of [`config::Preset`] against each other ([`measure::trade`]).
+//! [`compile`] runs them in order on the active scene and [`track`] runs stages 0-3
+//! (`touchc-pipeline`, with [`coverage`] and [`rendered`]); [`measure`] (`touchc-eval`) measures compiles
+//! against synthetic truth and the presets against each other.
 
 #![warn(missing_docs)]
 
-pub mod config;
-pub mod display;
-pub mod geometry;
+pub use touchc_model::{config, crop, display, geometry, layout, stage, trajectory};
 
-pub mod input;
-pub mod tracking;
-pub mod placement;
-pub mod rendering;
-pub mod encoding;
-pub mod export;
+pub use touchc_encoding as encoding;
+pub use touchc_input as input;
+pub use touchc_placement as placement;
+pub use touchc_rendering as rendering;
+pub use touchc_tracking as tracking;
 
-pub mod compile;
-pub mod stage;
-pub mod measure;
+pub use touchc_export as export;
 
-mod wide;
-
-#[cfg(test)]
-mod test_rng;
+pub use touchc_eval as measure;
+pub use touchc_pipeline::{compile, coverage, rendered, track};
 
 #[cfg(feature = "viz")]
 pub mod viz;
 
 #[cfg(feature = "link")]
-pub mod link;
+pub use touchc_link as link;

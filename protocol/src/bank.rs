@@ -159,13 +159,8 @@ impl<'a> Bank<'a> {
 /// ([`Error::WrongLayout`]) with its hash and the bank's.
 ///
 /// ```
-/// use touch_protocol::{bank, stimulus, Limits};
-/// let header = stimulus::Header {
-///     channels: 8, output_rate_hz: 1000, keyframe_period_ms: 40, keyframe_count: 0,
-///     duration_ms: 0, ramp_ms: 10, full_scale_ma: 1000, quant_shift: 0, layout_hash: 1,
-///     layout: "t", limits: Limits::SLEEVE, name: "a",
-/// };
-/// let one = stimulus::encode(header, &[[0; 8]])?;
+/// use touch_protocol::{bank, stimulus};
+/// let one = stimulus::Builder::new("a", 40).encode(&[[0; 8]])?;
 /// let image = bank::encode(&[&one, &one])?;
 /// assert_eq!(&image[..4], b"TCHB");
 /// assert_eq!(bank::Bank::decode(&image)?.len(), 2);

@@ -167,6 +167,8 @@ pub struct Player<'a> {
     /// The first channel whose heat passed `trip_ma2ms` (its next signal tick
     /// becomes a thermal fault).
     hot: Option<u8>,
+    /// The budget cannot carry one tick and the ramp down after it: nothing moves.
+    starved: bool,
     /// Half an output step plus one, uA: a code stands for at most this much more
     /// current than the value it was rounded from.
     half_step_ua: u32,
@@ -286,6 +288,7 @@ impl<'a> Player<'a> {
             cool_ma2: continuous_ma2(&limits),
             trip_ma2ms: trip_ma2ms(&limits, peak_ua, slew_ua, ramp_ms, half_step_ua),
             hot: None,
+            starved: false,
             half_step_ua,
             code_mul: (2048i64 << 32) / device_ua,
             thermal,
@@ -293,17 +296,27 @@ impl<'a> Player<'a> {
             mode: Mode::Signal,
             fault: None,
         };
-        let (channel, heat) = thermal.hottest();
-        if heat > player.trip_ma2ms || budget_ma2ms(&limits) < player.reserve_ma2ms() {
-            // Too hot already, or a budget that cannot carry even one tick and the ramp
-            // down after it: the first tick is a thermal fault and nothing moves.
-            player.hot = Some(channel);
-        }
+        player.starved = budget_ma2ms(&limits) < player.reserve_ma2ms();
+        player.start_from(&thermal);
         if player.slew_ua == 0 || player.peak_ua == 0 {
             // Nothing may move: finish at once rather than pretend to play.
             player.mode = Mode::Done;
         }
         player
+    }
+
+    /// Gives a player that has not ticked yet the coils' heat as it is now: it is
+    /// then the player [`Player::with_thermal`] (or [`Player::live`]) would have
+    /// built from `thermal`. A firmware builds the next player ahead, outside its
+    /// tick, from any heat, and hands it the device's at the tick that starts it:
+    /// a copy and a comparison, where building it costs divisions and the first
+    /// keyframes' decoding. Call it before the first [`Player::tick`] only.
+    pub fn start_from(&mut self, thermal: &Thermal) {
+        self.thermal = *thermal;
+        let (channel, heat) = self.thermal.hottest();
+        // Too hot already, or a budget that cannot carry even one tick and the ramp
+        // down after it: the first tick is a thermal fault and nothing moves.
+        self.hot = (heat > self.trip_ma2ms || self.starved).then_some(channel);
     }
 
     /// Requests a stop: the outputs ramp from where they are to 0 A.

@@ -31,6 +31,11 @@ use serde::{Deserialize, Serialize};
 use crate::container::{self, Container};
 use crate::{Error, Limits, CHANNELS};
 
+#[cfg(any(test, feature = "std"))]
+mod builder;
+#[cfg(any(test, feature = "std"))]
+pub use builder::Builder;
+
 /// Magic of a stimulus file.
 pub const MAGIC: [u8; 4] = *b"TCHS";
 /// The stimulus format version this build reads and writes.
@@ -403,78 +408,4 @@ pub fn quantise(q15: i16, shift: u8) -> i32 {
     let hi = i32::from(i16::MAX) >> shift;
     let half = if shift == 0 { 0 } else { 1 << (shift - 1) };
     ((i32::from(q15) + half) >> shift).clamp(lo, hi)
-}
-
-/// Appends a pending idle run (mask 0 and its length) and resets it.
-#[cfg(any(test, feature = "std"))]
-fn push_run(payload: &mut Vec<u8>, run: &mut u32) -> Result<(), Error> {
-    if *run > 0 {
-        let mut buf = [0u8; 5];
-        payload.push(0);
-        let used = postcard::to_slice(run, &mut buf).map_err(|_| Error::TooLarge)?;
-        payload.extend_from_slice(used);
-        *run = 0;
-    }
-    Ok(())
-}
-
-/// Encodes a stimulus. `keyframes` are Q15 values of `header.full_scale_ma`; they are
-/// quantised to `header.quant_shift`, and `header.keyframe_count` and
-/// `header.duration_ms` are set from them.
-///
-/// ```
-/// use touch_protocol::{stimulus, Limits};
-/// let header = stimulus::Header {
-///     channels: 8, output_rate_hz: 1000, keyframe_period_ms: 50, keyframe_count: 0,
-///     duration_ms: 0, ramp_ms: 20, full_scale_ma: 1000, quant_shift: 4, layout_hash: 1,
-///     layout: "t", limits: Limits::SLEEVE, name: "tap",
-/// };
-/// let bytes = stimulus::encode(header, &[[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]])?;
-/// assert_eq!(bytes.len(), 49); // 10 prefix + 29 header + 6 keyframes + 4 CRC
-/// let decoded = stimulus::Stimulus::decode(&bytes)?;
-/// assert_eq!(decoded.duration_ms(), 50);
-/// assert_eq!(decoded.keyframes().last(), Some([1600, 0, 0, 0, 0, 0, 0, -160]));
-/// # Ok::<(), touch_protocol::Error>(())
-/// ```
-#[cfg(any(test, feature = "std"))]
-pub fn encode(mut header: Header<'_>, keyframes: &[[i16; CHANNELS]]) -> Result<Vec<u8>, Error> {
-    header.keyframe_count = u32::try_from(keyframes.len()).map_err(|_| Error::TooLarge)?;
-    let span =
-        u64::from(header.keyframe_count.saturating_sub(1)) * u64::from(header.keyframe_period_ms);
-    header.duration_ms = u32::try_from(span).map_err(|_| Error::TooLarge)?;
-    header.validate()?;
-    let mut head = [0u8; HEADER_MAX_LEN];
-    let mut payload = postcard::to_slice(&header, &mut head)
-        .map_err(|_| Error::BadHeader)?
-        .to_vec();
-    let mut last = [0i32; CHANNELS];
-    let mut before = [0i32; CHANNELS];
-    let mut buf = [0u8; 5];
-    let mut record = Vec::with_capacity(1 + 5 * CHANNELS);
-    let mut run = 0u32;
-    for frame in keyframes {
-        record.clear();
-        record.push(0);
-        let mut mask = 0u8;
-        for (c, &q15) in frame.iter().enumerate() {
-            let stored = quantise(q15, header.quant_shift);
-            let residual = stored - (2 * last[c] - before[c]);
-            if residual != 0 {
-                mask |= 1 << c;
-                let used = postcard::to_slice(&residual, &mut buf).map_err(|_| Error::TooLarge)?;
-                record.extend_from_slice(used);
-            }
-            before[c] = last[c];
-            last[c] = stored;
-        }
-        if mask == 0 {
-            run += 1;
-            continue;
-        }
-        push_run(&mut payload, &mut run)?;
-        record[0] = mask;
-        payload.extend_from_slice(&record);
-    }
-    push_run(&mut payload, &mut run)?;
-    container::seal(MAGIC, VERSION, &payload)
 }

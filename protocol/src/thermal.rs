@@ -42,6 +42,12 @@ impl Thermal {
         self.heat
     }
 
+    /// The coils with the heat [`Thermal::heat_ma2ms`] gave: a state read back
+    /// from a copy (the firmware publishes the tick's heat as plain words).
+    pub const fn from_heat_ma2ms(heat: [u64; CHANNELS]) -> Thermal {
+        Thermal { heat }
+    }
+
     /// The hottest channel and its heat, mA^2 ms.
     pub fn hottest(&self) -> (u8, u64) {
         let mut best = (0u8, self.heat[0]);

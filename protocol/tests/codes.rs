@@ -12,22 +12,18 @@ use proptest::prelude::*;
 use touch_protocol::player::LimitKind;
 use touch_protocol::{stimulus, DeviceConfig, Limits, Player, Status, Stimulus, Thermal, CHANNELS};
 
-/// A stimulus header for the tests (the fields the player reads; the rest fixed).
-fn header(period: u16, ramp: u16, full_scale_ma: u16, limits: Limits) -> stimulus::Header<'static> {
-    stimulus::Header {
-        channels: 8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: period,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: ramp,
-        full_scale_ma,
-        quant_shift: 0,
-        layout_hash: 1,
-        layout: "t",
-        limits,
-        name: "codes",
-    }
+/// The tests' stimuli: the fields the player reads as given, the rest fixed.
+fn builder(
+    period: u16,
+    ramp: u16,
+    full_scale_ma: u16,
+    limits: Limits,
+) -> stimulus::Builder<'static> {
+    stimulus::Builder::new("codes", period)
+        .ramp_ms(ramp)
+        .full_scale_ma(full_scale_ma)
+        .layout("t", 1)
+        .limits(limits)
 }
 
 /// The code for 0 A, written out rather than imported: the test's own scale.
@@ -233,7 +229,8 @@ fn play_on_device(device: DeviceConfig, plays: &[Play]) -> Result<u64, TestCaseE
         }
 
         // Whatever the rule says, the player itself must hold the budget from any heat.
-        let bytes = stimulus::encode(header(p.period, p.ramp, p.full_scale_ma, p.limits), &p.kf)
+        let bytes = builder(p.period, p.ramp, p.full_scale_ma, p.limits)
+            .encode(&p.kf)
             .expect("encodable");
         let s = Stimulus::decode(&bytes).expect("decodable");
         let eff = p.limits.min(device.limits);
@@ -242,6 +239,11 @@ fn play_on_device(device: DeviceConfig, plays: &[Play]) -> Result<u64, TestCaseE
             max_code_offset(eff.peak_ma, fs),
         );
         let mut player = Player::with_thermal(&s, &device, thermal);
+        // Built ahead from a cold coil and handed the heat at its start: the same
+        // player, field for field.
+        let mut ahead = Player::new(&s, &device);
+        ahead.start_from(&thermal);
+        prop_assert_eq!(format!("{ahead:?}"), format!("{player:?}"), "play {}", i);
         let (coil_start, spec_start) = (coil.heat, spec.heat);
         let mut prev = [ZERO as u16; CHANNELS];
         let mut n = 0u32;
@@ -342,7 +344,7 @@ fn a_full_scale_ramp_down_at_one_amp_moves_at_most_102_codes_per_tick() {
     assert_eq!(max_code_step(Limits::SLEEVE.slew_ma_per_ms, 1000), 102);
     // +1 A and -1 A reached at 20 mA/ms (within the slew), each held 100 ms.
     let kf = [0, 32767, 32767, -32768, -32768].map(|v: i16| [v; CHANNELS]);
-    let bytes = stimulus::encode(header(100, 1, 1000, Limits::SLEEVE), &kf).unwrap();
+    let bytes = builder(100, 1, 1000, Limits::SLEEVE).encode(&kf).unwrap();
     let s = Stimulus::decode(&bytes).unwrap();
     let mut widest = 0;
     for stop_at in [Some(150), None] {
@@ -376,7 +378,9 @@ fn a_budget_too_small_for_one_tick_and_a_ramp_plays_nothing() {
         i2t_budget_ma2s: 1,
         ..Limits::SLEEVE
     };
-    let bytes = stimulus::encode(header(1000, 100, 1000, tiny), &[[32767; CHANNELS]; 2]).unwrap();
+    let bytes = builder(1000, 100, 1000, tiny)
+        .encode(&[[32767; CHANNELS]; 2])
+        .unwrap();
     let s = Stimulus::decode(&bytes).unwrap();
     let mut p = Player::new(&s, &DeviceConfig::default());
     let mut meter = CoilMeter::new(1000);
@@ -412,7 +416,7 @@ fn a_play_started_on_a_hot_coil_stops_at_once() {
     // the heat, the others stay cold.
     let mut frame = [0i16; CHANNELS];
     frame[5] = 32767;
-    let bytes = stimulus::encode(header(1000, 100, 1000, hot), &[frame; 3]).unwrap();
+    let bytes = builder(1000, 100, 1000, hot).encode(&[frame; 3]).unwrap();
     let s = Stimulus::decode(&bytes).unwrap();
     let mut first = Player::new(&s, &device);
     let mut meter = CoilMeter::new(1000);
@@ -429,6 +433,9 @@ fn a_play_started_on_a_hot_coil_stops_at_once() {
     assert!(heat.check_start(&hot).is_err(), "{:?}", heat.heat_ma2ms());
 
     let mut second = Player::with_thermal(&s, &device, heat);
+    let mut ahead = Player::new(&s, &device);
+    ahead.start_from(&heat);
+    assert_eq!(format!("{ahead:?}"), format!("{second:?}"));
     let t = second.tick();
     assert!(
         matches!(t.status, Status::Fault(f) if f.kind == LimitKind::Thermal && f.channel == 5),

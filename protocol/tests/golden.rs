@@ -1,23 +1,14 @@
 //! Byte-exact pins of small files: any change to these bytes is a format change
 //! and needs a new version number (see SPEC.md).
 
-use touch_protocol::{bank, stimulus, Bank, Error, Limits, Stimulus};
+use touch_protocol::{bank, stimulus, Bank, Error, Stimulus};
 
-fn header(name: &str) -> stimulus::Header<'_> {
-    stimulus::Header {
-        channels: 8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: 50,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: 20,
-        full_scale_ma: 1000,
-        quant_shift: 4,
-        layout_hash: 0x0403_0201,
-        layout: "t",
-        limits: Limits::SLEEVE,
-        name,
-    }
+/// The pinned files' author: a keyframe every 50 ms, a 20 ms ramp, 4 bits dropped.
+fn builder(name: &str) -> stimulus::Builder<'_> {
+    stimulus::Builder::new(name, 50)
+        .ramp_ms(20)
+        .quant_shift(4)
+        .layout("t", 0x0403_0201)
 }
 
 #[test]
@@ -27,7 +18,7 @@ fn stimulus_bytes_are_pinned() {
         [1600, 0, 0, 0, 0, 0, 0, -160],
         [3200, 0, 0, 0, 0, 0, 0, -320],
     ];
-    let bytes = stimulus::encode(header("tap"), &keyframes).unwrap();
+    let bytes = builder("tap").encode(&keyframes).unwrap();
     #[rustfmt::skip]
     let expected: Vec<u8> = [
         &b"TCHS"[..],                 // magic
@@ -66,7 +57,7 @@ fn stimulus_bytes_are_pinned() {
 
 #[test]
 fn bank_bytes_are_pinned() {
-    let one = stimulus::encode(header("a"), &[[0; 8]]).unwrap();
+    let one = builder("a").encode(&[[0; 8]]).unwrap();
     assert_eq!(one.len(), 10 + 27 + 2 + 4);
     let image = bank::encode(&[&one]).unwrap();
     #[rustfmt::skip]
@@ -91,7 +82,7 @@ fn bank_bytes_are_pinned() {
 
 #[test]
 fn version_and_crc_errors_say_which() {
-    let mut bytes = stimulus::encode(header("v"), &[[0; 8]]).unwrap();
+    let mut bytes = builder("v").encode(&[[0; 8]]).unwrap();
     // A future version with a valid CRC is "unsupported version"...
     bytes[4] = 3;
     let n = bytes.len();
@@ -111,7 +102,7 @@ fn version_and_crc_errors_say_which() {
         Err(Error::BadCrc { .. })
     ));
     // A bank is not a stimulus.
-    let one = stimulus::encode(header("v"), &[[0; 8]]).unwrap();
+    let one = builder("v").encode(&[[0; 8]]).unwrap();
     let image = bank::encode(&[&one]).unwrap();
     assert!(matches!(
         Stimulus::decode(&image),
@@ -121,10 +112,11 @@ fn version_and_crc_errors_say_which() {
 
 #[test]
 fn a_bank_holds_one_layout_and_says_which() {
-    let ours = stimulus::encode(header("a"), &[[0; 8]]).unwrap();
-    let mut h = header("b");
-    h.layout_hash = 0x0403_0202;
-    let theirs = stimulus::encode(h, &[[0; 8]]).unwrap();
+    let ours = builder("a").encode(&[[0; 8]]).unwrap();
+    let theirs = builder("b")
+        .layout("t", 0x0403_0202)
+        .encode(&[[0; 8]])
+        .unwrap();
     // Building a bank of two layouts is refused with both hashes...
     assert_eq!(
         bank::encode(&[&ours, &theirs]).unwrap_err(),

@@ -17,31 +17,18 @@ fn keyframes(n: usize) -> Vec<[i16; 8]> {
         .collect()
 }
 
-fn header(n: usize) -> stimulus::Header<'static> {
-    stimulus::Header {
-        channels: 8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: 20,
-        keyframe_count: n as u32,
-        duration_ms: (n as u32 - 1) * 20,
-        ramp_ms: 30,
-        full_scale_ma: 1000,
-        quant_shift: 0,
-        layout_hash: 1,
-        layout: "test",
-        limits: Limits::SLEEVE,
-        name: "s",
-    }
-}
+const BUILDER: stimulus::Builder<'static> = stimulus::Builder::new("s", 20)
+    .ramp_ms(30)
+    .layout("test", 1);
 
 #[test]
 fn a_live_player_fed_in_time_plays_the_stored_codes() {
     let ks = keyframes(12);
-    let file = stimulus::encode(header(ks.len()), &ks).unwrap();
+    let file = BUILDER.encode(&ks).unwrap();
     let s = Stimulus::decode(&file).unwrap();
     let device = DeviceConfig::default();
     let stored: Vec<_> = Player::new(&s, &device)
-        .take(header(ks.len()).duration_ms as usize + 1)
+        .take(s.duration_ms() as usize + 1)
         .collect();
     let params = LiveParams {
         keyframe_period_ms: 20,
@@ -78,7 +65,7 @@ fn a_live_player_fed_in_time_plays_the_stored_codes() {
 #[test]
 fn a_stored_player_takes_no_keyframes() {
     let ks = keyframes(3);
-    let file = stimulus::encode(header(ks.len()), &ks).unwrap();
+    let file = BUILDER.encode(&ks).unwrap();
     let mut p = Player::new(&Stimulus::decode(&file).unwrap(), &DeviceConfig::default());
     assert!(!p.wants_keyframe());
     assert_eq!(p.push_keyframe([1; 8]), Err([1; 8]));

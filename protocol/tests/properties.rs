@@ -7,21 +7,12 @@ use touch_protocol::{
     bank, stimulus, Bank, DeviceConfig, Limits, Player, Status, Stimulus, CHANNELS, IDLE_CODE,
 };
 
-fn header(period: u16, ramp: u16, shift: u8, limits: Limits) -> stimulus::Header<'static> {
-    stimulus::Header {
-        channels: 8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: period,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: ramp,
-        full_scale_ma: 1000,
-        quant_shift: shift,
-        layout_hash: 1,
-        layout: "t",
-        limits,
-        name: "prop",
-    }
+fn builder(period: u16, ramp: u16, shift: u8, limits: Limits) -> stimulus::Builder<'static> {
+    stimulus::Builder::new("prop", period)
+        .ramp_ms(ramp)
+        .quant_shift(shift)
+        .layout("t", 1)
+        .limits(limits)
 }
 
 fn keyframes(max_len: usize) -> impl Strategy<Value = Vec<[i16; CHANNELS]>> {
@@ -51,7 +42,7 @@ proptest! {
         kf in keyframes(20), at in any::<prop::sample::Index>(), byte in any::<u8>(),
         fix_crc in any::<bool>(),
     ) {
-        let mut bytes = stimulus::encode(header(20, 5, 3, Limits::SLEEVE), &kf).unwrap();
+        let mut bytes = builder(20, 5, 3, Limits::SLEEVE).encode(&kf).unwrap();
         let i = at.index(bytes.len());
         bytes[i] = byte;
         if fix_crc {
@@ -66,7 +57,7 @@ proptest! {
             let ticks = p.by_ref().take(2_000_000).count();
             prop_assert!(p.is_done(), "{} ticks", ticks);
         }
-        let image = bank::encode(&[&stimulus::encode(header(20, 5, 0, Limits::SLEEVE), &kf).unwrap()]).unwrap();
+        let image = bank::encode(&[&builder(20, 5, 0, Limits::SLEEVE).encode(&kf).unwrap()]).unwrap();
         let mut image2 = image.clone();
         let j = at.index(image2.len());
         image2[j] = byte;
@@ -75,7 +66,7 @@ proptest! {
 
     #[test]
     fn encode_decode_round_trips(kf in keyframes(50), shift in 0u8..=15, period in 1u16..=1000) {
-        let bytes = stimulus::encode(header(period, 10, shift, Limits::SLEEVE), &kf).unwrap();
+        let bytes = builder(period, 10, shift, Limits::SLEEVE).encode(&kf).unwrap();
         let s = Stimulus::decode(&bytes).unwrap();
         let back: Vec<_> = s.keyframes().collect();
         prop_assert_eq!(back.len(), kf.len());
@@ -89,7 +80,7 @@ proptest! {
         }
         prop_assert_eq!(s.duration_ms(), (kf.len() as u32 - 1) * u32::from(period));
         // Re-encoding the decoded values gives the same bytes: one encoding per signal.
-        prop_assert_eq!(stimulus::encode(header(period, 10, shift, Limits::SLEEVE), &back).unwrap(), bytes);
+        prop_assert_eq!(builder(period, 10, shift, Limits::SLEEVE).encode(&back).unwrap(), bytes);
     }
 
     #[test]
@@ -98,7 +89,7 @@ proptest! {
         stim_limits in limits(), dev_limits in limits(), dev_fs in 100u16..3000,
         stop_at in prop::option::of(0u32..800),
     ) {
-        let bytes = stimulus::encode(header(period, ramp, 0, stim_limits), &kf).unwrap();
+        let bytes = builder(period, ramp, 0, stim_limits).encode(&kf).unwrap();
         let s = Stimulus::decode(&bytes).unwrap();
         let device = DeviceConfig { full_scale_ma: dev_fs, limits: dev_limits };
         let eff = stim_limits.min(dev_limits);
@@ -144,7 +135,7 @@ fn keyframes_are_hit_exactly() {
             [v, -v, 0, v / 2, 0, 0, 0, 3277]
         })
         .collect();
-    let bytes = stimulus::encode(header(40, 10, 0, Limits::SLEEVE), &kf).unwrap();
+    let bytes = builder(40, 10, 0, Limits::SLEEVE).encode(&kf).unwrap();
     let s = Stimulus::decode(&bytes).unwrap();
     let mut p = Player::new(&s, &DeviceConfig::default());
     let mut outs = Vec::new();
@@ -175,7 +166,7 @@ fn limit_hits_fault_and_ramp_to_zero() {
         slew_ma_per_ms: 10,
         ..Limits::SLEEVE
     };
-    let bytes = stimulus::encode(header(2, 1, 0, strict), &kf).unwrap();
+    let bytes = builder(2, 1, 0, strict).encode(&kf).unwrap();
     let s = Stimulus::decode(&bytes).unwrap();
     let mut p = Player::new(&s, &DeviceConfig::default());
     let statuses: Vec<_> = p.by_ref().map(|t| t.status).collect();
@@ -196,7 +187,7 @@ fn limit_hits_fault_and_ramp_to_zero() {
         slew_ma_per_ms: 1001,
         ..Limits::SLEEVE
     };
-    let bytes = stimulus::encode(header(1000, 1, 0, hot), &kf).unwrap();
+    let bytes = builder(1000, 1, 0, hot).encode(&kf).unwrap();
     let s = Stimulus::decode(&bytes).unwrap();
     let mut p = Player::new(
         &s,
@@ -224,7 +215,7 @@ proptest! {
                 frame[ch] = v;
             }
         }
-        let bytes = stimulus::encode(header(20, 10, 0, Limits::SLEEVE), &kf).unwrap();
+        let bytes = builder(20, 10, 0, Limits::SLEEVE).encode(&kf).unwrap();
         let s = Stimulus::decode(&bytes).unwrap();
         prop_assert_eq!(s.keyframes().collect::<Vec<_>>(), kf);
         // Each change costs at most two records (the step and the stop of its line).
@@ -235,7 +226,7 @@ proptest! {
 #[test]
 fn idle_runs_must_be_canonical() {
     let kf = vec![[0i16; CHANNELS]; 5];
-    let bytes = stimulus::encode(header(20, 10, 0, Limits::SLEEVE), &kf).unwrap();
+    let bytes = builder(20, 10, 0, Limits::SLEEVE).encode(&kf).unwrap();
     let n = bytes.len();
     // The body is one run of 5: `00 05`.
     assert_eq!(&bytes[n - 6..n - 4], &[0x00, 0x05]);

@@ -13,7 +13,7 @@ use sleeve_firmware::output::{device_config, Frame, IDLE_FRAME, LAYOUT_HASH};
 use touch_protocol::link::{
     self, BankState, Command, Event, LinkError, Message, Request, Source, StreamStop,
 };
-use touch_protocol::stimulus::{self, OUTPUT_RATE_HZ};
+use touch_protocol::stimulus;
 use touch_protocol::{bank, Bank, Limits, Player, Status, Stimulus, CHANNELS};
 use touchc::link::{Client, ClientError, Transport};
 
@@ -127,21 +127,12 @@ fn flat(name: &str, level: i16, ms: u32, limits: Limits) -> Vec<u8> {
 
 fn flat_every(name: &str, level: i16, ms: u32, limits: Limits, period: u16) -> Vec<u8> {
     let frames = vec![[level; CHANNELS]; (ms / u32::from(period)) as usize + 1];
-    let header = stimulus::Header {
-        channels: CHANNELS as u8,
-        output_rate_hz: OUTPUT_RATE_HZ,
-        keyframe_period_ms: period,
-        keyframe_count: 0,
-        duration_ms: 0,
-        ramp_ms: 40,
-        full_scale_ma: 1000,
-        quant_shift: 0,
-        layout_hash: LAYOUT_HASH,
-        layout: touch_protocol::layout::SLEEVE_NAME,
-        limits,
-        name,
-    };
-    stimulus::encode(header, &frames).unwrap()
+    stimulus::Builder::new(name, period)
+        .ramp_ms(40)
+        .layout(touch_protocol::layout::SLEEVE_NAME, LAYOUT_HASH)
+        .limits(limits)
+        .encode(&frames)
+        .unwrap()
 }
 
 /// Sends one raw request frame and returns the device's answer to it.

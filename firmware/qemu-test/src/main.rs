@@ -8,9 +8,6 @@
 #![no_std]
 #![no_main]
 
-mod crc32;
-mod scenario;
-
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -23,8 +20,10 @@ use sleeve_firmware::boot::{check_bank, BootError};
 use sleeve_firmware::button::{Buttons, Mode};
 use sleeve_firmware::control::Controller;
 use sleeve_firmware::engine::{Engine, Watchdog};
+use sleeve_firmware::link::port::STAGED_STREAM;
 use sleeve_firmware::link::{Channels, Control, LinkPort};
 use sleeve_firmware::output::{device_config, pwm_compare, Frame, PWM_PERIOD};
+use sleeve_qemu_shared::{crc32, scenario};
 use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
 use touch_protocol::link::StreamParams;
 use touch_protocol::player::{DeviceConfig, Player, Status};
@@ -89,7 +88,11 @@ enum Job {
     Engine(Engine<'static, Ccr, NoDog, 1>),
     /// The same with the link attached and busy: its end of the queues, driven
     /// between ticks as the link's task would (see [`host_side`]).
-    Linked(Engine<'static, Ccr, NoDog, 1>, LinkPort<'static>),
+    Linked(
+        Engine<'static, Ccr, NoDog, 1>,
+        LinkPort<'static, 'static>,
+        Bank<'static>,
+    ),
 }
 
 /// The most instructions a playing tick may take with the link busy (a command every
@@ -100,20 +103,42 @@ const LINK_BUSY_BUDGET_INSNS: u32 = 1_700;
 /// Ticks the link-busy run lasts.
 const LINK_TICKS: u32 = 4000;
 
+/// How the link-busy run's stream plays.
+const STREAM: StreamParams = StreamParams {
+    keyframe_period_ms: 20,
+    ramp_ms: 20,
+    full_scale_ma: 1000,
+    limits: touch_protocol::Limits::SLEEVE,
+};
+
 /// The link's task between two ticks: a command for the tick every millisecond
 /// (a stream begun at once and fed a keyframe every 20 ms, then a stop, a play, a
-/// stop, and a status request whenever nothing else is due), and the answers taken.
-fn host_side(t: u32, port: &mut LinkPort<'static>) {
+/// stop, and a status request whenever nothing else is due), the player the tick
+/// wants built (as the link server does), and the answers taken.
+fn host_side(t: u32, port: &mut LinkPort<'static, 'static>, bank: Bank<'static>) {
+    let stage = |port: &mut LinkPort<'static, 'static>, slot: u8| {
+        port.stage(slot, || {
+            let s = bank.slot(usize::from(slot)).ok()?;
+            Some(Player::with_thermal(
+                &s,
+                &device_config(),
+                touch_protocol::Thermal::COLD,
+            ))
+        })
+    };
+    if let Some(slot) = port.wanted() {
+        if port.staged() != Some(slot) {
+            stage(port, slot);
+        }
+    }
     let seq = t as u16;
+    if t == 2300 {
+        stage(port, 0);
+    }
     let control = match t {
         0 => Control::StreamBegin {
             seq,
-            params: StreamParams {
-                keyframe_period_ms: 20,
-                ramp_ms: 20,
-                full_scale_ma: 1000,
-                limits: touch_protocol::Limits::SLEEVE,
-            },
+            params: STREAM,
         },
         2000 | 3500 => Control::Stop { seq },
         2300 => Control::Play { seq, slot: 0 },
@@ -127,6 +152,19 @@ fn host_side(t: u32, port: &mut LinkPort<'static>) {
         let n = if t == 1 { 3 } else { 1 };
         for _ in 0..n {
             let _ = port.push_keyframe([v; CHANNELS]);
+        }
+        if t == 1 {
+            // The stream's player from its first two keyframes, as the link server
+            // builds it.
+            port.stage(STAGED_STREAM, || {
+                Some(Player::live(
+                    &STREAM,
+                    [v; CHANNELS],
+                    [v; CHANNELS],
+                    &device_config(),
+                    touch_protocol::Thermal::COLD,
+                ))
+            });
         }
         port.fed();
     }
@@ -299,7 +337,10 @@ fn main() -> ! {
         Buttons::<1>::new(Mode::PlayNext),
         controller,
     );
-    let s = run(&mut cp.SYST, State::new(Job::Linked(engine, link_port)));
+    let s = run(
+        &mut cp.SYST,
+        State::new(Job::Linked(engine, link_port, bank)),
+    );
     let (max_insns, mean_insns) = s.insns();
     let streamed = s.faulted;
     let steady = s.steady_counts * 1000 / COUNTS_PER_INSN_X1000;
@@ -356,8 +397,8 @@ fn SysTick() {
                 let end = SYST::get_current();
                 (engine.sink().0, None, start, end)
             }
-            Job::Linked(engine, port) => {
-                host_side(t, port);
+            Job::Linked(engine, port, bank) => {
+                host_side(t, port, *bank);
                 let start = SYST::get_current();
                 engine.tick([None], |_| {});
                 let end = SYST::get_current();

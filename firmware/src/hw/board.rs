@@ -24,23 +24,14 @@ use embassy_stm32::exti::{self, ExtiInput};
 use embassy_stm32::gpio::{Level, Output, Pull, Speed};
 use embassy_stm32::{bind_interrupts, interrupt, pac, Config, Peripherals};
 
-use super::outputs::Outputs;
-
-/// A pin driven by the output stage, configured by register (see `outputs.rs`).
-#[derive(Clone, Copy)]
-pub struct OutputPin {
-    /// GPIO port.
-    pub port: pac::gpio::Gpio,
-    /// Pin number in the port.
-    pub pin: usize,
-}
+use super::outputs::{OutputPin, Outputs, Pins};
 
 const fn out(port: pac::gpio::Gpio, pin: usize) -> OutputPin {
     OutputPin { port, pin }
 }
 
 /// Alternate function of TIM3/TIM4 on every PWM pin below (AF2 on the F405).
-pub const PWM_AF: u8 = 2;
+const PWM_AF: u8 = 2;
 
 /// Timer pins in channel order: TIM3 CH1-CH4, TIM4 CH1-CH4.
 const TIMER_PINS: [OutputPin; 8] = [
@@ -54,14 +45,21 @@ const TIMER_PINS: [OutputPin; 8] = [
     out(pac::GPIOB, 9),
 ];
 /// The PWM pins in use: all eight, or channels 2-7 when 0-1 are on the DAC.
-pub const PWM_PINS: &[OutputPin] = if cfg!(feature = "dac-outputs") {
+const PWM_PINS: &[OutputPin] = if cfg!(feature = "dac-outputs") {
     TIMER_PINS.split_at(2).1
 } else {
     &TIMER_PINS
 };
 /// DAC pins of channels 0 and 1.
 #[cfg(feature = "dac-outputs")]
-pub const DAC_PINS: &[OutputPin] = &[out(pac::GPIOA, 4), out(pac::GPIOA, 5)];
+const DAC_PINS: &[OutputPin] = &[out(pac::GPIOA, 4), out(pac::GPIOA, 5)];
+/// The output stage's pins, as the table above has them.
+const OUTPUT_PINS: Pins = Pins {
+    pwm: PWM_PINS,
+    pwm_af: PWM_AF,
+    #[cfg(feature = "dac-outputs")]
+    dac: DAC_PINS,
+};
 
 bind_interrupts!(
     /// EXTI lines of the buttons.
@@ -139,7 +137,7 @@ pub fn take(p: Peripherals) -> Board {
     let _pins = (
         p.PA4, p.PA5, p.DAC1, p.PB0, p.PB1, p.PB6, p.PB7, p.PB8, p.PB9,
     );
-    let outputs = Outputs::new(p.TIM3, p.TIM4);
+    let outputs = Outputs::new(p.TIM3, p.TIM4, &OUTPUT_PINS);
 
     let led = Output::new(p.PC12, Level::Low, Speed::Low);
     #[cfg(not(feature = "button-per-slot"))]

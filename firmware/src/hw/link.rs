@@ -23,18 +23,12 @@ use heapless::spsc::{Consumer, Producer, Queue};
 use sleeve_firmware::link::LinkServer;
 
 use super::flash::BankFlash;
-#[cfg(feature = "usb")]
-use super::usb;
 
 /// Baud rate of the link's USART.
 pub const BAUD: u32 = 460_800;
 
 /// APB1, USART2's clock (see `board::config`).
 const PCLK1_HZ: u32 = 42_000_000;
-
-/// An upload idle this long is abandoned: the host is gone, and the device restarts
-/// into the built-in bank rather than stay locked.
-const UPLOAD_IDLE: Duration = Duration::from_secs(30);
 
 /// A frame begun on one transport and silent this long gives way to the other's.
 const FRAME_IDLE: Duration = Duration::from_millis(100);
@@ -47,8 +41,8 @@ pub const TX_LEN: usize = 3 * touch_protocol::link::MAX_ENCODED;
 /// Wakes the link's task: a byte arrived, or the tick has answers.
 static WAKE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
-/// Wakes the link's task (from the tick, when it queued answers, and from a
-/// transport, when bytes arrived).
+/// Wakes the link's task: bytes arrived (USB), or the tick queued answers or wants
+/// a player built (from the tick's follow-up interrupt, `tick.rs`).
 pub fn wake() {
     WAKE.signal(());
 }
@@ -160,9 +154,9 @@ fn USART2() {
 pub struct Transports {
     /// USART2.
     pub uart: Uart,
-    /// The USB socket.
+    /// The USB socket (`usb.rs`'s end of its rings).
     #[cfg(feature = "usb")]
-    pub usb: usb::Link,
+    pub usb: Port,
 }
 
 /// Serves the link on every transport until a restart. The server's frame decoder
@@ -180,14 +174,13 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
     let mut ports = [
         uart,
         #[cfg(feature = "usb")]
-        usb.port,
+        usb,
     ];
     // The transport whose frame the decoder holds, and when it last sent a byte.
     let mut owner: Option<usize> = None;
     let mut owner_heard = Instant::now();
     // The transport that gets the tick's answers and events.
     let mut last = 0;
-    let mut heard = Instant::now();
     let mut batch = [0u8; RX_LEN];
     loop {
         // Woken by a byte or an answer; once a second anyway, for the upload timeout.
@@ -211,8 +204,8 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
             if n == 0 {
                 continue;
             }
-            heard = Instant::now();
-            owner_heard = heard;
+            owner_heard = Instant::now();
+            server.heard(owner_heard.as_millis());
             owner = (batch[n - 1] != 0).then_some(i);
             last = i;
             server.receive(&batch[..n], &mut |f: &[u8]| port.send(f));
@@ -237,8 +230,10 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
         }
         let port = &mut ports[last];
         server.poll(&mut |f: &[u8]| port.send(f));
-        let abandoned = server.locked() && heard.elapsed() > UPLOAD_IDLE;
-        if server.restart_requested() || abandoned {
+        // After a commit or an abort, or an upload abandoned by its host
+        // (`sleeve_firmware::link::server::UPLOAD_IDLE_MS`): the task wakes at least
+        // once a second to see it.
+        if server.restart_due(Instant::now().as_millis()) {
             // Let the last reply leave: the USART's ring empties at 46 bytes per ms;
             // the USB one as the host reads, if it does (not waited for past 100 ms).
             let since = Instant::now();

@@ -30,12 +30,13 @@ use board::BUTTONS;
 #[cfg(feature = "default-bank")]
 #[used]
 #[unsafe(link_section = ".bank")]
-static DEFAULT_BANK: [u8; include_bytes!(env!("SLEEVE_DEFAULT_BANK_PATH")).len()] =
-    *include_bytes!(env!("SLEEVE_DEFAULT_BANK_PATH"));
+static DEFAULT_BANK: [u8; include_bytes!(concat!(env!("OUT_DIR"), "/default.bank")).len()] =
+    *include_bytes!(concat!(env!("OUT_DIR"), "/default.bank"));
 
-/// The built-in emoji bank (`examples/emoji/`), in the code region: played when the
-/// bank region is erased, so a freshly flashed sleeve plays on the first press.
-static EMOJI_BANK: &[u8] = include_bytes!("../../../examples/emoji/emoji.bank");
+/// The built-in emoji bank (`firmware/emoji.bank`, the one `examples/emoji/` makes), in
+/// the code region: played when the bank region is erased, so a freshly flashed sleeve
+/// plays on the first press. The build script puts it in `OUT_DIR`.
+static EMOJI_BANK: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/emoji.bank"));
 
 /// The whole bank region of flash.
 fn bank_region() -> &'static [u8] {
@@ -96,7 +97,7 @@ pub async fn run(spawner: Spawner) -> ! {
             let _ = at_boot.push(report);
         }
     }
-    tick.start();
+    let mut reports = tick.start();
     if let Err(e) = checked {
         show_refused(&mut led, e).await
     }
@@ -116,10 +117,10 @@ pub async fn run(spawner: Spawner) -> ! {
         let light = status.at(now_ms());
         set(&mut led, light.on);
         let report = match light.until_ms {
-            Some(t) => with_deadline(Instant::from_millis(t), tick::REPORTS.receive())
+            Some(t) => with_deadline(Instant::from_millis(t), reports.next())
                 .await
                 .ok(),
-            None => Some(tick::REPORTS.receive().await),
+            None => Some(reports.next().await),
         };
         if let Some(report) = report {
             log(report);

@@ -4,6 +4,9 @@
 //! Configured register by register (not through the HAL's PWM driver) for one
 //! reason: the order. Timers are set to 0 A (50 % duty) and running before any pin
 //! is switched to them; until then the pins are inputs, as at reset.
+//!
+//! Which pins those are is the board's (`board.rs`, the pin table), handed in as
+//! [`Pins`]: this stage owns the order, not the wiring.
 
 use embassy_stm32::pac;
 use embassy_stm32::pac::gpio::vals::{Moder, Ospeedr};
@@ -13,7 +16,26 @@ use embassy_stm32::Peri;
 use sleeve_firmware::output::{pwm_compare, Frame, PWM_PERIOD};
 use touch_protocol::{OutputSink, IDLE_CODE};
 
-use super::board::{OutputPin, PWM_AF, PWM_PINS};
+/// A pin the output stage drives, switched to its timer or the DAC by register.
+#[derive(Clone, Copy)]
+pub struct OutputPin {
+    /// GPIO port.
+    pub port: pac::gpio::Gpio,
+    /// Pin number in the port.
+    pub pin: usize,
+}
+
+/// Where the channels come out: the board's pins for this stage.
+pub struct Pins {
+    /// The PWM pins in use, in channel order (TIM3 CH1-CH4, then TIM4 CH1-CH4; with
+    /// `dac-outputs`, from TIM3 CH3 on).
+    pub pwm: &'static [OutputPin],
+    /// The alternate function that connects every PWM pin to its timer.
+    pub pwm_af: u8,
+    /// The pins of DAC OUT1 and OUT2 (channels 0 and 1).
+    #[cfg(feature = "dac-outputs")]
+    pub dac: &'static [OutputPin],
+}
 
 /// The eight channels. Writing a frame loads the compare registers; with preload on,
 /// all eight take the new values at the same carrier boundary (the two timers run
@@ -27,8 +49,8 @@ const TIMERS: [pac::timer::TimGp16; 2] = [pac::TIM3, pac::TIM4];
 
 impl Outputs {
     /// Sets every channel to 0 A, starts both timers together, then connects the
-    /// pins of [`PWM_PINS`] (and, with `dac-outputs`, the DAC pins).
-    pub fn new(tim3: Peri<'static, TIM3>, tim4: Peri<'static, TIM4>) -> Self {
+    /// PWM pins of `pins` (and, with `dac-outputs`, the DAC pins).
+    pub fn new(tim3: Peri<'static, TIM3>, tim4: Peri<'static, TIM4>, pins: &Pins) -> Self {
         embassy_stm32::rcc::enable_and_reset::<TIM3>();
         embassy_stm32::rcc::enable_and_reset::<TIM4>();
         for t in TIMERS {
@@ -60,9 +82,10 @@ impl Outputs {
         pac::TIM3.cr1().modify(|w| w.set_cen(true));
 
         #[cfg(feature = "dac-outputs")]
-        dac_init();
-        for &OutputPin { port, pin } in PWM_PINS.iter() {
-            port.afr(pin / 8).modify(|w| w.set_afr(pin % 8, PWM_AF));
+        dac_init(pins.dac);
+        for &OutputPin { port, pin } in pins.pwm.iter() {
+            port.afr(pin / 8)
+                .modify(|w| w.set_afr(pin % 8, pins.pwm_af));
             port.ospeedr()
                 .modify(|w| w.set_ospeedr(pin, Ospeedr::MEDIUM_SPEED));
             port.moder().modify(|w| w.set_moder(pin, Moder::ALTERNATE));
@@ -74,10 +97,9 @@ impl Outputs {
     }
 }
 
-/// DAC channels 1-2 at mid-scale, then enabled, then connected to PA4/PA5.
+/// DAC channels 1-2 at mid-scale, then enabled, then connected to their pins.
 #[cfg(feature = "dac-outputs")]
-fn dac_init() {
-    use super::board::DAC_PINS;
+fn dac_init(pins: &[OutputPin]) {
     embassy_stm32::rcc::enable_and_reset::<embassy_stm32::peripherals::DAC1>();
     write_dac(IDLE_CODE, IDLE_CODE);
     pac::DAC1.cr().modify(|w| {
@@ -85,7 +107,7 @@ fn dac_init() {
         w.set_en(1, true);
     });
     write_dac(IDLE_CODE, IDLE_CODE);
-    for &OutputPin { port, pin } in DAC_PINS.iter() {
+    for &OutputPin { port, pin } in pins.iter() {
         port.moder().modify(|w| w.set_moder(pin, Moder::ANALOG));
     }
 }

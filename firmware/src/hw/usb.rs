@@ -59,31 +59,24 @@ pub struct Usb {
     pub vbus: Peri<'static, PA9>,
 }
 
-/// The link's end of the USB transport.
-pub struct Link {
-    /// The rings the server's task uses.
-    pub port: Port,
-}
-
 /// The USB task's ends of the rings.
 pub struct Wire {
     rx: Producer<'static, u8, RX_LEN>,
     tx: Consumer<'static, u8, TX_LEN>,
 }
 
-/// The rings, split once: the server's end and the USB task's.
-pub fn split() -> (Link, Wire) {
+/// The rings, split once: the server's end (the link's USB transport) and the USB
+/// task's.
+pub fn split() -> (Port, Wire) {
     // SAFETY: called once at boot (`hw::run`), so each ring is split once and each
     // end has one owner.
     let ((rx_prod, rx_cons), (tx_prod, tx_cons)) =
         unsafe { ((*addr_of_mut!(RX)).split(), (*addr_of_mut!(TX)).split()) };
     (
-        Link {
-            port: Port {
-                rx: rx_cons,
-                tx: tx_prod,
-                kick: || SEND.signal(()),
-            },
+        Port {
+            rx: rx_cons,
+            tx: tx_prod,
+            kick: || SEND.signal(()),
         },
         Wire {
             rx: rx_prod,

@@ -260,9 +260,21 @@ pub fn check(region: &[u8]) -> Result<u8, LinkError> {
 }
 
 /// CRC-32 of a whole bank image (as [`touch_protocol::link::Command::BankBegin`]
-/// takes it).
+/// takes it). An intact image ends with the CRC of what precedes it, so this is the
+/// same constant (0x2144DF1C) for every intact bank: it checks an image, it does not
+/// tell two apart ([`stored_crc`] does).
 pub fn bank_crc(image: &[u8]) -> u32 {
     crc32(image)
+}
+
+/// The CRC-32 a bank image carries in its last four bytes, over every byte before
+/// them: the one the boot checks, different from bank to bank (`Info` reports it).
+/// 0 for an image too short to hold one (never a bank that decoded).
+pub fn stored_crc(image: &[u8]) -> u32 {
+    match image.len().checked_sub(4).and_then(|at| image.get(at..)) {
+        Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
+        _ => 0,
+    }
 }
 
 #[cfg(any(test, feature = "sim"))]
@@ -356,7 +368,7 @@ mod tests {
     use super::model::FlashModel;
     use super::*;
     use crate::boot::{bank_source, check_bank};
-    use crate::testutil::{bank, constant_stimulus};
+    use crate::testutil::{bank, constant_stimulus, for_layout};
 
     fn upload(flash: &mut FlashModel, image: &[u8], chunk: usize) -> Result<Committed, LinkError> {
         let mut w = BankWriter::new();
@@ -461,11 +473,7 @@ mod tests {
     #[test]
     fn a_bank_for_another_layout_is_refused_at_commit() {
         let good = constant_stimulus("good", 300, 200);
-        let s = touch_protocol::Stimulus::decode(&good).unwrap();
-        let mut h = *s.header();
-        h.layout_hash = crate::output::LAYOUT_HASH.wrapping_add(1);
-        let frames: Vec<_> = s.keyframes().collect();
-        let other = touch_protocol::stimulus::encode(h, &frames).unwrap();
+        let other = for_layout(&good, crate::output::LAYOUT_HASH.wrapping_add(1));
         let image = bank(&[other.clone(), other]);
         let mut f = FlashModel::with(&[]);
         assert_eq!(

@@ -1,15 +1,25 @@
-//! The lock-free queues between the link (thread mode) and the 1 kHz tick (the
-//! timer interrupt): commands in, answers and events out, stream keyframes in.
+//! The lock-free links between the link's task (thread mode) and the 1 kHz tick (the
+//! timer interrupt): commands in, answers and events out, stream keyframes in; the
+//! next slot's player, built by the link's task; the state for `Status`, published
+//! by the tick.
 //!
-//! Single-producer single-consumer queues, so neither side ever waits for the other:
-//! the tick takes at most one command per tick and never blocks on a full queue (an
+//! Single-producer single-consumer, so neither side ever waits for the other: the
+//! tick takes at most one command per tick and never blocks on a full queue (an
 //! answer that does not fit is dropped; the link drains the queue continuously).
+//!
+//! What would cost the tick most is done on the link's side. A player is built
+//! there (its divisions and first keyframes, more than the rest of a tick) into
+//! one of two places; the tick that starts it only swaps the two over and hands it
+//! the coils' heat ([`TickPort::take_player`]). A `Status` snapshot is a few words
+//! the tick stores on request, which the link turns into the reply.
 
-use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use core::cell::UnsafeCell;
+use core::mem::MaybeUninit;
+use core::sync::atomic::{fence, AtomicBool, AtomicU32, Ordering};
 
 use heapless::spsc::{Consumer, Producer, Queue};
-use touch_protocol::link::{FaultRecord, LinkError, Reply, Source, StreamParams};
-use touch_protocol::Thermal;
+use touch_protocol::link::{FaultRecord, Limit, LinkError, Reply, Source, StreamParams};
+use touch_protocol::{Limits, Player, Thermal, CHANNELS};
 
 /// Commands in flight from the link to the tick (one fewer than this).
 pub const CONTROL_DEPTH: usize = 5;
@@ -17,8 +27,6 @@ pub const CONTROL_DEPTH: usize = 5;
 pub const ANSWER_DEPTH: usize = 9;
 /// Stream keyframes the device buffers (one fewer than this).
 pub const KEYFRAME_DEPTH: usize = 33;
-/// `Status` snapshots in flight (one fewer than this).
-pub const SNAPSHOT_DEPTH: usize = 3;
 
 /// What the link asks of the tick.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,6 +79,10 @@ pub struct Snapshot {
     pub stopping: bool,
     /// The selected slot.
     pub selected: u8,
+    /// The limits a start of the selected slot is judged by
+    /// ([`crate::control::Controller::start_limits`]): `Status` reports the heat
+    /// against them, as a refused start does.
+    pub start_limits: Limits,
     /// The coils' heat.
     pub thermal: Thermal,
     /// Limit hits since power-up.
@@ -79,8 +91,58 @@ pub struct Snapshot {
     pub last_fault: Option<FaultRecord>,
 }
 
+/// [`Source`] in 9 bits (0: none).
+fn source_code(s: Option<Source>) -> u32 {
+    match s {
+        None => 0,
+        Some(Source::Stream) => 1,
+        Some(Source::Slot(slot)) => 2 + u32::from(slot),
+    }
+}
+
+fn source_from(code: u32) -> Option<Source> {
+    match code & 0x1FF {
+        0 => None,
+        1 => Some(Source::Stream),
+        c => Some(Source::Slot((c - 2) as u8)),
+    }
+}
+
+impl Snapshot {
+    /// The snapshot the tick published as words (see [`TickPort::publish_status`]).
+    fn from_words(w: &[u32; SNAPSHOT_WORDS]) -> Snapshot {
+        let last_fault = (w[2] & 1 << 16 != 0).then(|| FaultRecord {
+            tick: w[3],
+            source: source_from(w[4]).unwrap_or(Source::Stream),
+            kind: match (w[4] >> 9) & 3 {
+                0 => Limit::Peak,
+                1 => Limit::Slew,
+                _ => Limit::Thermal,
+            },
+            channel: (w[4] >> 16) as u8,
+        });
+        Snapshot {
+            tick: w[0],
+            playing: source_from(w[1]),
+            stopping: w[1] & 1 << 9 != 0,
+            selected: (w[1] >> 16) as u8,
+            start_limits: Limits {
+                peak_ma: w[21] as u16,
+                slew_ma_per_ms: (w[21] >> 16) as u16,
+                continuous_ma: w[22] as u16,
+                i2t_budget_ma2s: w[23],
+            },
+            thermal: Thermal::from_heat_ma2ms(core::array::from_fn(|c| {
+                u64::from(w[5 + 2 * c]) | u64::from(w[6 + 2 * c]) << 32
+            })),
+            faults: w[2] as u16,
+            last_fault,
+        }
+    }
+}
+
 /// The tick's replies: the variants of [`Reply`] it gives, small (an answer is
-/// copied into the queue in the tick; the snapshot of a `Status` travels apart).
+/// copied into the queue in the tick; the state for a `Status` is published apart).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TickReply {
     /// [`Reply::Play`].
@@ -135,43 +197,96 @@ pub enum Answer {
     Event(u32, touch_protocol::link::Event),
 }
 
+/// The slot number a stream's player is staged as, built from its first two
+/// keyframes ([`LinkPort::stage`], [`TickPort::take_player`]; bank slots are below
+/// [`touch_protocol::bank::MAX_SLOTS`]).
+pub const STAGED_STREAM: u8 = 0xFE;
+/// The same for a stream that ended after its only keyframe.
+pub const STAGED_STREAM_ONE: u8 = 0xFD;
+
+/// No player staged (the low byte of [`Players::state`]).
+const NONE_STAGED: u32 = 0;
+/// The bit of [`Players::state`] that says which place is the link's.
+const LINK_PLACE: u32 = 1 << 8;
+
+/// Two places for a player: the tick's (what plays, or played last) and the
+/// link's (the next slot's, built ahead). Each place has one owner at a time, and
+/// `state` says which: the link fills its place while no player is staged, then
+/// stages it; the tick may then take it (the two places swap owners) or drop it.
+struct Players<'a> {
+    places: [UnsafeCell<MaybeUninit<Player<'a>>>; 2],
+    /// Bits 0-7: the slot staged in the link's place, plus one ([`NONE_STAGED`]:
+    /// none, the place is the link's to fill); bit 8 ([`LINK_PLACE`]): which place
+    /// is the link's.
+    state: AtomicU32,
+    /// The slot the tick would like staged next, plus one (0: none).
+    wanted: AtomicU32,
+}
+
+/// The state for a `Status` reply as words: the tick stores them on request, the
+/// link reads them back whole (the sequence count, odd while the tick writes, says
+/// whether it wrote in between).
+struct Published {
+    seq: AtomicU32,
+    words: [AtomicU32; SNAPSHOT_WORDS],
+}
+
+/// Words of a published [`Snapshot`]: the tick, what plays and the selection, the
+/// fault count and the last fault (three words), each channel's heat (two words
+/// each), the selected slot's start limits (three words).
+const SNAPSHOT_WORDS: usize = 5 + 2 * CHANNELS + 3;
+
 /// The queues, in a static on the target (split once at boot).
-pub struct Channels {
+pub struct Channels<'a> {
     control: Queue<Control, CONTROL_DEPTH>,
     answers: Queue<Answer, ANSWER_DEPTH>,
     keyframes: Queue<[i16; 8], KEYFRAME_DEPTH>,
-    snapshots: Queue<Snapshot, SNAPSHOT_DEPTH>,
+    players: Players<'a>,
+    published: Published,
     fed: AtomicU32,
-    /// Set by the tick when it queued an answer, cleared by the link before it
-    /// drains them: the firmware wakes the link's task on it instead of polling.
+    /// Set by the tick when it queued an answer or wants a player staged, cleared
+    /// by the link before it looks: the firmware wakes the link's task on it
+    /// instead of polling.
     answered: AtomicBool,
 }
 
-impl Default for Channels {
+impl Default for Channels<'_> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl Channels {
-    /// Empty queues.
+impl<'a> Channels<'a> {
+    /// Empty queues, no player.
     pub const fn new() -> Self {
         Channels {
             control: Queue::new(),
             answers: Queue::new(),
             keyframes: Queue::new(),
-            snapshots: Queue::new(),
+            players: Players {
+                places: [
+                    UnsafeCell::new(MaybeUninit::uninit()),
+                    UnsafeCell::new(MaybeUninit::uninit()),
+                ],
+                state: AtomicU32::new(NONE_STAGED),
+                wanted: AtomicU32::new(0),
+            },
+            published: Published {
+                seq: AtomicU32::new(0),
+                words: [const { AtomicU32::new(0) }; SNAPSHOT_WORDS],
+            },
             fed: AtomicU32::new(0),
             answered: AtomicBool::new(false),
         }
     }
 
     /// The link's end and the tick's end.
-    pub fn split(&mut self) -> (LinkPort<'_>, TickPort<'_>) {
+    pub fn split(&mut self) -> (LinkPort<'_, 'a>, TickPort<'_, 'a>) {
         let (control_tx, control_rx) = self.control.split();
         let (answer_tx, answer_rx) = self.answers.split();
         let (key_tx, key_rx) = self.keyframes.split();
-        let (snap_tx, snap_rx) = self.snapshots.split();
+        let players = &self.players;
+        let published = &self.published;
         let fed = &self.fed;
         let answered = &self.answered;
         (
@@ -179,7 +294,8 @@ impl Channels {
                 control: control_tx,
                 answers: answer_rx,
                 keyframes: key_tx,
-                snapshots: snap_rx,
+                players,
+                published,
                 fed,
                 answered,
             },
@@ -187,7 +303,8 @@ impl Channels {
                 control: control_rx,
                 answers: answer_tx,
                 keyframes: key_rx,
-                snapshots: snap_tx,
+                players,
+                published,
                 fed,
                 answered,
             },
@@ -195,20 +312,90 @@ impl Channels {
     }
 }
 
-/// The link's end: sends commands and keyframes, takes answers.
-pub struct LinkPort<'a> {
-    control: Producer<'a, Control, CONTROL_DEPTH>,
-    answers: Consumer<'a, Answer, ANSWER_DEPTH>,
-    keyframes: Producer<'a, [i16; 8], KEYFRAME_DEPTH>,
-    snapshots: Consumer<'a, Snapshot, SNAPSHOT_DEPTH>,
-    fed: &'a AtomicU32,
-    answered: &'a AtomicBool,
+/// The link's end: sends commands and keyframes, takes answers, builds the next
+/// player.
+pub struct LinkPort<'q, 'a> {
+    control: Producer<'q, Control, CONTROL_DEPTH>,
+    answers: Consumer<'q, Answer, ANSWER_DEPTH>,
+    keyframes: Producer<'q, [i16; 8], KEYFRAME_DEPTH>,
+    players: &'q Players<'a>,
+    published: &'q Published,
+    fed: &'q AtomicU32,
+    answered: &'q AtomicBool,
 }
 
-impl LinkPort<'_> {
-    /// The snapshot of the oldest unanswered [`Answer::Status`].
-    pub fn snapshot(&mut self) -> Option<Snapshot> {
-        self.snapshots.dequeue()
+impl<'a> LinkPort<'_, 'a> {
+    /// The state the tick published for the last [`Answer::Status`] (or a later
+    /// one, if the tick answered another `Status` meanwhile).
+    pub fn snapshot(&self) -> Snapshot {
+        let p = self.published;
+        loop {
+            let before = p.seq.load(Ordering::Acquire);
+            let words: [u32; SNAPSHOT_WORDS] =
+                core::array::from_fn(|i| p.words[i].load(Ordering::Relaxed));
+            fence(Ordering::Acquire);
+            // The tick interrupts this task, never the reverse: an odd count is
+            // never seen here, a changed one means it wrote in between.
+            if before & 1 == 0 && p.seq.load(Ordering::Relaxed) == before {
+                return Snapshot::from_words(&words);
+            }
+        }
+    }
+
+    /// The slot the tick asked to have staged, if any.
+    pub fn wanted(&self) -> Option<u8> {
+        let w = self.players.wanted.load(Ordering::Acquire);
+        w.checked_sub(1).map(|s| s as u8)
+    }
+
+    /// The slot whose player is staged, if any.
+    pub fn staged(&self) -> Option<u8> {
+        let s = self.players.state.load(Ordering::Acquire) & 0xFF;
+        s.checked_sub(1).map(|s| s as u8)
+    }
+
+    /// Stages the player for `slot` (built by `build`, here, outside the tick) for
+    /// the tick to take when it starts `slot`, and makes `slot` the one wanted. A
+    /// player staged for another slot is dropped first; one for `slot` is kept.
+    /// Nothing is staged if `build` gives none.
+    pub fn stage(&mut self, slot: u8, build: impl FnOnce() -> Option<Player<'a>>) {
+        let p = self.players;
+        p.wanted.store(u32::from(slot) + 1, Ordering::Release);
+        let mut state = p.state.load(Ordering::Acquire);
+        loop {
+            let staged = state & 0xFF;
+            if staged == u32::from(slot) + 1 {
+                return;
+            }
+            if staged == NONE_STAGED {
+                break;
+            }
+            // Take back the place of a player the tick may be taking right now: if
+            // it did, `state` changed and this fails.
+            match p.state.compare_exchange(
+                state,
+                state & LINK_PLACE,
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => {
+                    state &= LINK_PLACE;
+                    break;
+                }
+                Err(now) => state = now,
+            }
+        }
+        let Some(player) = build() else {
+            return;
+        };
+        let place = usize::from(state & LINK_PLACE != 0);
+        // SAFETY: no player is staged, so the link's place is the link's alone: the
+        // tick reads a place only while it is its own or staged (see `Players`).
+        unsafe { (*p.places[place].get()).write(player) };
+        p.state.store(
+            (state & LINK_PLACE) | (u32::from(slot) + 1),
+            Ordering::Release,
+        );
     }
 
     /// Queues a command; gives it back if the queue is full.
@@ -239,26 +426,186 @@ impl LinkPort<'_> {
     }
 }
 
-/// The tick's end: takes commands and keyframes, sends answers.
-pub struct TickPort<'a> {
-    control: Consumer<'a, Control, CONTROL_DEPTH>,
-    answers: Producer<'a, Answer, ANSWER_DEPTH>,
-    keyframes: Consumer<'a, [i16; 8], KEYFRAME_DEPTH>,
-    snapshots: Producer<'a, Snapshot, SNAPSHOT_DEPTH>,
-    fed: &'a AtomicU32,
-    answered: &'a AtomicBool,
+/// Stores published words (the tick's side), with the sequence count odd meanwhile.
+#[inline(always)]
+fn write_words(p: &Published, write: impl FnOnce(&[AtomicU32; SNAPSHOT_WORDS])) {
+    let seq = p.seq.load(Ordering::Relaxed);
+    p.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
+    fence(Ordering::Release);
+    write(&p.words);
+    p.seq.store(seq.wrapping_add(2), Ordering::Release);
 }
 
-impl core::fmt::Debug for TickPort<'_> {
+/// The tick's end: takes commands and keyframes, sends answers, plays the player
+/// in its place.
+pub struct TickPort<'q, 'a> {
+    control: Consumer<'q, Control, CONTROL_DEPTH>,
+    answers: Producer<'q, Answer, ANSWER_DEPTH>,
+    keyframes: Consumer<'q, [i16; 8], KEYFRAME_DEPTH>,
+    players: &'q Players<'a>,
+    published: &'q Published,
+    fed: &'q AtomicU32,
+    answered: &'q AtomicBool,
+}
+
+// SAFETY: each port is one end: the places and the published words are shared
+// through atomics that say, at every moment, which end may touch which place (see
+// `Players`, `Published`), so an end may move to another context (the tick's
+// interrupt, the link's task) as long as the players it carries may.
+unsafe impl<'a> Send for TickPort<'_, 'a> where Player<'a>: Send {}
+// SAFETY: as for `TickPort`.
+unsafe impl<'a> Send for LinkPort<'_, 'a> where Player<'a>: Send {}
+
+impl core::fmt::Debug for TickPort<'_, '_> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str("TickPort")
     }
 }
 
-impl TickPort<'_> {
+impl<'a> TickPort<'_, 'a> {
     /// The next command, if any.
     pub fn next_control(&mut self) -> Option<Control> {
         self.control.dequeue()
+    }
+
+    /// The next command, left in the queue.
+    pub fn peek_control(&self) -> Option<&Control> {
+        self.control.peek()
+    }
+
+    /// The tick's place: 0 or 1.
+    fn own_place(&self) -> usize {
+        usize::from(self.players.state.load(Ordering::Relaxed) & LINK_PLACE == 0)
+    }
+
+    /// True when the player for `slot` is staged.
+    pub fn staged(&self, slot: u8) -> bool {
+        self.players.state.load(Ordering::Acquire) & 0xFF == u32::from(slot) + 1
+    }
+
+    /// Asks the link to stage the player for `slot` (it wakes for it).
+    pub fn want(&mut self, slot: u8) {
+        self.players
+            .wanted
+            .store(u32::from(slot) + 1, Ordering::Release);
+        self.answered.store(true, Ordering::Release);
+    }
+
+    /// Makes the staged player for `slot` the tick's, starting from `thermal`
+    /// ([`Player::start_from`]), and gives the link the tick's old place: a swap,
+    /// the player is not copied. False (and nothing changed) if another or none is
+    /// staged. The player that was in the tick's place must be done with.
+    pub fn take_player(&mut self, slot: u8, thermal: &Thermal) -> bool {
+        let state = self.players.state.load(Ordering::Acquire);
+        if state & 0xFF != u32::from(slot) + 1 {
+            return false;
+        }
+        // The staged place becomes the tick's: the link's is now the other one.
+        self.players
+            .state
+            .store((state & LINK_PLACE) ^ LINK_PLACE, Ordering::Release);
+        self.player().start_from(thermal);
+        true
+    }
+
+    /// Puts `player` (built in the tick: a stream's) in the tick's place.
+    pub fn put_player(&mut self, player: Player<'a>) {
+        let place = self.own_place();
+        // SAFETY: the tick's place is the tick's alone (see `Players`).
+        unsafe { (*self.players.places[place].get()).write(player) };
+    }
+
+    /// The player in the tick's place. Only after [`TickPort::take_player`] or
+    /// [`TickPort::put_player`] put one there.
+    pub fn player(&mut self) -> &mut Player<'a> {
+        let place = self.own_place();
+        // SAFETY: the tick's place is the tick's alone (see `Players`), and the
+        // caller put a player there (the controller asks only while one plays).
+        unsafe { (*self.players.places[place].get()).assume_init_mut() }
+    }
+
+    /// The player in the tick's place (as [`TickPort::player`]).
+    pub fn player_ref(&self) -> &Player<'a> {
+        let place = self.own_place();
+        // SAFETY: as for `player`.
+        unsafe { (*self.players.places[place].get()).assume_init_ref() }
+    }
+
+    /// Publishes the state for a `Status` reply (read back by
+    /// [`LinkPort::snapshot`], with the faults [`TickPort::publish_faults`] stored
+    /// last): a store per word, no copy of a snapshot. The heat is `idle`'s, or,
+    /// with `idle` none, that of the player in the tick's place.
+    pub fn publish_status(
+        &mut self,
+        tick: u32,
+        playing: Option<Source>,
+        stopping: bool,
+        selected: u8,
+        start_limits: &Limits,
+        idle: Option<&Thermal>,
+    ) {
+        // The player only when something plays: the place holds none before that.
+        let player = match idle {
+            Some(_) => None,
+            None => Some(self.player_ref()),
+        };
+        let heat = |c: usize| match (idle, player) {
+            (Some(t), _) => t.heat_ma2ms()[c],
+            (None, Some(p)) => p.thermal().heat_ma2ms()[c],
+            (None, None) => 0,
+        };
+        write_words(self.published, |words| {
+            let w = |i: usize, v: u32| words[i].store(v, Ordering::Relaxed);
+            w(0, tick);
+            w(
+                1,
+                source_code(playing) | u32::from(stopping) << 9 | u32::from(selected) << 16,
+            );
+            // Unrolled, a channel's heat read just before its words are stored: as a
+            // loop, or from a copy of the whole state, it costs the tick some 40 to
+            // 60 instructions more.
+            let put = |c: usize| {
+                let h = heat(c);
+                w(5 + 2 * c, h as u32);
+                w(6 + 2 * c, (h >> 32) as u32);
+            };
+            put(0);
+            put(1);
+            put(2);
+            put(3);
+            put(4);
+            put(5);
+            put(6);
+            put(7);
+            let l = start_limits;
+            w(21, u32::from(l.peak_ma) | u32::from(l.slew_ma_per_ms) << 16);
+            w(22, u32::from(l.continuous_ma));
+            w(23, l.i2t_budget_ma2s);
+        });
+    }
+
+    /// Publishes the fault count and the last fault (when they change, for the next
+    /// `Status`).
+    pub fn publish_faults(&mut self, faults: u16, last: Option<FaultRecord>) {
+        write_words(self.published, |words| {
+            let w = |i: usize, v: u32| words[i].store(v, Ordering::Relaxed);
+            match last {
+                Some(f) => {
+                    w(2, u32::from(faults) | 1 << 16);
+                    w(3, f.tick);
+                    let kind = match f.kind {
+                        Limit::Peak => 0,
+                        Limit::Slew => 1,
+                        Limit::Thermal => 2,
+                    };
+                    w(
+                        4,
+                        source_code(Some(f.source)) | kind << 9 | u32::from(f.channel) << 16,
+                    );
+                }
+                None => w(2, u32::from(faults)),
+            }
+        });
     }
 
     /// Sends an answer; dropped if the queue is full.
@@ -271,12 +618,6 @@ impl TickPort<'_> {
     /// wakes the link's task on it).
     pub fn answered(&self) -> bool {
         self.answered.load(Ordering::Acquire)
-    }
-
-    /// Queues a snapshot for a `Status`; false if the link has not taken the last
-    /// ones yet.
-    pub fn send_snapshot(&mut self, s: Snapshot) -> bool {
-        self.snapshots.enqueue(s).is_ok()
     }
 
     /// The next stream keyframe, if any.

@@ -8,12 +8,15 @@
 
 use touch_protocol::link::{
     self, cobs, BankState, Busy, Command, FrameError, Info, LinkError, Message, Reply, Request,
-    SlotInfo, StatusReport, MAX_CHUNK, MAX_ENCODED, MAX_MESSAGE, MAX_STREAM_KEYFRAMES,
+    SlotInfo, StatusReport, StreamParams, MAX_CHUNK, MAX_ENCODED, MAX_MESSAGE,
+    MAX_STREAM_KEYFRAMES,
 };
-use touch_protocol::Bank;
+use touch_protocol::{Bank, Player, Thermal};
 
 use super::bank::{BankWriter, Flash};
-use super::port::{Answer, Control, LinkPort, Snapshot, TickReply};
+use super::port::{
+    Answer, Control, LinkPort, Snapshot, TickReply, STAGED_STREAM, STAGED_STREAM_ONE,
+};
 use crate::output::{device_config, LAYOUT_HASH};
 
 /// What the device says about itself in `Info`.
@@ -31,9 +34,14 @@ pub struct Identity<'a> {
     pub slots: Option<Bank<'a>>,
 }
 
+/// An upload with nothing heard from the host for this long is abandoned: the host
+/// is gone, and the device restarts (into the built-in bank: the region was erased
+/// at the upload's begin) rather than stay locked, with nothing playable, for good.
+pub const UPLOAD_IDLE_MS: u64 = 30_000;
+
 /// The server (see the module docs).
 pub struct LinkServer<'a, F: Flash> {
-    port: LinkPort<'a>,
+    port: LinkPort<'a, 'a>,
     flash: F,
     writer: BankWriter,
     id: Identity<'a>,
@@ -45,12 +53,17 @@ pub struct LinkServer<'a, F: Flash> {
     locked: bool,
     /// The next stream keyframe index, while a stream takes data.
     stream_next: Option<u32>,
+    /// The last stream begun, and its first keyframe once it came: its player is
+    /// built here, once its first two keyframes are in.
+    stream: Option<(StreamParams, Option<[i16; 8]>)>,
     restart: bool,
+    /// When bytes last came from the host, ms on the caller's clock.
+    heard_ms: u64,
 }
 
 impl<'a, F: Flash> LinkServer<'a, F> {
     /// A server over the link's end of the queues and the bank region's flash.
-    pub fn new(port: LinkPort<'a>, flash: F, id: Identity<'a>) -> Self {
+    pub fn new(port: LinkPort<'a, 'a>, flash: F, id: Identity<'a>) -> Self {
         LinkServer {
             port,
             flash,
@@ -61,14 +74,30 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             begin: None,
             locked: false,
             stream_next: None,
+            stream: None,
             restart: false,
+            heard_ms: 0,
         }
     }
 
-    /// True once the device should restart (after a committed or abandoned upload),
+    /// True once the device should restart (after a committed or aborted upload),
     /// when the last reply went out.
     pub fn restart_requested(&self) -> bool {
         self.restart
+    }
+
+    /// Notes that bytes came from the host at `now_ms` (ms on a monotonic clock, the
+    /// one [`LinkServer::restart_due`] is asked with).
+    pub fn heard(&mut self, now_ms: u64) {
+        self.heard_ms = now_ms;
+    }
+
+    /// True once the device should restart, at `now_ms`: after a committed or
+    /// aborted upload ([`LinkServer::restart_requested`]), or an upload that owns
+    /// the bank and heard nothing from the host for [`UPLOAD_IDLE_MS`].
+    pub fn restart_due(&self, now_ms: u64) -> bool {
+        let abandoned = self.locked && now_ms.saturating_sub(self.heard_ms) > UPLOAD_IDLE_MS;
+        self.restart || abandoned
     }
 
     /// The bank region's flash.
@@ -225,7 +254,11 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                 }
                 Err(e) => refuse(self, e, out),
             },
-            Command::Play { slot } => self.forward(seq, Control::Play { seq, slot }, out),
+            Command::Play { slot } => {
+                // Its player first, so that the tick that starts it only takes it.
+                self.stage(slot);
+                self.forward(seq, Control::Play { seq, slot }, out)
+            }
             Command::Stop => {
                 self.stream_next = None;
                 self.forward(seq, Control::Stop { seq }, out)
@@ -235,6 +268,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                 if let Err(e) = params.validate() {
                     return refuse(self, e, out);
                 }
+                self.stream = Some((params, None));
                 self.forward(seq, Control::StreamBegin { seq, params }, out)
             }
             Command::StreamData { index, keyframes } => match self.stream_data(index, keyframes) {
@@ -242,6 +276,12 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                 Err(e) => refuse(self, e, out),
             },
             Command::StreamEnd => {
+                if self.stream_next == Some(1) {
+                    // A stream of one keyframe: its player starts from it alone.
+                    if let Some((params, Some(first))) = self.stream {
+                        self.stage_stream(STAGED_STREAM_ONE, &params, first, first);
+                    }
+                }
                 self.stream_next = None;
                 self.forward(seq, Control::StreamEnd { seq }, out)
             }
@@ -281,6 +321,15 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         for i in 0..n.min(MAX_STREAM_KEYFRAMES) {
             if let Some(k) = link::stream_keyframe(keyframes, i) {
                 let _ = self.port.push_keyframe(k);
+                // The player from the stream's first two keyframes, for the tick to
+                // take when it starts the stream.
+                match (expected + i as u32, self.stream) {
+                    (0, Some((params, _))) => self.stream = Some((params, Some(k))),
+                    (1, Some((params, Some(first)))) => {
+                        self.stage_stream(STAGED_STREAM, &params, first, k)
+                    }
+                    _ => {}
+                }
             }
         }
         self.port.fed();
@@ -307,10 +356,46 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         })
     }
 
-    /// Forwards what the tick answered, and does an upload's erase once the tick has
-    /// locked the bank.
+    /// Builds the player for `slot` (from a cold coil: the tick hands it the heat
+    /// at the start) and stages it for the tick. Not while an upload owns the bank
+    /// region: nothing from it may be read for playback then.
+    fn stage(&mut self, slot: u8) {
+        if self.locked || self.begin.is_some() {
+            return;
+        }
+        let Some(bank) = self.id.slots else {
+            return;
+        };
+        self.port.stage(slot, || {
+            let s = bank.slot(usize::from(slot)).ok()?;
+            s.check_layout(LAYOUT_HASH).ok()?;
+            Some(Player::with_thermal(&s, &device_config(), Thermal::COLD))
+        });
+    }
+
+    /// Builds a stream's player from its first keyframes (from a cold coil: the tick
+    /// hands it the heat at the start) and stages it as `tag`.
+    fn stage_stream(&mut self, tag: u8, params: &StreamParams, first: [i16; 8], second: [i16; 8]) {
+        self.port.stage(tag, || {
+            Some(Player::live(
+                params,
+                first,
+                second,
+                &device_config(),
+                Thermal::COLD,
+            ))
+        });
+    }
+
+    /// Forwards what the tick answered, builds the player the tick wants ready,
+    /// and does an upload's erase once the tick has locked the bank.
     #[inline(never)]
     pub fn poll(&mut self, out: &mut dyn FnMut(&[u8])) {
+        if let Some(slot) = self.port.wanted() {
+            if self.port.staged() != Some(slot) {
+                self.stage(slot);
+            }
+        }
         while let Some(a) = self.port.receive() {
             match a {
                 Answer::Reply(seq, reply) => {
@@ -327,9 +412,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                     self.emit(&Message::Refused { seq, error }, out);
                 }
                 Answer::Status(seq) => {
-                    let Some(snap) = self.port.snapshot() else {
-                        continue;
-                    };
+                    let snap = self.port.snapshot();
                     let status = self.status(&snap);
                     self.emit(
                         &Message::Reply {
@@ -375,8 +458,11 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         self.emit(&m, out);
     }
 
+    /// The `Status` reply: the heat against the budget a start of the selected
+    /// slot is judged by, and the cooldown that start waits for (the numbers its
+    /// refusal would give).
     fn status(&self, s: &Snapshot) -> StatusReport {
-        let limits = device_config().limits;
+        let limits = s.start_limits;
         let heat = s.thermal.heat_ma2ms();
         StatusReport {
             tick: s.tick,
@@ -409,7 +495,8 @@ fn encode_into(m: &Message<'_>, tx: &mut [u8; MAX_ENCODED], out: &mut dyn FnMut(
     }
 }
 
-/// Heat as per mille of the device's I^2 t budget (mA^2 s, the bucket holds mA^2 ms).
+/// Heat as per mille of the I^2 t budget of `limits` (mA^2 s, the bucket holds
+/// mA^2 ms), as [`touch_protocol::Thermal::check_start`] gives it in a refusal.
 fn budget_permille(heat_ma2ms: u64, limits: &touch_protocol::Limits) -> u16 {
     let budget = u64::from(limits.i2t_budget_ma2s)
         .saturating_mul(1000)
@@ -435,7 +522,7 @@ pub fn identity<'a>(
         Ok(b) => {
             let summary = link::BankSummary {
                 len: b.as_bytes().len() as u32,
-                crc: super::bank::bank_crc(b.as_bytes()),
+                crc: super::bank::stored_crc(b.as_bytes()),
                 slots: b.len() as u8,
             };
             if core::ptr::eq(source, builtin) {

@@ -50,6 +50,9 @@ pub struct Device {
     builtin: &'static [u8],
     /// Restarts so far.
     pub boots: u32,
+    /// Milliseconds since the first boot (a restart does not reset it): the link
+    /// server's clock.
+    pub ms: u64,
 }
 
 impl Device {
@@ -59,10 +62,10 @@ impl Device {
     pub fn boot(region: &[u8], builtin: &[u8]) -> Self {
         let flash = FlashModel::with(region);
         let builtin: &'static [u8] = Box::leak(builtin.to_vec().into_boxed_slice());
-        Device::from_flash(flash, builtin, 0)
+        Device::from_flash(flash, builtin, 0, 0)
     }
 
-    fn from_flash(flash: FlashModel, builtin: &'static [u8], boots: u32) -> Self {
+    fn from_flash(flash: FlashModel, builtin: &'static [u8], boots: u32, ms: u64) -> Self {
         // The controller reads the bank as it was at boot: on the device it reads
         // flash, which nothing writes until an upload locks it out of the bank.
         let snapshot: &'static [u8] = Box::leak(flash.bytes.clone().into_boxed_slice());
@@ -85,19 +88,23 @@ impl Device {
             Buttons::new(Mode::PlayNext),
             controller,
         );
+        let mut server = LinkServer::new(link_port, flash, id);
+        server.heard(ms);
         Device {
             engine,
-            server: LinkServer::new(link_port, flash, id),
+            server,
             to_host: VecDeque::new(),
             reports: Vec::new(),
             builtin,
             boots,
+            ms,
         }
     }
 
     /// Bytes from the host.
     pub fn write(&mut self, bytes: &[u8]) {
         let to_host = &mut self.to_host;
+        self.server.heard(self.ms);
         self.server
             .receive(bytes, &mut |f: &[u8]| to_host.extend(f));
     }
@@ -108,15 +115,16 @@ impl Device {
     }
 
     /// One millisecond: the engine's tick, then the server forwards the answers.
-    /// After a committed or abandoned upload, the device restarts (as the firmware
-    /// does once the reply went out).
+    /// After a committed, aborted or abandoned upload, the device restarts (as the
+    /// firmware does once the reply went out).
     pub fn tick(&mut self) {
         let tick = self.engine.controller().now();
         let reports = &mut self.reports;
         self.engine.tick([None], |r| reports.push((tick, r)));
         let to_host = &mut self.to_host;
         self.server.poll(&mut |f: &[u8]| to_host.extend(f));
-        if self.server.restart_requested() {
+        self.ms += 1;
+        if self.server.restart_due(self.ms) {
             self.restart();
         }
     }
@@ -137,7 +145,7 @@ impl Device {
     pub fn restart(&mut self) {
         let flash = self.server_flash().clone();
         let to_host = core::mem::take(&mut self.to_host);
-        *self = Device::from_flash(flash, self.builtin, self.boots + 1);
+        *self = Device::from_flash(flash, self.builtin, self.boots + 1, self.ms);
         self.to_host = to_host;
     }
 

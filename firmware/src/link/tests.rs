@@ -13,7 +13,7 @@ use super::bank::bank_crc;
 use super::sim::Device;
 use crate::button::Event as Button;
 use crate::output::{device_config, IDLE_FRAME};
-use crate::testutil::{bank, constant_stimulus, stimulus_from};
+use crate::testutil::{bank, constant_stimulus, for_layout, stimulus_from};
 
 /// The host's side, as a test drives it: sends requests, collects frames.
 struct Host {
@@ -145,7 +145,7 @@ fn hello_info_and_slots() {
         info.bank,
         BankState::Flashed(link::BankSummary {
             len: image.len() as u32,
-            crc: bank_crc(&image),
+            crc: host_bank_crc(&image),
             slots: 2
         })
     );
@@ -189,6 +189,39 @@ fn hello_info_and_slots() {
             len: 257
         }),
         Err(LinkError::OutOfRange)
+    );
+}
+
+/// The CRC a bank carries at its end, over every byte before it, as the host computes
+/// it from the file.
+fn host_bank_crc(image: &[u8]) -> u32 {
+    touch_protocol::container::crc32(&image[..image.len() - 4])
+}
+
+#[test]
+fn info_gives_each_bank_its_own_crc() {
+    let other = bank(&[constant_stimulus("c", 500, 700)]);
+    let mut crcs = Vec::new();
+    // Two flashed banks, and the built-in one (the region erased).
+    for (image, flashed) in [(two_slots(), true), (other, true), (builtin(), false)] {
+        let mut h = if flashed {
+            Host::new(Device::boot(&image, &builtin()))
+        } else {
+            Host::new(Device::boot(&[], &image))
+        };
+        let f = h.call(Command::Info).unwrap();
+        let Reply::Info(info) = reply(&f) else {
+            panic!()
+        };
+        let (BankState::Flashed(s) | BankState::Builtin(s)) = info.bank else {
+            panic!("{:?}", info.bank)
+        };
+        assert_eq!(s.crc, host_bank_crc(&image), "{:?}", info.bank);
+        crcs.push(s.crc);
+    }
+    assert!(
+        crcs[0] != crcs[1] && crcs[1] != crcs[2] && crcs[0] != crcs[2],
+        "{crcs:x?}"
     );
 }
 
@@ -348,6 +381,254 @@ fn a_hot_coil_refuses_a_play_as_it_refuses_a_press() {
     ));
 }
 
+/// A slot with a stricter I^2 t budget than the device's: what `Status` says of the
+/// heat is what a start of the selected slot is judged by, so it agrees with the
+/// refusal of a `Play` of that slot, per mille and cooldown.
+#[test]
+fn status_and_a_too_hot_refusal_judge_the_heat_by_the_same_budget() {
+    let strict = Limits {
+        i2t_budget_ma2s: 1_000_000,
+        ..Limits::SLEEVE
+    };
+    let bold = stimulus_from("bold", 1000, &[[32767; CHANNELS]; 4], Limits::SLEEVE);
+    let careful = stimulus_from("careful", 1000, &[[8000; CHANNELS]; 4], strict);
+    let mut h = Host::new(Device::boot(&bank(&[careful, bold]), &builtin()));
+    // Two seconds at 1 A heat every coil to about 1.3 A^2 s: 43 per mille of the
+    // device's 30 A^2 s, more than the careful slot's whole 1 A^2 s.
+    h.call(Command::Play { slot: 1 }).unwrap();
+    h.run(2000);
+    h.call(Command::Stop).unwrap();
+    h.run(100);
+    // Select the careful slot again (a long press moves the selection on).
+    h.dev.press(Button::Next);
+    h.run(2);
+    let f = h.call(Command::Status).unwrap();
+    let Reply::Status(st) = reply(&f) else {
+        panic!()
+    };
+    assert_eq!(st.selected, 0);
+    let refusal = h.call(Command::Play { slot: 0 });
+    let Err(LinkError::TooHot {
+        channel,
+        permille,
+        cooldown_ms,
+    }) = refusal
+    else {
+        panic!("{refusal:?}")
+    };
+    assert!(permille > 500, "{permille}");
+    // A few milliseconds of cooling apart.
+    let said = st.heat_permille[usize::from(channel)];
+    assert!(
+        said.abs_diff(permille) <= 2,
+        "status {said}, refusal {permille} per mille"
+    );
+    assert!(
+        st.cooldown_ms.abs_diff(cooldown_ms) <= 10,
+        "status {} ms, refusal {cooldown_ms} ms",
+        st.cooldown_ms
+    );
+}
+
+/// The two places for players: the link stages one, replaces it with another slot's,
+/// keeps it when asked for the same slot again; the tick takes only the slot it
+/// starts, swapping places (the player is not copied), and the link's next one goes
+/// to the other place, leaving the one that plays alone.
+#[test]
+fn the_tick_takes_the_staged_player_and_the_link_builds_in_the_other_place() {
+    use super::Channels;
+    use touch_protocol::{Player, Thermal};
+    let image = two_slots();
+    let bank = touch_protocol::Bank::decode(&image).unwrap();
+    let device = device_config();
+    let build = |slot: u8| {
+        let s = bank.slot(usize::from(slot)).ok()?;
+        Some(Player::with_thermal(&s, &device, Thermal::COLD))
+    };
+    let channels: &mut Channels = Box::leak(Box::new(Channels::new()));
+    let (mut link, mut tick) = channels.split();
+    let warm = Thermal::from_heat_ma2ms([3_000_000_000; CHANNELS]);
+    assert_eq!((link.staged(), link.wanted()), (None, None));
+    assert!(!tick.take_player(0, &warm));
+    link.stage(0, || build(0));
+    assert_eq!((link.staged(), link.wanted()), (Some(0), Some(0)));
+    link.stage(1, || build(1));
+    assert_eq!((link.staged(), link.wanted()), (Some(1), Some(1)));
+    link.stage(1, || panic!("slot 1 is staged already"));
+    assert!(!tick.take_player(0, &warm));
+    assert!(tick.take_player(1, &warm));
+    assert_eq!(link.staged(), None);
+    // Built in the other place: the taken player plays on, slot 1 from the warm coil.
+    link.stage(0, || build(0));
+    assert_eq!(link.staged(), Some(0));
+    let s = bank.slot(1).unwrap();
+    let mut want = Player::with_thermal(&s, &device, warm);
+    for _ in 0..50 {
+        assert_eq!(tick.player().tick(), want.tick());
+    }
+    tick.want(1);
+    assert_eq!(link.wanted(), Some(1));
+}
+
+/// A `Play` whose player is not staged (a press took the place, or asked for
+/// another slot) stays in the queue: the tick asks the link for it, and once it is
+/// staged the `Play` starts and is answered with the tick of its first frame.
+#[test]
+fn a_play_waits_for_its_player() {
+    use super::{Answer, Channels, Control, LinkPort, TickReply};
+    use crate::control::Controller;
+    use touch_protocol::{Player, Thermal};
+
+    fn run(
+        c: &mut Controller<'_>,
+        port: &mut LinkPort<'_, '_>,
+        frames: &mut Vec<crate::output::Frame>,
+        answers: &mut Vec<Answer>,
+        n: usize,
+    ) {
+        for _ in 0..n {
+            frames.push(c.next_frame().0);
+            while let Some(a) = port.receive() {
+                answers.push(a);
+            }
+        }
+    }
+
+    let image = two_slots();
+    let bank = touch_protocol::Bank::decode(&image).unwrap();
+    let mut c = Controller::new(bank, device_config());
+    let channels: &mut Channels = Box::leak(Box::new(Channels::new()));
+    let (mut port, tick) = channels.split();
+    c.attach(tick);
+    let (mut frames, mut answers) = (Vec::new(), Vec::new());
+    run(&mut c, &mut port, &mut frames, &mut answers, 3);
+    port.send(Control::Play { seq: 7, slot: 1 }).unwrap();
+    run(&mut c, &mut port, &mut frames, &mut answers, 5);
+    assert_eq!(port.wanted(), Some(1), "the tick asks for slot 1's player");
+    assert!(answers.is_empty(), "{answers:?}");
+    assert!(frames.iter().all(|f| *f == IDLE_FRAME));
+    let s = bank.slot(1).unwrap();
+    port.stage(1, || {
+        Some(Player::with_thermal(&s, &device_config(), Thermal::COLD))
+    });
+    run(&mut c, &mut port, &mut frames, &mut answers, 5);
+    let reply = answers.iter().find_map(|a| match a {
+        Answer::Reply(
+            7,
+            TickReply::Play {
+                slot: 1,
+                tick,
+                now: true,
+            },
+        ) => Some(*tick),
+        _ => None,
+    });
+    let Some(tick) = reply else {
+        panic!("{answers:?}")
+    };
+    // The frame computed at tick n (frames[n]) goes out at tick n + 1: the answer
+    // names that tick.
+    assert_eq!(frames[tick as usize - 2], IDLE_FRAME);
+    assert_ne!(frames[tick as usize - 1], IDLE_FRAME);
+    assert_eq!(c.playing(), Some(1));
+}
+
+/// The players the link's task builds ahead and hands to the tick play exactly what
+/// the controller alone plays when it builds each player itself, warm coils, trips
+/// and refusals included: the press schedule below, on the in-memory sleeve and on
+/// a bare controller, gives the same frames and the same reports, tick for tick.
+#[test]
+fn players_built_ahead_play_as_players_built_in_the_tick() {
+    use crate::control::Report;
+    let limits = Limits {
+        i2t_budget_ma2s: 2_000_000,
+        ..Limits::SLEEVE
+    };
+    let hot = stimulus_from("hot", 500, &[[32767; CHANNELS]; 9], limits);
+    let other = stimulus_from("other", 100, &[[-20000; CHANNELS]; 9], Limits::SLEEVE);
+    let image = bank(&[hot, other]);
+    let mut dev = Device::boot(&image, &builtin());
+    let b = touch_protocol::Bank::decode(&image).unwrap();
+    let mut bare = crate::control::Controller::new(b, device_config());
+    let mut bare_frames = vec![IDLE_FRAME];
+    let (mut bare_reports, mut presses) = (Vec::new(), Vec::new());
+    let ticks = 120_000;
+    for t in 0..ticks {
+        // A press every 2.5 s (a trip, a refusal, a stop, a start), a long press
+        // (the next slot) every 23 s.
+        let press = match t {
+            _ if t % 23_000 == 50 => Some(Button::Next),
+            _ if t % 2500 == 10 => Some(Button::Toggle),
+            _ => None,
+        };
+        if let Some(p) = press {
+            let r = dev.press(p);
+            assert_eq!(r, bare.handle(p), "tick {t}: the press's report");
+            presses.extend(r);
+        }
+        dev.tick();
+        let (frame, report) = bare.next_frame();
+        bare_frames.push(frame);
+        if let Some(r) = report {
+            bare_reports.push((t as u32, r));
+        }
+    }
+    let frames = dev.outputs();
+    assert_eq!(frames.len(), ticks);
+    for t in 0..ticks {
+        assert_eq!(frames[t], bare_frames[t], "tick {t}");
+    }
+    assert_eq!(dev.reports(), &bare_reports[..]);
+    let trips = bare_reports
+        .iter()
+        .filter(|(_, r)| matches!(r, Report::Fault(..)))
+        .count();
+    let refused = presses
+        .iter()
+        .filter(|r| matches!(r, Report::TooHot(..)))
+        .count();
+    let starts = presses
+        .iter()
+        .filter(|r| matches!(r, Report::Started(1)))
+        .count();
+    assert!(
+        trips > 2 && refused > 2 && starts > 0,
+        "{trips} trips, {refused} refusals, {starts} starts of slot 1"
+    );
+}
+
+/// A `Status` that would land on a tick whose player decodes its next keyframe (the
+/// dearest ticks) is answered a tick later; on any other tick, at once.
+#[test]
+fn a_status_is_not_answered_on_a_keyframe_tick() {
+    let period = 20u32;
+    let frames: Vec<[i16; CHANNELS]> = (0..50).map(|i| [(i * 300) as i16; CHANNELS]).collect();
+    let s = stimulus_from("ramps", period as u16, &frames, Limits::SLEEVE);
+    let mut h = Host::new(Device::boot(&bank(&[s]), &builtin()));
+    h.run(5);
+    let f = h.call(Command::Play { slot: 0 }).unwrap();
+    let Reply::Play { tick: first, .. } = reply(&f) else {
+        panic!()
+    };
+    // The tick that started it computed its first frame.
+    let start = first - 1;
+    let mut late = 0;
+    for _ in 0..3 * period {
+        let sent = h.dev.controller().now();
+        let f = h.call(Command::Status).unwrap();
+        let Reply::Status(st) = reply(&f) else {
+            panic!()
+        };
+        assert_ne!(
+            st.tick.wrapping_sub(start) % period,
+            period - 1,
+            "answered on a keyframe tick"
+        );
+        late += usize::from(st.tick > sent);
+    }
+    assert!(late > 0 && late < 10, "{late} answered a tick late");
+}
+
 #[test]
 fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
     let mut h = host();
@@ -445,7 +726,9 @@ fn an_upload_commits_and_the_device_restarts_into_it() {
     let Reply::Info(info) = reply(&f) else {
         panic!()
     };
-    assert!(matches!(info.bank, BankState::Flashed(s) if s.crc == bank_crc(&new) && s.slots == 3));
+    assert!(
+        matches!(info.bank, BankState::Flashed(s) if s.crc == host_bank_crc(&new) && s.slots == 3)
+    );
     let f = h.call(Command::Slot { slot: 2 }).unwrap();
     assert!(matches!(reply(&f), Reply::Slot(s) if s.name == "z"));
     let f = h.call(Command::Play { slot: 2 }).unwrap();
@@ -496,11 +779,10 @@ fn uploads_wait_for_rest_and_lock_the_bank() {
 #[test]
 fn a_bank_for_another_layout_is_refused_at_commit_and_never_boots() {
     let s = constant_stimulus("mirrored", 200, 100);
-    let d = Stimulus::decode(&s).unwrap();
-    let mut h = *d.header();
-    h.layout_hash = touch_protocol::layout::SLEEVE_HASH.rotate_left(8);
-    let frames: Vec<_> = d.keyframes().collect();
-    let other = bank(&[touch_protocol::stimulus::encode(h, &frames).unwrap()]);
+    let other = bank(&[for_layout(
+        &s,
+        touch_protocol::layout::SLEEVE_HASH.rotate_left(8),
+    )]);
     let mut h = host();
     assert_eq!(
         upload(&mut h, &other, 64),
@@ -576,6 +858,57 @@ fn an_upload_cut_at_every_chunk_leaves_the_builtin_bank() {
     }
 }
 
+/// The host stops in the middle of an upload and never comes back: 30 s after the
+/// last byte it sent (not before, and counted again from each chunk), the device
+/// drops the staged upload and restarts into the built-in bank, which plays.
+#[test]
+fn an_upload_abandoned_for_30_s_restarts_into_the_builtin_bank() {
+    let new = bank(&[constant_stimulus("x", 200, 2000)]);
+    let mut h = host();
+    h.call(Command::BankBegin {
+        len: new.len() as u32,
+        crc: bank_crc(&new),
+    })
+    .unwrap();
+    let chunks: Vec<_> = new.chunks(16).collect();
+    h.call(Command::BankChunk {
+        offset: 0,
+        bytes: chunks[0],
+    })
+    .unwrap();
+    // A chunk 20 s later starts the wait again.
+    h.run(20_000);
+    assert_eq!(h.dev.boots, 0);
+    h.call(Command::BankChunk {
+        offset: 16,
+        bytes: chunks[1],
+    })
+    .unwrap();
+    let last_heard = h.dev.ms;
+    h.run(29_990);
+    assert_eq!(h.dev.boots, 0, "restarted before 30 s of silence");
+    assert_eq!(
+        h.call(Command::Play { slot: 0 }),
+        Err(LinkError::Busy(Busy::Uploading))
+    );
+    // That request was heard: the silence starts again from it.
+    let last_heard = last_heard.max(h.dev.ms - 1);
+    while h.dev.boots == 0 && h.dev.ms < last_heard + 40_000 {
+        h.dev.tick();
+    }
+    assert_eq!(h.dev.boots, 1, "no restart 40 s after the host went silent");
+    let silent = h.dev.ms - last_heard;
+    assert!(
+        (30_000..=30_010).contains(&silent),
+        "restarted after {silent} ms"
+    );
+    let f = h.call(Command::Info).unwrap();
+    assert!(matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))));
+    assert_eq!(h.call(Command::BankCommit), Err(LinkError::NoUpload));
+    let f = h.call(Command::Play { slot: 0 }).unwrap();
+    assert!(matches!(reply(&f), Reply::Play { now: true, .. }));
+}
+
 fn stream_params() -> link::StreamParams {
     link::StreamParams {
         keyframe_period_ms: 20,
@@ -647,26 +980,16 @@ fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
         .iter()
         .any(|e| e.1 == Event::Finished(Source::Stream)));
     // The stored player, on a stimulus of the same keyframes: the same codes.
-    let header = touch_protocol::stimulus::Header {
-        channels: 8,
-        output_rate_hz: 1000,
-        keyframe_period_ms: 20,
-        keyframe_count: ks.len() as u32,
-        duration_ms: (ks.len() as u32 - 1) * 20,
-        ramp_ms: 20,
-        full_scale_ma: 1000,
-        quant_shift: 0,
-        layout_hash: 1,
-        layout: "test",
-        limits: Limits::SLEEVE,
-        name: "s",
-    };
-    let file = touch_protocol::stimulus::encode(header, &ks).unwrap();
-    let expected: Vec<_> =
-        touch_protocol::Player::new(&Stimulus::decode(&file).unwrap(), &device_config())
-            .take(header.duration_ms as usize)
-            .map(|t| t.codes)
-            .collect();
+    let file = touch_protocol::stimulus::Builder::new("s", 20)
+        .ramp_ms(20)
+        .layout("test", 1)
+        .encode(&ks)
+        .unwrap();
+    let stored = Stimulus::decode(&file).unwrap();
+    let expected: Vec<_> = touch_protocol::Player::new(&stored, &device_config())
+        .take(stored.duration_ms() as usize)
+        .map(|t| t.codes)
+        .collect();
     assert_eq!(
         &h.dev.outputs()[started..started + expected.len()],
         &expected[..]
@@ -786,7 +1109,7 @@ fn a_stream_fed_ahead_plays_on() {
     let run = |ahead: usize| {
         let bank = touch_protocol::Bank::decode(&image).unwrap();
         let mut c = Controller::new(bank, device_config());
-        let channels: &'static mut Channels = Box::leak(Box::new(Channels::new()));
+        let channels: &mut Channels = Box::leak(Box::new(Channels::new()));
         let (mut port, tick) = channels.split();
         c.attach(tick);
         let mut events = Vec::new();

@@ -1,16 +1,14 @@
 //! The whole compile, with the default config and layout, on small recordings built
-//! from the bytes (`host/tests/common/fuzz_input.rs`: up to 100 frames of up to 6 x 6
+//! from the bytes (`touchc_testkit::fuzz_input`: up to 100 frames of up to 6 x 6
 //! cells, values from 0 to 255 steps of 1e-8 to 1e7 psi, 0xff = NaN). Compiling returns
 //! a stimulus or an error and never panics; a stimulus decodes and plays to its end.
 #![no_main]
-
-#[path = "../../tests/common/fuzz_input.rs"]
-mod fuzz_input;
 
 use libfuzzer_sys::fuzz_target;
 use touch_protocol::{DeviceConfig, Player, Stimulus};
 use touchc::compile::{compile, CompileOptions};
 use touchc::input::recording::Recording;
+use touchc_testkit::fuzz_input;
 
 fuzz_target!(|data: &[u8]| {
     let Some(array) = fuzz_input::recording(data) else {

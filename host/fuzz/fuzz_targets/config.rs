@@ -4,7 +4,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use touchc::config::Config;
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {

@@ -4,12 +4,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use touchc::input::recording::{Recording, PITCH_MM_RANGE, RATE_HZ_RANGE};
-
-#[path = "../../tests/common/poison.rs"]
-mod poison;
-
-use poison::Entry;
+use touchc::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+use touchc::input::recording::Recording;
+use touchc_testkit::poison::{self, Entry};
 
 fuzz_target!(|data: &[u8]| {
     check(data);

@@ -86,7 +86,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let out = default_output(args, one)?;
             let r = compile_one(one, &out, args.report.as_deref(), args, &opts)?;
             for w in &r.warnings {
-                super::warn(one, w);
+                super::warn(one, &super::warning::describe(w));
             }
             // Named as in every message (`-` is standard input or output).
             let (input, output) = (
@@ -197,7 +197,7 @@ fn compile_one(
         .with_context(|| format!("{}: cannot compile", input.display()))?;
     // The report first: if it cannot be written, no stimulus appears either.
     if let Some(path) = report {
-        let json = serde_json::to_vec_pretty(&compiled.report)?;
+        let json = serde_json::to_vec_pretty(&super::report_json::ReportJson(&compiled.report))?;
         write_atomic(path, &json)?;
     }
     write_atomic(out, &compiled.stimulus)?;
@@ -223,7 +223,7 @@ fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
         r.coverage,
         r.rendered_coverage,
         r.metadata.describe(),
-        1e3 * r.seconds.get(touchc::stage::Stage::Total.name()).copied().unwrap_or(0.0),
+        1e3 * r.seconds.total(),
     )
 }
 
@@ -256,7 +256,11 @@ fn batch(
             let r = compile_one(input, &out, report.as_deref(), args, opts);
             if let Ok(r) = &r {
                 if let Ok(mut w) = warnings.lock() {
-                    w.extend(r.warnings.iter().map(|m| (input.clone(), m.clone())));
+                    w.extend(
+                        r.warnings
+                            .iter()
+                            .map(|m| (input.clone(), super::warning::describe(m))),
+                    );
                 }
             }
             bar.inc(1);
@@ -304,11 +308,7 @@ fn write_summary(
                 r.bytes,
                 100.0 * r.rms_error_fs,
                 format!("{}/{}", r.selected.len(), r.trajectories),
-                1e3 * r
-                    .seconds
-                    .get(touchc::stage::Stage::Total.name())
-                    .copied()
-                    .unwrap_or(0.0)
+                1e3 * r.seconds.total()
             )?,
             Err(_) => writeln!(w, "{name:<32} {:>6}", "FAILED")?,
         }

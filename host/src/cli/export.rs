@@ -60,7 +60,16 @@ pub struct Args {
     /// sleeve); a stimulus compiled for another layout is refused.
     #[arg(long)]
     layout: Option<PathBuf>,
+    /// For .hjif: the actuator's mechanical resonance in Hz (1 to 20000), written into
+    /// the reference device (left out by default: the coil's datasheet value is the
+    /// maker's to give).
+    #[arg(long, value_name = "HZ")]
+    resonance_hz: Option<f64>,
 }
+
+/// Highest resonance `--resonance-hz` takes, Hz: the top of human vibrotactile and
+/// auditory range, beyond any voice coil's first mode.
+const MAX_RESONANCE_HZ: f64 = 20_000.0;
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let format = args.to.format();
@@ -80,6 +89,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             return Err(super::usage(format!(
                 "--channel {c}: the sleeve has channels 0 to {}",
                 touch_protocol::CHANNELS - 1
+            )));
+        }
+    }
+    if let Some(hz) = args.resonance_hz {
+        if format != Format::Hjif {
+            return Err(super::usage(format!(
+                "--resonance-hz is for --to hjif: a .{} file has no device description",
+                format.extension()
+            )));
+        }
+        if !(1.0..=MAX_RESONANCE_HZ).contains(&hz) {
+            return Err(super::usage(format!(
+                "--resonance-hz {}: give the resonance in Hz, 1 to {}",
+                touchc::display::Shortest(hz),
+                touchc::display::Shortest(MAX_RESONANCE_HZ)
             )));
         }
     }
@@ -130,6 +154,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         &ExportOptions {
             pick,
             date: today(),
+            resonance_hz: args.resonance_hz,
         },
     )
     .with_context(|| format!("{name}: cannot export"))?;

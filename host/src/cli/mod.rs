@@ -4,6 +4,7 @@
 
 mod bank;
 mod compile;
+mod config_error;
 mod export;
 mod help;
 mod import;
@@ -13,10 +14,12 @@ mod params;
 mod plot;
 mod preview;
 mod render;
+mod report_json;
 mod sleeve;
 mod synth;
 mod track;
 mod trade;
+mod warning;
 
 use std::io::Read;
 use std::path::Path;
@@ -130,11 +133,11 @@ pub(crate) struct Usage(pub String);
 /// The actuator layout of a `--layout FILE` option, or the paper's sleeve without one.
 /// A layout file that cannot be read or is not a layout is a usage error, like a
 /// `--config` file: both are how the command was called.
-pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc::placement::layout::Layout> {
+pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc::layout::Layout> {
     Ok(match path {
-        Some(path) => touchc::placement::layout::Layout::load(path)
+        Some(path) => touchc::layout::Layout::load(path)
             .map_err(|e| usage(message(&anyhow::Error::new(e))))?,
-        None => touchc::placement::layout::Layout::paper(),
+        None => touchc::layout::Layout::paper(),
     })
 }
 
@@ -183,10 +186,18 @@ fn message(err: &anyhow::Error) -> String {
     let mut out = String::new();
     for cause in err.chain() {
         let mut text = cause.to_string();
-        if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
-            let short = toml_message(e);
-            out = out.replace(&text, &short);
-            text = short;
+        // Worded here rather than by the library, in place of its text wherever an
+        // outer error quoted it.
+        let words = if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
+            Some(toml_message(e))
+        } else {
+            cause
+                .downcast_ref::<touchc::config::ConfigError>()
+                .map(config_error::describe)
+        };
+        if let Some(words) = words {
+            out = out.replace(&text, &words);
+            text = words;
         }
         if text.is_empty() || out.contains(&text) {
             continue;

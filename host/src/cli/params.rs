@@ -3,7 +3,8 @@
 //! `--set SECTION.KEY=VALUE`, then one flag per common knob, each layer overriding the
 //! one before, and the recording's `--rate` and `--pitch-mm`.
 //!
-//! The knob flags are one table ([`KNOBS`]) of config keys: each flag is a typed
+//! The knob flags are one table ([`KNOBS`]) of config knobs ([`Knob`], whose own table
+//! names each knob's section and key once): each flag is a typed
 //! shorthand for a `--set`, laid over the same TOML image of the config, and its help
 //! prints the key's value in [`Config::default`], so neither a default nor a field is
 //! written twice.
@@ -13,7 +14,7 @@ use std::sync::OnceLock;
 
 use anyhow::Context;
 use clap::{Arg, ArgMatches, FromArgMatches};
-use touchc::config::{CoarseToFine, Config, MetadataOverrides, Preset};
+use touchc::config::{CoarseToFine, Config, Knob, MetadataOverrides, Preset};
 use touchc::display::Shortest;
 
 /// `--help` heading of the recording's sampling flags.
@@ -84,110 +85,114 @@ fn sampling_help(what: &str, key: &str) -> String {
     )
 }
 
-/// How a knob flag's value is read and written into the config.
+/// How a knob flag's value is read, and the knobs of [`touchc::config::Knob`]'s table
+/// it writes (so a flag names its keys only through that table).
 #[derive(Debug, Clone, Copy)]
 enum Kind {
     /// A whole number.
-    Count,
+    Count(Knob),
     /// A real number.
-    Real,
-    /// `X,Y` or `N`: the two keys `KEY_x` and `KEY_y`.
-    Grid,
-    /// `STRIDE,KEEP` or `off` (the key absent).
-    Search,
+    Real(Knob),
+    /// `X,Y` or `N`: the two knobs `x` and `y`.
+    Grid { x: Knob, y: Knob },
+    /// `STRIDE,KEEP` or `off` (their table absent).
+    Search { stride: Knob, keep: Knob },
 }
 
-/// One knob flag: `--flag` sets the config key `section.key`.
+impl Kind {
+    /// The config section every key of the flag is in.
+    fn section(self) -> &'static str {
+        match self {
+            Kind::Count(k) | Kind::Real(k) | Kind::Grid { x: k, .. } => k.section(),
+            Kind::Search { stride, .. } => stride.section(),
+        }
+    }
+}
+
+/// The table (in its section) and the key in it of a knob below an optional table
+/// (`coarse_to_fine.stride`); the whole key for any other knob.
+fn table_and_key(knob: Knob) -> (Option<&'static str>, &'static str) {
+    match knob.key().split_once('.') {
+        Some((table, key)) => (Some(table), key),
+        None => (None, knob.key()),
+    }
+}
+
+/// One knob flag: `--flag` sets the knobs of its `kind`.
 #[derive(Debug)]
-pub struct Knob {
+pub struct Flag {
     flag: &'static str,
-    section: &'static str,
-    key: &'static str,
     kind: Kind,
     value_name: &'static str,
     help: &'static str,
 }
 
 /// The knobs with a flag of their own; every other key is reached with `--set`.
-const KNOBS: &[Knob] = &[
-    Knob {
+const KNOBS: &[Flag] = &[
+    Flag {
         flag: "upsample",
-        section: "preprocess",
-        key: "upsample",
-        kind: Kind::Count,
+        kind: Kind::Count(Knob::PreprocessUpsample),
         value_name: "K",
         help: "Upsampling factor k. Blur and link gate are in mm and mm/s, so they keep \
                their physical size",
     },
-    Knob {
+    Flag {
         flag: "blur-sigma-mm",
-        section: "preprocess",
-        key: "blur_sigma_mm",
-        kind: Kind::Real,
+        kind: Kind::Real(Knob::PreprocessBlurSigmaMm),
         value_name: "MM",
         help: "Gaussian blur sigma, mm",
     },
-    Knob {
+    Flag {
         flag: "entry-cost",
-        section: "track",
-        key: "entry_cost",
-        kind: Kind::Real,
+        kind: Kind::Real(Knob::TrackEntryCost),
         value_name: "COST",
         help: "Cost of starting a trajectory, -ln P_entr",
     },
-    Knob {
+    Flag {
         flag: "exit-cost",
-        section: "track",
-        key: "exit_cost",
-        kind: Kind::Real,
+        kind: Kind::Real(Knob::TrackExitCost),
         value_name: "COST",
         help: "Cost of ending a trajectory, -ln P_exit",
     },
-    Knob {
+    Flag {
         flag: "max-speed-mm-s",
-        section: "track",
-        key: "max_speed_mm_s",
-        kind: Kind::Real,
+        kind: Kind::Real(Knob::TrackMaxSpeedMmS),
         value_name: "MM_S",
         help: "Link gate: the fastest a contact may move between frames, mm/s",
     },
-    Knob {
+    Flag {
         flag: "max-trajectories",
-        section: "track",
-        key: "max_trajectories",
-        kind: Kind::Count,
+        kind: Kind::Count(Knob::TrackMaxTrajectories),
         value_name: "N",
         help: "Most trajectories",
     },
-    Knob {
+    Flag {
         flag: "grid",
-        section: "placement",
-        key: "grid",
-        kind: Kind::Grid,
+        kind: Kind::Grid {
+            x: Knob::PlacementGridX,
+            y: Knob::PlacementGridY,
+        },
         value_name: "X,Y",
         help: "Transform grid `X,Y` (x points, y points) or `N` for `N,N`",
     },
-    Knob {
+    Flag {
         flag: "coarse-to-fine",
-        section: "placement",
-        key: "coarse_to_fine",
-        kind: Kind::Search,
+        kind: Kind::Search {
+            stride: Knob::PlacementCoarseToFineStride,
+            keep: Knob::PlacementCoarseToFineKeep,
+        },
         value_name: "STRIDE,KEEP",
         help: "Coarse-to-fine placement search `STRIDE,KEEP` (fast: 2,32), or `off`",
     },
-    Knob {
+    Flag {
         flag: "centre-bonus",
-        section: "placement",
-        key: "centre_bonus",
-        kind: Kind::Real,
+        kind: Kind::Real(Knob::PlacementCentreBonus),
         value_name: "B",
         help: "Workspace centre bonus b of D = w (1 + b - b d^2 / r^2)",
     },
-    Knob {
+    Flag {
         flag: "lowpass-hz",
-        section: "signal",
-        key: "lowpass_hz",
-        kind: Kind::Real,
+        kind: Kind::Real(Knob::SignalLowpassHz),
         value_name: "HZ",
         help: "Low-pass cut-off, Hz (below half the recording's rate)",
     },
@@ -214,31 +219,35 @@ fn plain(v: &toml::Value) -> String {
     }
 }
 
-impl Knob {
+impl Flag {
     /// The key's value in [`Config::default`], in the flag's own syntax.
     fn default_text(&self) -> String {
         let section = default_table()
-            .get(self.section)
+            .get(self.kind.section())
             .and_then(toml::Value::as_table);
         let get = |key: &str| section.and_then(|s| s.get(key)).map(plain);
         let text = match self.kind {
-            Kind::Count | Kind::Real => get(self.key),
-            Kind::Grid => get(&format!("{}_x", self.key))
-                .zip(get(&format!("{}_y", self.key)))
+            Kind::Count(k) | Kind::Real(k) => get(k.key()),
+            Kind::Grid { x, y } => get(x.key())
+                .zip(get(y.key()))
                 .map(|(x, y)| format!("{x},{y}")),
             // An absent search is `off`.
-            Kind::Search => Some(
-                match section
-                    .and_then(|s| s.get(self.key))
-                    .and_then(toml::Value::as_table)
-                {
-                    Some(t) => {
-                        let get = |k: &str| t.get(k).map_or_else(|| "?".into(), plain);
-                        format!("{},{}", get("stride"), get("keep"))
-                    }
-                    None => "off".into(),
-                },
-            ),
+            Kind::Search { stride, keep } => {
+                let (table, stride) = table_and_key(stride);
+                let (_, keep) = table_and_key(keep);
+                Some(
+                    match table
+                        .and_then(|t| section.and_then(|s| s.get(t)))
+                        .and_then(toml::Value::as_table)
+                    {
+                        Some(t) => {
+                            let get = |k: &str| t.get(k).map_or_else(|| "?".into(), plain);
+                            format!("{},{}", get(stride), get(keep))
+                        }
+                        None => "off".into(),
+                    },
+                )
+            }
         };
         text.unwrap_or_else(|| "?".into())
     }
@@ -250,10 +259,10 @@ impl Knob {
             .help_heading(PRESET_AND_KNOBS)
             .help(format!("{} [default: {}]", self.help, self.default_text()));
         match self.kind {
-            Kind::Count => arg.value_parser(clap::value_parser!(usize)),
-            Kind::Real => arg.value_parser(clap::value_parser!(f64)),
-            Kind::Grid => arg.value_parser(parse_grid),
-            Kind::Search => arg.value_parser(parse_coarse_to_fine),
+            Kind::Count(_) => arg.value_parser(clap::value_parser!(usize)),
+            Kind::Real(_) => arg.value_parser(clap::value_parser!(f64)),
+            Kind::Grid { .. } => arg.value_parser(parse_grid),
+            Kind::Search { .. } => arg.value_parser(parse_coarse_to_fine),
         }
     }
 
@@ -261,28 +270,29 @@ impl Knob {
     /// as a value removing the key.
     fn assignments(&self, m: &ArgMatches) -> Vec<(String, Option<toml::Value>)> {
         let int = |n: usize| toml::Value::Integer(i64::try_from(n).unwrap_or(i64::MAX));
-        let key = self.key.to_string();
         match self.kind {
-            Kind::Count => m
+            Kind::Count(k) => m
                 .get_one::<usize>(self.flag)
-                .map(|&n| vec![(key, Some(int(n)))]),
-            Kind::Real => m
+                .map(|&n| vec![(k.key().to_string(), Some(int(n)))]),
+            Kind::Real(k) => m
                 .get_one::<f64>(self.flag)
-                .map(|&v| vec![(key, Some(toml::Value::Float(v)))]),
-            Kind::Grid => m.get_one::<(usize, usize)>(self.flag).map(|&(x, y)| {
+                .map(|&v| vec![(k.key().to_string(), Some(toml::Value::Float(v)))]),
+            Kind::Grid { x, y } => m.get_one::<(usize, usize)>(self.flag).map(|&(gx, gy)| {
                 vec![
-                    (format!("{key}_x"), Some(int(x))),
-                    (format!("{key}_y"), Some(int(y))),
+                    (x.key().to_string(), Some(int(gx))),
+                    (y.key().to_string(), Some(int(gy))),
                 ]
             }),
-            Kind::Search => m.get_one::<Search>(self.flag).map(|Search(s)| {
+            Kind::Search { stride, keep } => m.get_one::<Search>(self.flag).map(|Search(s)| {
+                let (table, stride_key) = table_and_key(stride);
+                let (_, keep_key) = table_and_key(keep);
                 let value = s.map(|s| {
                     let mut t = toml::Table::new();
-                    t.insert("stride".into(), int(s.stride));
-                    t.insert("keep".into(), int(s.keep));
+                    t.insert(stride_key.into(), int(s.stride));
+                    t.insert(keep_key.into(), int(s.keep));
                     toml::Value::Table(t)
                 });
-                vec![(key, value)]
+                vec![(table.unwrap_or(stride_key).to_string(), value)]
             }),
         }
         .unwrap_or_default()
@@ -303,9 +313,9 @@ impl FromArgMatches for Knobs {
     fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
         for knob in KNOBS {
             for (key, value) in knob.assignments(m) {
-                self.0
-                    .retain(|(s, k, _)| !(*s == knob.section && *k == key));
-                self.0.push((knob.section, key, value));
+                let section = knob.kind.section();
+                self.0.retain(|(s, k, _)| !(*s == section && *k == key));
+                self.0.push((section, key, value));
             }
         }
         Ok(())
@@ -345,7 +355,7 @@ impl ConfigArgs {
 
     /// `--rate` and `--pitch-mm` against the ranges a recording's own values must meet.
     fn check_sampling(&self) -> anyhow::Result<()> {
-        use touchc::input::recording::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+        use touchc::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
         for (flag, value, range, unit) in [
             ("--rate", self.rate, RATE_HZ_RANGE, "Hz"),
             ("--pitch-mm", self.pitch_mm, PITCH_MM_RANGE, "mm"),
@@ -425,7 +435,7 @@ fn layered(
     })?;
     config
         .validate()
-        .map_err(|e| anyhow::anyhow!("config: {e}"))?;
+        .map_err(|e| anyhow::anyhow!("config: {}", super::config_error::describe(&e)))?;
     Ok(config)
 }
 
@@ -465,4 +475,89 @@ fn parse_coarse_to_fine(s: &str) -> Result<Search, String> {
         stride: num(a)?,
         keep: num(b)?,
     })))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::{Args, Command};
+
+    /// The config `args` (flags of [`ConfigArgs`]) describe.
+    fn resolved(args: &[&str]) -> Config {
+        let cmd = ConfigArgs::augment_args(Command::new("t"));
+        let m = cmd
+            .try_get_matches_from(std::iter::once("t").chain(args.iter().copied()))
+            .unwrap();
+        ConfigArgs::from_arg_matches(&m).unwrap().resolve().unwrap()
+    }
+
+    /// The value of `knob` in `config`'s TOML image, found by the knob's section and key.
+    fn value_of(config: &Config, knob: Knob) -> Option<toml::Value> {
+        let table = toml::Table::try_from(config).unwrap();
+        let mut v = table.get(knob.section()).cloned();
+        for part in knob.key().split('.') {
+            v = v.and_then(|v| v.as_table().and_then(|t| t.get(part)).cloned());
+        }
+        v
+    }
+
+    /// Every knob flag writes the knobs it names, and only through their section and
+    /// key, to a config that round-trips through TOML: a flag or a field renamed on one
+    /// side only fails here.
+    #[test]
+    fn every_knob_flag_sets_its_knobs_through_toml() {
+        let base = Config::default();
+        for flag in KNOBS {
+            let long = format!("--{}", flag.flag);
+            // A value other than the default, within range.
+            let (value, want): (String, Vec<(Knob, toml::Value)>) = match flag.kind {
+                Kind::Count(k) => {
+                    let d = value_of(&base, k).and_then(|v| v.as_integer()).unwrap();
+                    let n = if d > 1 { d - 1 } else { d + 1 };
+                    (n.to_string(), vec![(k, toml::Value::Integer(n))])
+                }
+                Kind::Real(k) => {
+                    let d = value_of(&base, k).and_then(|v| v.as_float()).unwrap();
+                    let v = 0.75 * d;
+                    (v.to_string(), vec![(k, toml::Value::Float(v))])
+                }
+                Kind::Grid { x, y } => (
+                    "7,9".into(),
+                    vec![(x, toml::Value::Integer(7)), (y, toml::Value::Integer(9))],
+                ),
+                Kind::Search { stride, keep } => (
+                    "3,16".into(),
+                    vec![
+                        (stride, toml::Value::Integer(3)),
+                        (keep, toml::Value::Integer(16)),
+                    ],
+                ),
+            };
+            let config = resolved(&[&long, &value]);
+            for (knob, v) in want {
+                assert_eq!(value_of(&config, knob), Some(v), "{long} {value}: {knob}");
+            }
+            let text = toml::to_string(&config).unwrap();
+            assert_eq!(toml::from_str::<Config>(&text).unwrap(), config, "{long}");
+            // Everything else keeps the preset's value.
+            let changed = Knob::ALL
+                .iter()
+                .filter(|&&k| value_of(&config, k) != value_of(&base, k))
+                .count();
+            let expected = match flag.kind {
+                Kind::Count(_) | Kind::Real(_) => 1,
+                Kind::Grid { .. } | Kind::Search { .. } => 2,
+            };
+            assert_eq!(changed, expected, "{long} {value}");
+        }
+        // `off` removes the search's table.
+        let fast = ConfigArgs::augment_args(Command::new("t"))
+            .try_get_matches_from(["t", "--preset", "fast", "--coarse-to-fine", "off"])
+            .unwrap();
+        let fast = ConfigArgs::from_arg_matches(&fast)
+            .unwrap()
+            .resolve()
+            .unwrap();
+        assert_eq!(fast.placement.coarse_to_fine, None);
+    }
 }

@@ -6,13 +6,13 @@ use std::path::PathBuf;
 use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::compile::{compile, CompileOptions};
-use touchc::input::recording::Recording;
 use touchc::viz::preview;
 
 /// Arguments of `touchc preview`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Recording, `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell).
+    /// Recording: `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell), or
+    /// `.npz` holding it as `pressure`; `-` is standard input.
     recording: PathBuf,
     /// `.gif` writes the animation; `.png` writes one frame (`--frame`).
     #[arg(short, long)]
@@ -72,12 +72,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         metadata: args.config.overrides(),
         ..CompileOptions::default()
     };
-    let name = args.recording.display();
-    let recording = Recording::load(&args.recording)?;
+    let name = super::input_name(&args.recording);
+    let recording = super::load_recording(&args.recording)?;
     let compiled = compile(&recording, &opts).with_context(|| format!("{name}: cannot compile"))?;
     let rate = compiled.report.metadata.rate_hz.value;
     for w in &compiled.report.warnings {
-        super::warn(&args.recording, w);
+        super::warn(&args.recording, &super::warning::describe(w));
     }
     let image = if gif {
         preview::gif(&compiled, &recording, args.every, rate)

@@ -5,13 +5,15 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 use touchc::input::recording::Recording;
-use touchc::tracking::track::{track_streaming, TrackOutput};
-use touchc::tracking::trajectory::Columns;
+use touchc::track::track_streaming;
+use touchc::tracking::track::TrackOutput;
+use touchc::trajectory::Columns;
 
 /// Arguments of `touchc track`.
 #[derive(Debug, clap::Args)]
 pub struct TrackArgs {
-    /// Recording, `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell).
+    /// Recording: `.npy` float32/float64 `[frames, rows, cols]` in psi (NaN = no cell), or
+    /// `.npz` holding it as `pressure`; `-` is standard input.
     pub recording: PathBuf,
     /// Print machine-readable JSON (the reference vectors' fields) instead of a table.
     #[arg(long)]
@@ -51,7 +53,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
     }
     let cfg = args.config.resolve()?;
-    let rec = Recording::load(&args.recording)?;
+    let rec = super::load_recording(&args.recording)?;
     // Streaming, as the compile does: neither the blurred movie nor the detections are
     // printed, so neither is kept.
     let out = track_streaming(&rec, &cfg, &args.config.overrides())?;

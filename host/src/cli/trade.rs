@@ -8,11 +8,11 @@ use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::compile::CompileOptions;
 use touchc::config::Preset;
-use touchc::input::recording::Recording;
 use touchc::input::synth::Truth;
 use touchc::measure::cases::{run_case, CaseRow};
-use touchc::measure::trade::{plot_svg, trade, TradeRow};
+use touchc::measure::trade::{trade, TradeRow};
 use touchc::stage::Stage;
+use touchc::viz::trade::plot_svg;
 
 /// Arguments of `touchc trade`.
 #[derive(Debug, clap::Args)]
@@ -20,7 +20,8 @@ use touchc::stage::Stage;
     "Compare only this preset with `exact` [default: every preset]"
 )))]
 pub struct Args {
-    /// Recordings, `.npy` `[frames, rows, cols]` in psi.
+    /// Recordings: `.npy` `[frames, rows, cols]` in psi, or `.npz` holding it as
+    /// `pressure`; `-` is standard input.
     #[arg(required_unless_present = "cases")]
     recordings: Vec<PathBuf>,
     /// Instead of recordings: the synthetic cases of real touch (a flat hand with a
@@ -139,7 +140,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     let mut failed = 0;
     for (i, path) in args.recordings.iter().enumerate() {
-        let rec = Recording::load(path)?;
+        let rec = super::load_recording(path)?;
         let base = CompileOptions {
             metadata: args.config.overrides(),
             ..CompileOptions::default()
@@ -149,7 +150,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Err(e) => {
                 failed += 1;
                 super::print_error(
-                    &anyhow::Error::new(e).context(format!("{}: cannot compile", path.display())),
+                    &anyhow::Error::new(e)
+                        .context(format!("{}: cannot compile", super::input_name(path))),
                 );
             }
         }
@@ -298,7 +300,7 @@ fn aligned(table: &[Vec<String>], left: usize) -> String {
 
 /// Milliseconds of `stage`; 0 for a stage that did not run (no touch: no placement).
 fn ms(r: &TradeRow, stage: Stage) -> f64 {
-    1e3 * r.seconds.get(stage.name()).copied().unwrap_or(0.0)
+    1e3 * r.seconds.get(stage).unwrap_or(0.0)
 }
 
 /// The numeric columns after the recording and preset, formatted; the transforms as

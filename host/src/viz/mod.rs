@@ -11,6 +11,7 @@ pub mod palette;
 pub mod plot;
 pub mod preview;
 pub mod text;
+pub mod trade;
 pub mod wav;
 
 use std::sync::OnceLock;

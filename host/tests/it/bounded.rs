@@ -4,9 +4,9 @@
 use ndarray::{Array2, Array3};
 use touchc::config::{Config, Metadata, MetadataOverrides, Preset, Sampling};
 use touchc::input::recording::Recording;
+use touchc::track::track;
 use touchc::tracking::detect::{frame_points, local_maxima};
 use touchc::tracking::preprocess::{Blur, BlurOperator};
-use touchc::tracking::track::track;
 
 /// The touch preset's lattice on 8 x 21 cells: every second row and column.
 const LATTICE: usize = 4 * 11;
@@ -32,7 +32,7 @@ fn blurred(frame: &Array2<f64>, cfg: &Config) -> Array2<f64> {
     let rec =
         Recording::from_array("frame", frame.clone().insert_axis(ndarray::Axis(0)).view()).unwrap();
     let sampling = Sampling::new(
-        &Metadata::resolve(&MetadataOverrides::default(), &rec, cfg),
+        &Metadata::resolve(&MetadataOverrides::default(), &rec.file_metadata(), cfg),
         cfg,
     );
     let (r, c) = frame.dim();
@@ -120,7 +120,7 @@ fn the_tracking_graph_stops_at_its_edge_limit() {
     let cfg = Config::default();
     let out = track(&rec, &cfg).unwrap();
     let sampling = Sampling::new(
-        &Metadata::resolve(&MetadataOverrides::default(), &rec, &cfg),
+        &Metadata::resolve(&MetadataOverrides::default(), &rec.file_metadata(), &cfg),
         &cfg,
     );
     assert!(link_within(&out.detections, &cfg.track, &sampling, 1 << 20).is_ok());
@@ -255,7 +255,7 @@ fn a_batch_with_a_plateau_and_bombs_compiles_its_good_files() {
 /// (an hour's is 4.7 GB) or the detections.
 #[test]
 fn tracking_streams_like_the_compile() {
-    use touchc::tracking::track::{track_streaming, track_with};
+    use touchc::track::{track_streaming, track_with};
     let rec =
         Recording::from_array("blobs", crate::common::moving_blobs(400, 3, 5).view()).unwrap();
     for preset in [Preset::Touch, Preset::Paper] {

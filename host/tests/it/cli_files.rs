@@ -127,18 +127,6 @@ fn bank_packs_slots_in_order_and_refuses_bad_input() {
     assert!(!out_path.exists());
 }
 
-/// A stimulus with one header field changed (and the CRC re-sealed).
-fn with_header(
-    bytes: &[u8],
-    edit: impl FnOnce(&mut touch_protocol::stimulus::Header<'_>),
-) -> Vec<u8> {
-    let s = touch_protocol::Stimulus::decode(bytes).unwrap();
-    let mut h = *s.header();
-    edit(&mut h);
-    let keyframes: Vec<_> = s.keyframes().collect();
-    touch_protocol::stimulus::encode(h, &keyframes).unwrap()
-}
-
 #[test]
 fn bank_refuses_a_stimulus_for_another_layout_or_channel_count() {
     let dir = tempfile::tempdir().unwrap();
@@ -147,10 +135,7 @@ fn bank_refuses_a_stimulus_for_another_layout_or_channel_count() {
     let bytes = std::fs::read(&a).unwrap();
     std::fs::write(
         &other,
-        with_header(&bytes, |h| {
-            h.layout_hash = 0x4242;
-            h.layout = "elsewhere";
-        }),
+        stimuli::reencoded(&bytes, |b| b.layout("elsewhere", 0x4242)),
     )
     .unwrap();
     let out_path = dir.path().join("sleeve.bank");
@@ -215,16 +200,13 @@ fn bank_refuses_too_many_slots_and_too_many_bytes_with_the_limits() {
     let frames: Vec<[i16; 8]> = (0..12_000i64)
         .map(|k| [((k * 7919) % 40_001 - 20_000) as i16; 8])
         .collect();
-    let big = touch_protocol::stimulus::encode(
-        touch_protocol::stimulus::Header {
-            keyframe_period_ms: 1,
-            quant_shift: 5,
-            ..*touch_protocol::Stimulus::decode(&std::fs::read(a).unwrap())
-                .unwrap()
-                .header()
-        },
-        &frames,
+    let love = std::fs::read(a).unwrap();
+    let big = touch_protocol::stimulus::Builder::like(
+        touch_protocol::Stimulus::decode(&love).unwrap().header(),
     )
+    .keyframe_period_ms(1)
+    .quant_shift(5)
+    .encode(&frames)
     .unwrap();
     let big_path = dir.path().join("big.touch");
     std::fs::write(&big_path, &big).unwrap();
@@ -247,7 +229,7 @@ fn bank_refuses_too_many_slots_and_too_many_bytes_with_the_limits() {
 #[test]
 fn bank_refuses_a_mirrored_layout_that_kept_the_sleeves_name() {
     let dir = tempfile::tempdir().unwrap();
-    let paper = touchc::placement::layout::Layout::paper();
+    let paper = touchc::layout::Layout::paper();
     let mut toml = String::from("id = \"paper-2x4\"\n");
     for w in paper.workspaces() {
         toml += &format!(

@@ -4,7 +4,7 @@ use crate::bin;
 
 use std::process::Stdio;
 
-use bin::{command, s, stderr, touchc};
+use bin::{command, fed, s, stderr, touchc};
 
 const SUBCOMMANDS: [&str; 10] = [
     "compile",
@@ -110,20 +110,7 @@ fn synth_pipes_into_compile() {
 
     // And a stimulus to standard output, read back from standard input.
     let rec = std::fs::read("../examples/stroke.npy").unwrap();
-    let mut child = command()
-        .args(["compile", "-", "-o", "-"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stdin = child.stdin.take().unwrap();
-    let writer = std::thread::spawn(move || {
-        use std::io::Write;
-        stdin.write_all(&rec).unwrap();
-    });
-    let compiled = child.wait_with_output().unwrap();
-    writer.join().unwrap();
+    let compiled = fed(command().args(["compile", "-", "-o", "-"]), &rec);
     assert!(compiled.status.success(), "{}", stderr(&compiled));
     assert!(compiled.stdout.starts_with(b"TCHS"));
     // Standard input with no -o: there is no name to derive the output from.
@@ -133,4 +120,26 @@ fn synth_pipes_into_compile() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+}
+
+/// Every command that reads a recording takes `-` for standard input, as `--help` says
+/// `compile` does: `track`, `preview` and `trade` read the same bytes as from the file.
+#[test]
+fn recording_readers_take_standard_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = std::fs::read("../examples/tap_pat.npy").unwrap();
+    let piped = |args: &[&str]| fed(command().args(args), &rec);
+    let from_stdin = piped(&["track", "-", "--json"]);
+    assert!(from_stdin.status.success(), "{}", stderr(&from_stdin));
+    let from_file = touchc(&["track", "../examples/tap_pat.npy", "--json"]);
+    assert_eq!(from_stdin.stdout, from_file.stdout);
+
+    let gif = dir.path().join("p.gif");
+    let previewed = piped(&["preview", "-", "--every", "20", "-o", s(&gif)]);
+    assert!(previewed.status.success(), "{}", stderr(&previewed));
+    assert!(std::fs::read(&gif).unwrap().starts_with(b"GIF8"));
+
+    let traded = piped(&["trade", "-", "--preset", "paper", "--repeat", "1"]);
+    assert!(traded.status.success(), "{}", stderr(&traded));
+    assert!(!traded.stdout.is_empty());
 }

@@ -18,10 +18,10 @@ fn write(dir: &Path, name: &str, rec: &Array3<f64>) -> PathBuf {
 
 /// `frames` x 8 x 21 at `rest` with +-0.004 noise, NaN outside the 142-cell sleeve.
 fn quiet(frames: usize, rest: f64, seed: u64) -> Array3<f64> {
-    let mut noise = common::Noise::new(seed);
+    let mut noise = common::Xorshift::mixed(seed);
     Array3::from_shape_fn((frames, 8, 21), |(_, r, c)| {
         if common::sleeve_mask(r, c) {
-            rest + 0.004 * noise.next()
+            rest + 0.004 * noise.signed()
         } else {
             f64::NAN
         }

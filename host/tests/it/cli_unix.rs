@@ -5,13 +5,13 @@
 use crate::bin;
 use crate::stimuli;
 
-use std::io::{Read, Write};
+use std::io::Read;
 use std::os::unix::fs::{FileTypeExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use bin::{command, s, stderr, touchc};
+use bin::{command, fed, s, stderr, touchc};
 
 /// A 1 s stimulus named `name` in `dir`.
 fn short_stimulus(dir: &Path, name: &str) -> PathBuf {
@@ -116,20 +116,10 @@ fn dash_is_standard_output_and_input() {
     let file = short_stimulus(dir.path(), "love");
     let bytes = std::fs::read(&file).unwrap();
     let run = |args: &[&str], stdin: Option<&[u8]>| {
-        let mut child = command()
-            .args(args)
-            .current_dir(dir.path())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let mut input = child.stdin.take().unwrap();
-        if let Some(b) = stdin {
-            input.write_all(b).unwrap();
-        }
-        drop(input);
-        let out = child.wait_with_output().unwrap();
+        let out = fed(
+            command().args(args).current_dir(dir.path()),
+            stdin.unwrap_or_default(),
+        );
         assert!(out.status.success(), "{args:?}: {}", stderr(&out));
         out.stdout
     };

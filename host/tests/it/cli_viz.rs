@@ -4,7 +4,7 @@ use crate::bin;
 
 use bin::{ok, refused, touchc};
 use std::path::{Path, PathBuf};
-use touchc::tracking::trajectory::Columns;
+use touchc::trajectory::Columns;
 
 use touch_protocol::bank;
 
@@ -503,7 +503,7 @@ fn press_and_blip() -> ndarray::Array3<f64> {
 
 #[test]
 fn preview_marks_touch_no_contact_explains_and_only_that() {
-    use touchc::measure::coverage::{self, Cell};
+    use touchc::coverage::{self, Cell};
     use touchc::viz::preview;
 
     let dir = tempfile::tempdir().unwrap();

@@ -5,11 +5,11 @@ use crate::common;
 
 use bin::{ok, refused, touchc};
 
-use touchc::compile::{compile, CompileOptions, Compiled};
+use touchc::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc::config::Config;
 use touchc::input::recording::Recording;
 use touchc::input::synth::{self, Gesture, SynthSpec};
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 
 fn synth_recording(gestures: &[Gesture], seed: u64) -> Recording {
     let spec = SynthSpec {
@@ -108,7 +108,7 @@ fn a_touch_outside_every_workspace_is_silent() {
         .flatten()
         .all(|&a| (-0.9 - 1e-12..=0.0).contains(&a)));
     assert!(
-        c.report.warnings.iter().any(|w| w.contains("workspace")),
+        c.report.warnings.contains(&Warning::OutsideWorkspaces),
         "{:?}",
         c.report.warnings
     );
@@ -125,7 +125,7 @@ fn no_touch_is_a_silent_stimulus_with_a_warning() {
     let c = compile_default(&rec);
     assert!(c.report.no_touch);
     assert!(
-        c.report.warnings[0].starts_with("no touch"),
+        matches!(c.report.warnings[0], Warning::NoTouch { .. }),
         "{:?}",
         c.report.warnings
     );
@@ -305,7 +305,7 @@ fn reaching_the_trajectory_limit_is_a_warning_with_the_figure() {
         .report
         .warnings
         .iter()
-        .any(|w| w.contains("trajectory limit")));
+        .any(|w| matches!(w, Warning::TrajectoryLimit { .. })));
 
     config.track.max_trajectories = 1;
     let capped = compile(
@@ -322,11 +322,18 @@ fn reaching_the_trajectory_limit_is_a_warning_with_the_figure() {
         .report
         .warnings
         .iter()
-        .find(|w| w.contains("trajectory limit was reached"))
+        .find(|w| matches!(w, Warning::TrajectoryLimit { .. }))
         .expect("a warning names the limit");
     assert!(
-        warning.contains("1 of track.max_trajectories = 1"),
-        "{warning}"
+        matches!(
+            warning,
+            Warning::TrajectoryLimit {
+                trajectories: 1,
+                max_trajectories: 1,
+                ..
+            }
+        ),
+        "{warning:?}"
     );
 }
 
@@ -367,13 +374,13 @@ fn a_fitted_long_touch_still_encodes() {
         let warning = r
             .warnings
             .iter()
-            .find(|w| w.contains("to pass the limits"))
+            .find_map(|w| match w {
+                Warning::Fitted { scale, refits, .. } => Some((*scale, *refits)),
+                _ => None,
+            })
             .unwrap_or_else(|| panic!("{:?}", r.warnings));
-        assert_eq!(
-            warning.contains("after the fit"),
-            refits,
-            "{share}: {warning}"
-        );
+        assert_eq!(warning.0, r.fit_scale);
+        assert_eq!(warning.1 > 0, refits, "{share}: {warning:?}");
     }
 }
 

@@ -9,9 +9,9 @@
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 
-use crate::bin::{ok, refused, s, touchc};
+use crate::bin::{ok, refused, s, stderr, touchc};
 
 const FULL_SCALE_A: f64 = 1.0;
 const EMOJI: [&str; 6] = [
@@ -991,4 +991,45 @@ fn usage_mistakes_exit_2_before_any_work() {
     assert_eq!(r.status.code(), Some(2));
     assert_eq!(std::fs::read(&copy).unwrap(), std::fs::read(&love).unwrap());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn an_hjif_reference_device_carries_the_resonance_the_maker_gives() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("love.hjif");
+    let device = |doc: &Value| doc["perceptions"][0]["reference_devices"][0].clone();
+
+    export_ok(&emoji("love"), "hjif", &[], &out);
+    let plain = json(&out);
+    validate_hjif(&plain);
+    assert!(device(&plain).get("resonance_frequency").is_none());
+
+    std::fs::remove_file(&out).unwrap();
+    export_ok(&emoji("love"), "hjif", &["--resonance-hz", "212.5"], &out);
+    let given = json(&out);
+    validate_hjif(&given);
+    assert_eq!(device(&given)["resonance_frequency"], 212.5);
+
+    // Out of range, not a number, or a format without a device: usage, and no file.
+    std::fs::remove_file(&out).unwrap();
+    for (to, hz) in [
+        ("hjif", "0"),
+        ("hjif", "NaN"),
+        ("hjif", "1e9"),
+        ("ahap", "200"),
+    ] {
+        let run = touchc(&[
+            "export",
+            s(&emoji("love")),
+            "--to",
+            to,
+            "--resonance-hz",
+            hz,
+            "-o",
+            s(&out),
+        ]);
+        assert_eq!(run.status.code(), Some(2), "{to} {hz}: {}", stderr(&run));
+        assert!(stderr(&run).contains("--resonance-hz"), "{}", stderr(&run));
+        assert!(!out.exists());
+    }
 }

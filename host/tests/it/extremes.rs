@@ -5,8 +5,9 @@ use crate::common;
 use ndarray::{s, Array3};
 use touchc::config::Config;
 use touchc::input::recording::{Recording, RecordingError};
-use touchc::tracking::track::{track, TrackError, TrackOutput};
-use touchc::tracking::trajectory::Columns;
+use touchc::track::track;
+use touchc::tracking::track::{TrackError, TrackOutput};
+use touchc::trajectory::Columns;
 
 fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
     track(&Recording::from_array("synthetic", a.view()).unwrap(), cfg).unwrap()

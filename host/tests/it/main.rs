@@ -1,19 +1,30 @@
 //! The host's integration tests, one binary: a change to the library relinks one test
 //! executable, not one per file. Each module is a group of tests that used to be a file
-//! of its own; `common` and its siblings are the fixtures (`common/mod.rs` is shared with
-//! the benches and examples, `common/poison.rs` with the fuzz targets, so they stay
-//! beside this folder). proptest keeps its regression seeds in `../proptest-regressions/`.
+//! of its own; the fixtures are the test kit's (`touchc-testkit`, shared with the
+//! benches, examples and fuzz targets), `common` its root. proptest keeps its
+//! regression seeds in `../proptest-regressions/`.
 
-#[path = "../common/bin.rs"]
-mod bin;
-#[path = "../common/mod.rs"]
-mod common;
-#[path = "../common/fuzz_input.rs"]
-mod fuzz_input;
-#[path = "../common/poison.rs"]
-mod poison;
-#[path = "../common/stimuli.rs"]
-mod stimuli;
+use touchc_testkit as common;
+use touchc_testkit::{fuzz_input, poison, stimuli};
+
+/// The kit's runs of `touchc`, on this package's binary.
+mod bin {
+    use std::process::{Command, Output};
+
+    pub use touchc_testkit::bin::{fed, ok, refused, s, stderr};
+
+    const TOUCHC: touchc_testkit::bin::Bin = touchc_testkit::bin::Bin(env!("CARGO_BIN_EXE_touchc"));
+
+    /// A `touchc` command, to add arguments, a working directory or standard input to.
+    pub fn command() -> Command {
+        TOUCHC.command()
+    }
+
+    /// Runs `touchc ARGS...` to the end and returns its status and output.
+    pub fn touchc(args: &[&str]) -> Output {
+        TOUCHC.run(args)
+    }
+}
 
 mod blur;
 mod bnb_oracle;

@@ -3,16 +3,18 @@
 //! actuator strips have axes and legend entries, and its heat map shows typical
 //! frames, not black.
 
-use std::collections::BTreeMap;
-
 use touchc::config::Preset;
-use touchc::measure::trade::{log_ticks, plot_svg, TradeRow};
+use touchc::measure::trade::TradeRow;
+use touchc::stage::{Stage, StageSeconds};
+use touchc::viz::trade::{log_ticks, plot_svg};
 
 fn row(input: &str, preset: Preset, ms: f64, rms: f64) -> TradeRow {
+    let mut seconds = StageSeconds::default();
+    seconds.add(Stage::Total, ms / 1000.0);
     TradeRow {
         input: input.to_string(),
         preset,
-        seconds: BTreeMap::from([("total", ms / 1000.0)]),
+        seconds,
         transforms: (1, 1),
         score: 1.0,
         score_gap_pct: 0.0,

@@ -7,10 +7,10 @@
 use proptest::prelude::*;
 use touchc::config::PlacementConfig;
 use touchc::geometry::pixel_centre_mm;
+use touchc::layout::Layout;
 use touchc::placement::bnb::SubsetProblem;
-use touchc::placement::layout::Layout;
 use touchc::placement::{place, transform_grid};
-use touchc::tracking::trajectory::{Columns, Trajectory};
+use touchc::trajectory::{Columns, Trajectory};
 
 const ROWS: usize = 56;
 const COLS: usize = 147;

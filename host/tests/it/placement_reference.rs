@@ -6,7 +6,7 @@ use crate::common;
 
 use common::Reference;
 use touchc::config::{CoarseToFine, Config, Preset};
-use touchc::placement::layout::Layout;
+use touchc::layout::Layout;
 use touchc::placement::place;
 
 fn check(name: &str) {

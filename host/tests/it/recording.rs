@@ -7,7 +7,7 @@ use ndarray::{Array2, Array3, ShapeBuilder};
 use ndarray_npy::WriteNpyExt;
 
 use touchc::input::recording::{Recording, RecordingError};
-use touchc::tracking::track::track;
+use touchc::track::track;
 
 fn write<T: WriteNpyExt>(dir: &tempfile::TempDir, name: &str, a: &T) -> std::path::PathBuf {
     let p = dir.path().join(name);

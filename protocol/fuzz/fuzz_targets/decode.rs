@@ -25,16 +25,18 @@ fn play(s: &Stimulus<'_>) {
 }
 
 
-/// Frames `payload` with a valid prefix and CRC, so the fuzzer reaches the header
-/// and body parsers instead of stopping at the checksum.
-fn sealed(magic: [u8; 4], payload: &[u8]) -> Vec<u8> {
-    touch_protocol::container::seal(magic, 1, payload).expect("fuzz inputs are small")
+/// Frames `payload` with a valid prefix, the format's current version and CRC, so the
+/// fuzzer reaches the header and body parsers instead of stopping at the checksum or
+/// the version check.
+fn sealed(magic: [u8; 4], version: u16, payload: &[u8]) -> Vec<u8> {
+    touch_protocol::container::seal(magic, version, payload).expect("fuzz inputs are small")
 }
 
 fuzz_target!(|data: &[u8]| {
+    use touch_protocol::{bank, stimulus};
     check(data);
-    check(&sealed(touch_protocol::stimulus::MAGIC, data));
-    check(&sealed(touch_protocol::bank::MAGIC, data));
+    check(&sealed(stimulus::MAGIC, stimulus::VERSION, data));
+    check(&sealed(bank::MAGIC, bank::VERSION, data));
 });
 
 fn check(data: &[u8]) {

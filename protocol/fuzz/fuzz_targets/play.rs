@@ -59,7 +59,11 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let (schedule, payload) = rest.split_at(n);
-    let file = touch_protocol::container::seal(touch_protocol::stimulus::MAGIC, 1, payload)
+    let file = touch_protocol::container::seal(
+        touch_protocol::stimulus::MAGIC,
+        touch_protocol::stimulus::VERSION,
+        payload,
+    )
         .expect("fuzz inputs are small");
     let Ok(s) = Stimulus::decode(&file) else { return };
     // The device's own limits are the stricter: those are what the coil can take.

@@ -248,7 +248,10 @@ pub enum BankState {
 pub struct BankSummary {
     /// Bytes of the image.
     pub len: u32,
-    /// CRC-32 of the whole image (as [`Command::BankBegin`] takes it).
+    /// The CRC-32 stored in the image's last four bytes (over every byte before
+    /// them): the one the boot checked, which tells banks apart. (The CRC-32 of a
+    /// whole intact image, as [`Command::BankBegin`] takes it, is the same constant
+    /// for every bank.)
     pub crc: u32,
     /// Number of slots.
     pub slots: u8,
@@ -292,9 +295,11 @@ pub struct StatusReport {
     pub stopping: bool,
     /// The slot a short press plays.
     pub selected: u8,
-    /// Each channel's heat, per mille of its I^2 t budget (a start is refused above 500).
+    /// Each channel's heat, per mille of the I^2 t budget a start of the selected
+    /// slot is judged by (the stricter of its own and the device's): such a start is
+    /// refused above 500, with the per mille this gives.
     pub heat_permille: [u16; 8],
-    /// Idle milliseconds until a start is accepted (0: now).
+    /// Idle milliseconds until a start of the selected slot is accepted (0: now).
     pub cooldown_ms: u32,
     /// Limit hits since power-up.
     pub faults: u16,

@@ -1,0 +1,146 @@
+//! A tolerance per second and channel for a dense file: the RMS budget spent where it
+//! saves most bends ([`allocate`]).
+
+use touch_protocol::{stimulus, CHANNELS};
+
+use super::tube::{tube_scheduled, Schedule, WindowCosts};
+use super::KeyframeError;
+
+/// Multiples of the uniform tube's tolerance that [`allocate`] chooses among, per
+/// window and channel (those over the max bound are left out). Measured on the 166
+/// stimuli of `examples/sizes.rs`: 16 factors from 0.5 to 2.6 give a worst case 3% lower
+/// than 9 from 0.7 to 1.8.
+const ALLOCATE_FACTORS: [f64; 16] = [
+    0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.8, 2.0, 2.3, 2.6,
+];
+
+/// The window lengths [`allocate`] tries, in units of [`ALLOCATE_UNIT_MS`]: 800 and
+/// 1200 ms. The outcome of a schedule is chaotic (a window's lines run on into the
+/// next); of the two, the smaller file wins (on the 166 stimuli, 2-4% smaller at the
+/// worst case than one window length; 250 and 500 ms windows were larger).
+const ALLOCATE_WINDOWS: [usize; 2] = [2, 3];
+
+/// The granularity of the windows, ms.
+const ALLOCATE_UNIT_MS: usize = 400;
+
+/// Schedules [`allocate`] plays out per window length, at most.
+const ALLOCATE_TRIES: usize = 6;
+
+/// Spends the RMS budget where it saves most bends. The uniform tube at `tol`
+/// (fraction of full scale) times each of [`ALLOCATE_FACTORS`] gives, per window and
+/// channel, its bends and squared error; each window and channel then takes the factor
+/// that minimises `bends + lambda * error`, `lambda` the smallest whose predicted total
+/// error meets the RMS bound (a Lagrangian allocation: a busy stretch may stray further
+/// where that saves many bends, a quiet one less). The tube is run with those
+/// tolerances and its modelled error checked; the prediction errs by a few per cent
+/// either way, so the target is lowered after a miss and bisected after a pass. The
+/// smallest passing file, if any.
+pub(super) fn allocate<'a>(
+    signal: &[[f64; CHANNELS]],
+    fs_a: f64,
+    period: usize,
+    shift: u8,
+    tol: f64,
+    (rms_model, max_model): (f64, f64),
+    builder: &impl Fn(u8) -> stimulus::Builder<'a>,
+) -> Result<Option<Vec<u8>>, KeyframeError> {
+    let unit = (ALLOCATE_UNIT_MS / period).max(1);
+    let factors: Vec<f64> = ALLOCATE_FACTORS
+        .iter()
+        .map(|f| f * tol)
+        .filter(|&t| t <= max_model)
+        .collect();
+    // The uniform runs, costed per unit window (a window of either length is a sum of
+    // them: the uniform tube does not depend on the windows).
+    let runs: Vec<WindowCosts> = factors
+        .iter()
+        .map(|&t| {
+            let uniform = Schedule {
+                keyframes: unit,
+                tols: vec![[t * 32768.0; CHANNELS]],
+            };
+            tube_scheduled(signal, fs_a, period, shift, &uniform, true).3
+        })
+        .collect();
+    let q = 32768.0 * rms_model;
+    let budget = q * q * (signal.len() * CHANNELS) as f64;
+    let mut best: Option<Vec<u8>> = None;
+    for per in ALLOCATE_WINDOWS {
+        // The runs' costs per window of `per` units.
+        let costs: Vec<WindowCosts> = runs
+            .iter()
+            .map(|run| {
+                run.chunks(per)
+                    .map(|chunk| {
+                        std::array::from_fn(|c| {
+                            chunk
+                                .iter()
+                                .fold((0, 0.0), |(b, e), w| (b + w[c].0, e + w[c].1))
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let windows = costs.first().map_or(0, Vec::len);
+        // Each window and channel's factor at `lambda`, and the total error predicted.
+        let choose = |lambda: f64| {
+            let mut total = 0.0;
+            let pick: Vec<[usize; CHANNELS]> = (0..windows)
+                .map(|w| {
+                    std::array::from_fn(|c| {
+                        let cost = |f: usize| {
+                            let (bends, error) = costs[f][w][c];
+                            f64::from(bends) + lambda * error
+                        };
+                        let f = (0..costs.len())
+                            .min_by(|&a, &b| cost(a).total_cmp(&cost(b)))
+                            .unwrap_or(0);
+                        total += costs[f][w][c].1;
+                        f
+                    })
+                })
+                .collect();
+            (total, pick)
+        };
+        let (mut passed, mut missed): (Option<f64>, Option<f64>) = (None, None);
+        let mut target = 0.98 * budget;
+        for _ in 0..ALLOCATE_TRIES {
+            // The smallest lambda (in log10) whose choice meets the target: the error
+            // falls as lambda grows.
+            let (mut lo, mut hi) = (-40.0f64, 10.0f64);
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                if choose(10f64.powf(mid)).0 <= target {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            let schedule = Schedule {
+                keyframes: unit * per,
+                tols: choose(10f64.powf(hi))
+                    .1
+                    .iter()
+                    .map(|p| p.map(|f| factors[f] * 32768.0))
+                    .collect(),
+            };
+            let (keyframes, rms, max, _) =
+                tube_scheduled(signal, fs_a, period, shift, &schedule, false);
+            if rms / 32768.0 <= rms_model && max / 32768.0 <= max_model {
+                let bytes = builder(shift).encode(&keyframes)?;
+                if best.as_ref().is_none_or(|b| bytes.len() < b.len()) {
+                    best = Some(bytes);
+                }
+                passed = Some(target);
+            } else {
+                missed = Some(target);
+            }
+            target = match (passed, missed) {
+                (Some(p), Some(m)) if p < m => 0.5 * (p + m),
+                (Some(_), _) => break,
+                (None, _) => 0.93 * target,
+            };
+        }
+    }
+    Ok(best)
+}

@@ -1,0 +1,144 @@
+//! Tracking and rendering measured on the synthetic cases of real touch
+//! ([`touchc_input::synth::cases`]) under each preset: one row per case, sensor, rate,
+//! seed and preset (`touchc trade --cases`, `docs/trade.md`).
+
+use serde::Serialize;
+
+use touchc_input::recording::{Recording, RecordingError};
+use touchc_input::synth::{self, cases::Case, SynthSpec};
+use touchc_model::config::{Config, MetadataOverrides, Preset};
+use touchc_pipeline::compile::{compile, CompileError, CompileOptions};
+
+use crate::evaluate::evaluate_compiled;
+
+/// What one preset made of one case.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CaseRow {
+    /// The case's name.
+    pub case: String,
+    /// The sensor's name.
+    pub sensor: &'static str,
+    /// The rate the case was sampled at, Hz.
+    pub rate_hz: f64,
+    /// The seed of the draw.
+    pub seed: u64,
+    /// The preset.
+    pub preset: Preset,
+    /// True contacts that press above the touch threshold.
+    pub contacts: usize,
+    /// Trajectories tracked.
+    pub trajectories: usize,
+    /// Share of true contacts recalled.
+    pub recall: f64,
+    /// Trajectories that follow two or more true contacts.
+    pub merges: usize,
+    /// Handovers of a contact between trajectories.
+    pub splits: usize,
+    /// Trajectories where nothing presses most of the time.
+    pub false_contacts: usize,
+    /// Share of the touch pressure within two cells of a tracked contact.
+    pub coverage: f64,
+    /// Share of the touch pressure a driven actuator plays (see [`touchc_pipeline::rendered`]).
+    pub rendered: f64,
+    /// The stimulus's length, seconds.
+    pub duration_s: f64,
+    /// Wall seconds of the compile.
+    pub seconds: f64,
+}
+
+impl CaseRow {
+    /// The bar for real touch: recall >= 0.95, coverage >= 0.9, splits at most
+    /// a tenth of the true contacts, no merges, no false contacts.
+    pub fn passes(&self) -> bool {
+        self.recall >= 0.95
+            && self.coverage >= 0.9
+            && 10 * self.splits <= self.contacts
+            && self.merges == 0
+            && self.false_contacts == 0
+    }
+}
+
+/// Why a case could not be measured.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CaseError {
+    /// The synthetic recording was refused (it never should be).
+    #[error("case {case}: {source}")]
+    Recording {
+        /// The case.
+        case: String,
+        /// Why.
+        #[source]
+        source: RecordingError,
+    },
+    /// The compile failed.
+    #[error("case {case}: {source}")]
+    Compile {
+        /// The case.
+        case: String,
+        /// Why.
+        #[source]
+        source: Box<CompileError>,
+    },
+}
+
+/// Compiles `case` with seed `seed` under each of `configs` and measures each against the
+/// truth; `base` supplies everything but the config and the sampling.
+pub fn run_case(
+    case: &Case,
+    seed: u64,
+    base: &CompileOptions,
+    configs: &[(Preset, Config)],
+) -> Result<Vec<CaseRow>, CaseError> {
+    let spec = SynthSpec {
+        seed,
+        ..case.spec.clone()
+    };
+    let (data, truth) = synth::generate_with_truth(&spec);
+    let name = format!("{} {} {} Hz", case.name, case.sensor.name(), case.rate_hz);
+    let rec = Recording::from_array(name, data.view()).map_err(|source| CaseError::Recording {
+        case: case.name.clone(),
+        source,
+    })?;
+    configs
+        .iter()
+        .map(|(preset, config)| {
+            let opts = CompileOptions {
+                config: config.clone(),
+                metadata: MetadataOverrides {
+                    rate_hz: Some(truth.rate_hz),
+                    pitch_mm: Some(truth.pitch_mm),
+                },
+                ..base.clone()
+            };
+            let compiled = compile(&rec, &opts).map_err(|source| CaseError::Compile {
+                case: case.name.clone(),
+                source: Box::new(source),
+            })?;
+            let e = evaluate_compiled(&truth, &rec, &compiled).map_err(|source| {
+                CaseError::Recording {
+                    case: case.name.clone(),
+                    source,
+                }
+            })?;
+            let r = &compiled.report;
+            Ok(CaseRow {
+                case: case.name.clone(),
+                sensor: case.sensor.name(),
+                rate_hz: case.rate_hz,
+                seed,
+                preset: *preset,
+                contacts: e.contacts.len(),
+                trajectories: e.trajectories,
+                recall: e.recall(),
+                merges: e.merges,
+                splits: e.splits,
+                false_contacts: e.false_contacts,
+                coverage: e.coverage.ratio(),
+                rendered: r.rendered_coverage,
+                duration_s: r.duration_s,
+                seconds: r.seconds.total(),
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,84 @@
+//! Serial ports: a sleeve's USB socket (CDC-ACM) or its USART through a
+//! USB-serial adapter.
+
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use super::Transport;
+
+/// The baud rate of the sleeve's USART. A CDC-ACM port ignores it.
+pub(crate) const BAUD: u32 = 460_800;
+
+/// A serial port opened for the link (8N1, no flow control).
+pub struct SerialTransport {
+    port: Box<dyn serialport::SerialPort>,
+}
+
+impl SerialTransport {
+    /// Opens `path` at `BAUD`.
+    pub fn open(path: &Path) -> io::Result<SerialTransport> {
+        let name = path.to_string_lossy();
+        let port = serialport::new(name.as_ref(), BAUD)
+            .timeout(Duration::from_millis(100))
+            .open()
+            .map_err(io::Error::from)?;
+        // Bytes left over from before (a previous session, line noise) are not ours.
+        let _ = port.clear(serialport::ClearBuffer::Input);
+        Ok(SerialTransport { port })
+    }
+}
+
+impl Transport for SerialTransport {
+    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.port.write_all(bytes)?;
+        self.port.flush()
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        self.port
+            .set_timeout(timeout.max(Duration::from_millis(1)))
+            .map_err(io::Error::from)?;
+        match self.port.read(buf) {
+            Ok(n) => Ok(n),
+            Err(e) if e.kind() == io::ErrorKind::TimedOut => Ok(0),
+            Err(e) => Err(e),
+        }
+    }
+}
+
+/// A serial port that may be a sleeve.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Candidate {
+    /// The device path (`/dev/ttyACM0`).
+    pub path: PathBuf,
+    /// Its USB vendor and product id, when it is on USB.
+    pub usb: Option<(u16, u16)>,
+    /// The USB product string, when there is one.
+    pub product: Option<String>,
+    /// The port has the sleeve's own USB ids (its OTG FS socket), not an adapter's.
+    pub is_sleeve: bool,
+}
+
+/// The serial ports a sleeve may be on: every USB serial port (the sleeve's own
+/// socket, by its ids, and USB-serial adapters, which may carry its USART). Ports
+/// that are not on USB (a PC's built-in UARTs) are left out. On Linux the list
+/// comes from sysfs, without libudev.
+pub fn candidates(sleeve_ids: (u16, u16)) -> io::Result<Vec<Candidate>> {
+    let ports = serialport::available_ports().map_err(io::Error::from)?;
+    let mut out: Vec<Candidate> = ports
+        .into_iter()
+        .filter_map(|p| match p.port_type {
+            serialport::SerialPortType::UsbPort(usb) => Some(Candidate {
+                path: PathBuf::from(p.port_name),
+                usb: Some((usb.vid, usb.pid)),
+                product: usb.product,
+                is_sleeve: (usb.vid, usb.pid) == sleeve_ids,
+            }),
+            _ => None,
+        })
+        .collect();
+    // The sleeve's own sockets first, then by path.
+    out.sort_by(|a, b| b.is_sleeve.cmp(&a.is_sleeve).then(a.path.cmp(&b.path)));
+    Ok(out)
+}

@@ -1,0 +1,653 @@
+//! The whole chain, recording to stimulus file: stages 0 to 7 in order, timed.
+//!
+//! Each stage lives in its own module; this one only hands each stage's output to
+//! the next, measures it, and gathers the figures of the [`Report`].
+
+use std::time::Instant;
+
+use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
+use crate::rendered::{self, Shortfall};
+use touch_protocol::{Limits, CHANNELS};
+use touchc_encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
+use touchc_input::recording::{Recording, RecordingError};
+use touchc_input::warning::InputWarning;
+use touchc_model::config::Config;
+use touchc_model::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
+use touchc_model::crop::Crop;
+use touchc_model::layout::Layout;
+use touchc_model::stage::{Shares, Stage, StageSeconds};
+use touchc_placement::{self as placement, Placement, PlacementError};
+use touchc_rendering::condition::{self, ConditionError, LimitViolation};
+use touchc_rendering::signals::{self, ChannelSignals};
+use touchc_tracking::scene;
+use touchc_tracking::track::{TrackError, TrackOutput};
+
+mod warning;
+
+pub use warning::Warning;
+
+/// Everything `compile` needs besides the recording.
+#[derive(Debug, Clone)]
+pub struct CompileOptions {
+    /// Algorithm parameters (the paper's by default).
+    pub config: Config,
+    /// The actuator layout (the paper's sleeve by default).
+    pub layout: Layout,
+    /// The actuator profile's safety limits the signal must pass.
+    pub limits: Limits,
+    /// Scale the signal down to pass the limits instead of refusing it.
+    pub fit: bool,
+    /// Crop time and space to the active scene before the heavy stages.
+    pub crop: bool,
+    /// Keep the blurred movie and the scored detections in [`Compiled::tracked`] (what
+    /// a preview draws; with `crop` off, the whole recording's). Off, the compile
+    /// streams through the frames and keeps neither: memory follows the touch, not the
+    /// recording's length.
+    pub keep_scene: bool,
+    /// The recording's rate and pitch from the command line (over the file's, over the
+    /// config's `input.rate_hz` / `input.pitch_mm`).
+    pub metadata: MetadataOverrides,
+    /// The stimulus name written into the file (at most 32 bytes).
+    pub name: String,
+}
+
+impl Default for CompileOptions {
+    fn default() -> Self {
+        CompileOptions {
+            config: Config::default(),
+            layout: Layout::paper(),
+            limits: Limits::SLEEVE,
+            fit: false,
+            crop: true,
+            keep_scene: false,
+            metadata: MetadataOverrides::default(),
+            name: String::from("touch"),
+        }
+    }
+}
+
+/// Why a recording could not be compiled.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CompileError {
+    /// A knob is out of its range (names the knob, the value and the range).
+    #[error("config: {0}")]
+    Config(#[from] ConfigError),
+    /// The recording is unusable (the message names the file).
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// Tracking failed.
+    #[error(transparent)]
+    Track(#[from] TrackError),
+    /// Placement failed.
+    #[error("placement: {0}")]
+    Placement(#[from] PlacementError),
+    /// Conditioning failed.
+    #[error("conditioning: {0}")]
+    Condition(#[from] ConditionError),
+    /// The signal breaks the actuator profile's limits (and `fit` was not asked for).
+    #[error("the signal breaks the safety limits: {0} (use --fit to scale it down)")]
+    Limits(#[from] LimitViolation),
+    /// No encoding met the fidelity bounds, or the protocol refused the header.
+    #[error("encoding: {0}")]
+    Keyframes(#[from] KeyframeError),
+}
+
+/// The figures of one compile (`touchc compile --report`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    /// The recording's name (its file).
+    pub input: String,
+    /// The recording's shape as read, `[frames, rows, cols]`.
+    pub shape: [usize; 3],
+    /// The stimulus name.
+    pub name: String,
+    /// Chosen transform `[x_mm, y_mm, scale, rotation, split_mm]`; `None` without touch.
+    pub transform: Option<[f64; 5]>,
+    /// Its score (lower is better); 0 without touch.
+    pub score: f64,
+    /// Selected trajectories, indices in `touchc track` order.
+    pub selected: Vec<usize>,
+    /// Trajectories found.
+    pub trajectories: usize,
+    /// Transforms in the grid.
+    pub transforms: usize,
+    /// Transforms whose subset was actually solved (the others meet no trajectory).
+    pub transforms_evaluated: usize,
+    /// Transforms whose subset search ran out of its node budget (a warning says so).
+    pub transforms_inexact: usize,
+    /// True when the flow used every unit of `track.max_trajectories` (a warning says so).
+    pub trajectory_limit_reached: bool,
+    /// Edges the min-cost flow scanned (its work; 0 without touch).
+    pub flow_work: u64,
+    /// True when the min-cost flow stopped at its work budget (a warning says so).
+    pub flow_budget_reached: bool,
+    /// Wall seconds per stage that ran, and [`Stage::Total`].
+    pub seconds: StageSeconds,
+    /// Size of the stimulus file.
+    pub bytes: usize,
+    /// Length of the stimulus signal, seconds.
+    pub duration_s: f64,
+    /// `bytes / duration_s`.
+    pub bytes_per_second: f64,
+    /// RMS error of the player's output against the compiler's f64 1 kHz signal,
+    /// fraction of full scale.
+    pub rms_error_fs: f64,
+    /// Largest such error.
+    pub max_error_fs: f64,
+    /// Keyframe period chosen, ms.
+    pub keyframe_period_ms: u16,
+    /// Quantisation shift chosen.
+    pub quant_shift: u8,
+    /// How far the keyframes' lines may stray from the signal, fraction of full scale
+    /// (0 when every keyframe is the signal's value, rounded; see `encoding::keyframes`).
+    pub line_tolerance_fs: f64,
+    /// Scale applied to pass the limits (1 = unchanged).
+    pub fit_scale: f64,
+    /// True when the recording holds no touch (a silent stimulus).
+    pub no_touch: bool,
+    /// The crop applied: frames `[start, end)`, cells rows/cols `[start, end)`.
+    pub crop: Option<Crop>,
+    /// Share of the touch pressure within two cells of a tracked contact (1 without
+    /// touch, 0 when the tare removed the touch the raw frames hold: none of it is
+    /// played; see [`crate::coverage`]).
+    pub coverage: f64,
+    /// The figures behind `coverage`: touch and explained pressure, touch readings.
+    pub coverage_detail: Coverage,
+    /// Where the unexplained touch lies (absent without touch).
+    pub misses: Option<Misses>,
+    /// Share of the touch pressure a driven actuator plays, within its workspace circle
+    /// (1 without touch, 0 when the tare removed it; see [`crate::rendered`]).
+    pub rendered_coverage: f64,
+    /// The figures behind `rendered_coverage` (`explained_psi` is the played pressure).
+    pub rendered_detail: Coverage,
+    /// The sleeve plays much less of the touch than the tracker follows (also among
+    /// [`Report::warnings`]).
+    pub shortfall: Option<Shortfall>,
+    /// Things the user should know, the input stage's first (what the later ones say
+    /// may follow from them).
+    pub warnings: Vec<Warning>,
+    /// The recording's rate and pitch as used, each with its source (cli, file,
+    /// default).
+    pub metadata: Metadata,
+    /// Every algorithm parameter this compile used (preset and overrides applied), so
+    /// the report says how to reproduce it.
+    pub config: Config,
+    /// The actuator layout's id.
+    pub layout: String,
+}
+
+impl Report {
+    /// The input stage's warnings among [`Report::warnings`].
+    pub fn input_warnings(&self) -> impl Iterator<Item = &InputWarning> {
+        self.warnings.iter().filter_map(|w| match w {
+            Warning::Input(w) => Some(w),
+            _ => None,
+        })
+    }
+}
+
+/// A compiled stimulus with its report and the intermediate results (for plots).
+#[derive(Debug, Clone)]
+pub struct Compiled {
+    /// The stimulus file.
+    pub stimulus: Vec<u8>,
+    /// Its figures.
+    pub report: Report,
+    /// The compiler's own 1 kHz signal, amperes (what the player approximates).
+    pub signal: Vec<[f64; CHANNELS]>,
+    /// Tracking output (absent for a recording without touch).
+    pub tracked: Option<TrackOutput>,
+    /// Placement (absent without trajectories).
+    pub placement: Option<Placement>,
+    /// Per-actuator pressures at the frame rate (absent without touch).
+    pub signals: Option<ChannelSignals>,
+}
+
+/// Stimulus names are at most this many bytes.
+const MAX_NAME: usize = touch_protocol::stimulus::MAX_NAME_LEN;
+
+/// `name` cut to the format's limit at a character boundary.
+pub fn stimulus_name(name: &str) -> &str {
+    let mut end = name.len().min(MAX_NAME);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    &name[..end]
+}
+
+struct Clock {
+    seconds: StageSeconds,
+    start: Instant,
+    lap: Instant,
+}
+
+impl Clock {
+    fn new() -> Self {
+        let now = Instant::now();
+        Clock {
+            seconds: StageSeconds::default(),
+            start: now,
+            lap: now,
+        }
+    }
+
+    fn stage(&mut self, stage: Stage) {
+        self.split(&[(stage, 1.0)]);
+    }
+
+    /// The time since the last lap, shared out among `shares` (stage, share).
+    fn split(&mut self, shares: &Shares) {
+        let now = Instant::now();
+        let elapsed = (now - self.lap).as_secs_f64();
+        for &(stage, share) in shares {
+            self.seconds.add(stage, share * elapsed);
+        }
+        self.lap = now;
+    }
+
+    fn finish(mut self) -> StageSeconds {
+        self.seconds
+            .add(Stage::Total, self.start.elapsed().as_secs_f64());
+        self.seconds
+    }
+}
+
+/// Compiles `rec` into a stimulus.
+pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, CompileError> {
+    compile_from(Input::Borrowed(rec), opts)
+}
+
+/// [`compile`], taking the recording: its frames are freed once tared, so the later
+/// stages do not hold the raw recording beside the tared copy (at an hour of the
+/// paper's sleeve, 97 MB of the peak). Same result.
+pub fn compile_owned(rec: Recording, opts: &CompileOptions) -> Result<Compiled, CompileError> {
+    compile_from(Input::Owned(rec), opts)
+}
+
+/// The recording a compile reads: the caller's, or its own to free early.
+enum Input<'a> {
+    Borrowed(&'a Recording),
+    Owned(Recording),
+}
+
+impl std::ops::Deref for Input<'_> {
+    type Target = Recording;
+
+    fn deref(&self) -> &Recording {
+        match self {
+            Input::Borrowed(r) => r,
+            Input::Owned(r) => r,
+        }
+    }
+}
+
+fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, CompileError> {
+    let cfg = &opts.config;
+    let mut clock = Clock::new();
+    let mut warnings = Vec::new();
+
+    // Every knob, in the units of this recording, before any work.
+    let metadata = Metadata::resolve(&opts.metadata, &rec.file_metadata(), cfg);
+    let sampling = Sampling::new(&metadata, cfg);
+    let (_, rows, cols) = rec.dim();
+    cfg.validate_for(&sampling, (rows, cols))?;
+
+    // Stage 0: tare and trim, and the paper's "no touch" filter.
+    let shape = rec.dim();
+    let (tared, tare_note) = rec.tare_noting(&cfg.input, &sampling)?;
+    let mut notes: Vec<InputWarning> = touchc_input::sanity::transposed(shape)
+        .into_iter()
+        .chain(tare_note)
+        .collect();
+    warnings.extend(
+        touchc_input::sanity::check(&rec, tared.view(), cfg, &sampling)
+            .into_iter()
+            .map(Warning::Sanity),
+    );
+    let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
+    let silent = touched <= cfg.input.min_touch_readings;
+    if silent {
+        notes.extend(touchc_input::sanity::erased_touch(&rec, cfg, &sampling));
+    }
+    // Nothing reads the raw frames after this: only the name.
+    let input_name = rec.name().to_string();
+    drop(rec);
+    clock.stage(Stage::Tare);
+    // The input's own warnings first: what the later ones say may follow from them.
+    warnings.splice(0..0, notes.into_iter().map(Warning::Input));
+    if silent {
+        warnings.push(Warning::NoTouch {
+            readings: touched,
+            threshold_psi: cfg.input.touch_threshold_psi,
+            min_readings: cfg.input.min_touch_readings,
+        });
+        let signal = vec![[0.0; CHANNELS]];
+        return finish(
+            (&input_name, shape),
+            opts,
+            &metadata,
+            clock,
+            warnings,
+            signal,
+            1.0,
+            None,
+        );
+    }
+
+    // Stages 1-3, on the active scene only.
+    let crop = if opts.crop {
+        scene::active_crop(tared.view(), cfg, &sampling)
+    } else {
+        Crop::whole(tared.dim())
+    };
+    let (tracked, crop) = scene::track_cropped(
+        tared.view(),
+        &crop,
+        cfg,
+        &sampling,
+        opts.keep_scene,
+        &mut |shares| clock.split(shares),
+    )?;
+    let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
+    clock.stage(Stage::Coverage);
+
+    // Stage 4.
+    let (rows_px, cols_px) = (
+        tared.dim().1 * cfg.preprocess.upsample,
+        tared.dim().2 * cfg.preprocess.upsample,
+    );
+    if tracked.trajectories.len() >= cfg.track.max_trajectories {
+        // The flow stops at this many units: a further contact would have needed one more.
+        warnings.push(Warning::TrajectoryLimit {
+            trajectories: tracked.trajectories.len(),
+            max_trajectories: cfg.track.max_trajectories,
+            coverage: covered.0.ratio(),
+        });
+    }
+    if tracked.flow_budget_reached {
+        warnings.push(Warning::FlowBudget {
+            flow_work: tracked.flow_work,
+            work_per_edge: touchc_tracking::track::FLOW_WORK_PER_EDGE,
+            trajectories: tracked.trajectories.len(),
+            coverage: covered.0.ratio(),
+        });
+    }
+    let placement = if tracked.trajectories.is_empty() {
+        warnings.push(Warning::NoTrajectory);
+        None
+    } else {
+        Some(placement::place(
+            &tracked.trajectories,
+            rows_px,
+            cols_px,
+            tracked.pitch_mm(),
+            &opts.layout,
+            &cfg.placement,
+        )?)
+    };
+    clock.stage(Stage::Placement);
+
+    // Stage 5.
+    let frames = tared.dim().0;
+    let signals = match &placement {
+        Some(p) => signals::recomputed_actuator_signals(&tracked, p, tared.view(), cfg, &sampling)?,
+        None => ChannelSignals::silent(frames),
+    };
+    if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {
+        warnings.push(Warning::SubsetBudget {
+            node_budget: p.node_budget,
+            transforms_inexact: p.transforms_inexact,
+            transforms_evaluated: p.transforms_evaluated,
+            trajectories: tracked.trajectories.len(),
+        });
+    }
+    if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
+        warnings.push(Warning::OutsideWorkspaces);
+    }
+    let rendered = match &placement {
+        Some(p) => rendered::measure(
+            tared.view(),
+            cfg.input.touch_threshold_psi,
+            sampling.pitch_mm,
+            &p.circles,
+            &signals,
+        ),
+        None => Coverage {
+            explained_psi: 0.0,
+            ..covered.0
+        },
+    };
+    let shortfall = Shortfall::of(covered.0.ratio(), rendered.ratio());
+    if let Some(s) = shortfall {
+        warnings.push(Warning::Shortfall(s));
+    }
+    // The tared copy of the recording is not read after stage 5.
+    drop(tared);
+    clock.stage(Stage::Signals);
+
+    // Stage 6.
+    let conditioned = condition::condition(&signals.psi, &cfg.signal, sampling.rate_hz)?;
+    let mut signal = conditioned.output;
+    let limits = condition::Limits::from(opts.limits);
+    let fit_scale = if opts.fit {
+        // The played codes heat the coil a little more than the f64 signal (the
+        // keyframes' error): fitted to the whole thermal budget, a long touch trips the
+        // player's limit and is encoded again (a second stage 7, 1 s at an hour). Fitted
+        // to a share of it, once; the refit in stage 7 stays the backstop.
+        condition::fit_to(&mut signal, &limits, cfg.signal.fit_thermal_share)?
+    } else {
+        condition::check_limits(&signal, &limits)?;
+        1.0
+    };
+    clock.stage(Stage::Condition);
+
+    let scene = Scene {
+        tracked,
+        placement,
+        signals,
+        crop,
+        covered,
+        rendered: (rendered, shortfall),
+    };
+    finish(
+        (&input_name, shape),
+        opts,
+        &metadata,
+        clock,
+        warnings,
+        signal,
+        fit_scale,
+        Some(scene),
+    )
+}
+
+/// What stages 1-5 made of a recording with touch.
+struct Scene {
+    tracked: TrackOutput,
+    placement: Option<Placement>,
+    signals: ChannelSignals,
+    crop: Crop,
+    covered: (Coverage, Misses),
+    rendered: (Coverage, Option<Shortfall>),
+}
+
+/// Coverage below this share of the touch pressure is a warning.
+pub const COVERAGE_WARNING: f64 = 0.8;
+
+/// The coverage of the tracked contacts on `tared`, and where the rest lies; below
+/// [`COVERAGE_WARNING`] a warning with the likely causes.
+fn measure_coverage(
+    tared: ndarray::ArrayView3<f64>,
+    tracked: &TrackOutput,
+    cfg: &Config,
+    sampling: &Sampling,
+    warnings: &mut Vec<Warning>,
+) -> (Coverage, Misses) {
+    let points = coverage::contact_points(&tracked.trajectories, sampling.upsample);
+    let threshold = cfg.input.touch_threshold_psi;
+    let cells = coverage::classify(tared, threshold, &points, DEFAULT_RADIUS_CELLS);
+    let cov = coverage::measure_classified(tared, &cells);
+    let tracking = tracking_figures(cfg, sampling);
+    let misses = coverage::explain(tared, &cells, &points, &tracking);
+    if cov.ratio() < COVERAGE_WARNING {
+        warnings.push(Warning::LowCoverage {
+            coverage: cov.ratio(),
+            threshold: COVERAGE_WARNING,
+            causes: misses.causes(&tracking),
+            touch_tracking: tracking.touch_tracking,
+        });
+    }
+    (cov, misses)
+}
+
+/// What the config's tracking can follow, in the units of [`Tracking`].
+fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
+    let strongest = -touchc_tracking::detect::detection_cost(1e6, &cfg.detect);
+    let pay = cfg.track.entry_cost + cfg.track.exit_cost;
+    let min_frames = if strongest > 0.0 {
+        (pay / strongest).floor() as usize + 1
+    } else {
+        usize::MAX
+    };
+    Tracking {
+        rate_hz: sampling.rate_hz,
+        cell_mm: sampling.pitch_mm,
+        gate_mm_s: cfg.track.max_speed_mm_s,
+        min_frames,
+        touch_tracking: cfg.track.bridge.is_some() && cfg.detect.split.is_some(),
+    }
+}
+
+/// With `--fit`: the factor by which a fitted signal is scaled again when its encoding
+/// still trips a limit in the player, and how many times at most (0.99^20 = 0.82).
+const REFIT_STEP: f64 = 0.99;
+const MAX_REFITS: u32 = 20;
+
+/// Stage 7 and the report; `scene` is `None` for a recording without touch.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    (input_name, shape): (&str, (usize, usize, usize)),
+    opts: &CompileOptions,
+    metadata: &Metadata,
+    mut clock: Clock,
+    mut warnings: Vec<Warning>,
+    mut signal: Vec<[f64; CHANNELS]>,
+    mut fit_scale: f64,
+    scene: Option<Scene>,
+) -> Result<Compiled, CompileError> {
+    let no_touch = scene.is_none();
+    let (tracked, placement, signals, crop, covered, rendered) = match scene {
+        Some(s) => (
+            Some(s.tracked),
+            s.placement,
+            Some(s.signals),
+            Some(s.crop),
+            Some(s.covered),
+            Some(s.rendered),
+        ),
+        None => (None, None, None, None, None, None),
+    };
+    let tare_erased = warnings
+        .iter()
+        .any(|w| matches!(w, Warning::Input(InputWarning::TareErasedTouch { .. })));
+    let name = stimulus_name(&opts.name);
+    let fields = HeaderFields {
+        name,
+        layout_hash: opts.layout.geometry_hash(),
+        layout: opts.layout.id(),
+        limits: opts.limits,
+    };
+    let options = KeyframeOptions::new(&opts.config.keyframes);
+    let mut refits = 0;
+    let encoded = loop {
+        match keyframes::encode(&signal, fields, &options) {
+            // A signal fitted to the limits in f64 sits on them; the player's
+            // interpolation and rounding can land it just over (a long touch fitted to
+            // the thermal budget). Step down until the played codes pass too.
+            Err(KeyframeError::LimitHit(_)) if opts.fit && refits < MAX_REFITS => {
+                for v in signal.iter_mut().flatten() {
+                    *v *= REFIT_STEP;
+                }
+                fit_scale *= REFIT_STEP;
+                refits += 1;
+            }
+            result => break result?,
+        }
+    };
+    if fit_scale < 1.0 {
+        warnings.push(Warning::Fitted {
+            scale: fit_scale,
+            refits,
+            refit_step: REFIT_STEP,
+        });
+    }
+    clock.stage(Stage::Keyframes);
+    let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
+    let bytes = encoded.bytes.len();
+    let report = Report {
+        input: input_name.to_string(),
+        shape: [shape.0, shape.1, shape.2],
+        name: name.to_string(),
+        transform: placement.as_ref().map(|p| {
+            let t = &p.transform;
+            [t.x_mm, t.y_mm, t.scale, t.rotation, t.split_mm]
+        }),
+        score: placement.as_ref().map_or(0.0, |p| p.score),
+        selected: placement
+            .as_ref()
+            .map_or_else(Vec::new, |p| p.selected.clone()),
+        trajectories: tracked.as_ref().map_or(0, |t| t.trajectories.len()),
+        transforms: placement.as_ref().map_or(0, |p| p.scores.len()),
+        transforms_evaluated: placement.as_ref().map_or(0, |p| p.transforms_evaluated),
+        transforms_inexact: placement.as_ref().map_or(0, |p| p.transforms_inexact),
+        trajectory_limit_reached: tracked
+            .as_ref()
+            .is_some_and(|t| t.trajectories.len() >= opts.config.track.max_trajectories),
+        flow_work: tracked.as_ref().map_or(0, |t| t.flow_work),
+        flow_budget_reached: tracked.as_ref().is_some_and(|t| t.flow_budget_reached),
+        seconds: clock.finish(),
+        bytes,
+        duration_s,
+        bytes_per_second: if duration_s > 0.0 {
+            bytes as f64 / duration_s
+        } else {
+            0.0
+        },
+        rms_error_fs: encoded.rms_error_fs,
+        max_error_fs: encoded.max_error_fs,
+        keyframe_period_ms: encoded.period_ms,
+        quant_shift: encoded.quant_shift,
+        line_tolerance_fs: encoded.tolerance_fs,
+        fit_scale,
+        no_touch,
+        crop,
+        // Coverage is of the recorded touch: when the tare removed it, none is played.
+        coverage: match &covered {
+            Some(c) => c.0.ratio(),
+            None if tare_erased => 0.0,
+            None => 1.0,
+        },
+        coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
+        misses: covered.map(|c| c.1),
+        rendered_coverage: match &rendered {
+            Some(r) => r.0.ratio(),
+            None if tare_erased => 0.0,
+            None => 1.0,
+        },
+        rendered_detail: rendered.map_or_else(Coverage::default, |r| r.0),
+        shortfall: rendered.and_then(|r| r.1),
+        warnings,
+        metadata: *metadata,
+        config: opts.config.clone(),
+        layout: opts.layout.id().to_string(),
+    };
+    Ok(Compiled {
+        stimulus: encoded.bytes,
+        report,
+        signal,
+        tracked,
+        placement,
+        signals,
+    })
+}

@@ -1,0 +1,246 @@
+//! A knob out of range in words: the library's [`ConfigError`] holds the knob, the
+//! value and the range as values; here they become the message a person reads.
+
+use touchc::config::{ConfigError, DerivedLimit, SamplingKnob, Unit};
+use touchc::display::Shortest;
+
+/// The message `touchc` prints for `e` (after `config: `).
+pub fn describe(e: &ConfigError) -> String {
+    match e {
+        ConfigError::OutOfRange {
+            knob,
+            value,
+            min,
+            max,
+            unit,
+        } => format!(
+            "{knob} = {} is out of range: must be finite, in [{}, {}]{}",
+            Shortest(*value),
+            Shortest(*min),
+            Shortest(*max),
+            unit_suffix(*unit)
+        ),
+        ConfigError::CountOutOfRange {
+            knob,
+            value,
+            min,
+            max,
+        } => format!("{knob} = {value} is out of range: must be in [{min}, {max}]"),
+        ConfigError::LengthOutOfRange {
+            knob,
+            len,
+            min,
+            max,
+        } => format!("{knob} (count) = {len} is out of range: must be in [{min}, {max}]"),
+        ConfigError::TooManyTransforms {
+            grid_x,
+            grid_y,
+            max,
+        } => format!(
+            "placement.grid_x * grid_y * (grid_y + 1) / 2 = {grid_x} x {grid_y} is out of \
+             range: must be at most {max} transforms"
+        ),
+        ConfigError::SamplingOutOfRange {
+            knob,
+            value,
+            min,
+            max,
+        } => {
+            let (flag, unit) = match knob {
+                SamplingKnob::RateHz => ("--rate", Unit::Hz),
+                SamplingKnob::PitchMm => ("--pitch-mm", Unit::Mm),
+            };
+            format!(
+                "{knob} ({flag}) = {} is out of range: must be finite, in [{}, {}]{}",
+                Shortest(*value),
+                Shortest(*min),
+                Shortest(*max),
+                unit_suffix(unit)
+            )
+        }
+        ConfigError::Derived {
+            knob,
+            value,
+            sampling,
+            limit,
+        } => {
+            let (derived, range) = match *limit {
+                DerivedLimit::KernelTooNarrow {
+                    radius_px,
+                    truncate,
+                    min_px,
+                } => (
+                    format!("a kernel radius of {radius_px} px (truncate {truncate})"),
+                    format!("at least {min_px} px, half an upsampled cell"),
+                ),
+                DerivedLimit::KernelTooWide { radius_px, max_px } => (
+                    format!("a kernel radius of {radius_px:.0} px"),
+                    format!("at most {max_px} px"),
+                ),
+                DerivedLimit::FrameTooLarge {
+                    side_px,
+                    rows,
+                    cols,
+                    max_px,
+                } => (
+                    format!("{side_px} px along the longer side of {rows} x {cols} cells"),
+                    format!("at most {max_px} px"),
+                ),
+                DerivedLimit::GateTooWide { gate_px, max_px } => (
+                    format!("{gate_px:.0} px per frame"),
+                    format!("at most {max_px} px"),
+                ),
+                DerivedLimit::AboveNyquist { nyquist_hz } => (
+                    "the low-pass cut-off".to_string(),
+                    format!("below the Nyquist frequency, {nyquist_hz} Hz"),
+                ),
+                // A bound this command line does not know yet still names its figures.
+                other => (format!("{other:?}"), String::new()),
+            };
+            format!(
+                "{knob} = {} is {derived} at {} Hz, {} mm cells, x{}: must be {range}",
+                Shortest(*value),
+                sampling.rate_hz,
+                sampling.pitch_mm,
+                sampling.upsample
+            )
+        }
+        other => other.to_string(),
+    }
+}
+
+/// A range's unit as it follows the range (`[0, 60] s`).
+fn unit_suffix(unit: Unit) -> &'static str {
+    match unit {
+        Unit::Hz => " Hz",
+        Unit::Mm => " mm",
+        Unit::S => " s",
+        Unit::Psi => " psi",
+        Unit::Sigmas => " sigmas",
+        Unit::StandardDeviations => " standard deviations",
+        Unit::MmPerS => " mm/s",
+        Unit::A => " A",
+        Unit::FullScale => " of full scale",
+        Unit::BytesPerS => " B/s",
+        _ => "",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use touchc::config::{Knob, Sampling};
+
+    /// Each error in the words `touchc` has always printed for it.
+    #[test]
+    fn every_config_error_reads_as_the_command_line_words_it() {
+        let at = Sampling {
+            upsample: 32,
+            ..Sampling::PAPER
+        };
+        let cases = [
+            (
+                ConfigError::OutOfRange {
+                    knob: Knob::CropTimeMarginS,
+                    value: 1e308,
+                    min: 0.0,
+                    max: 60.0,
+                    unit: Unit::S,
+                },
+                "crop.time_margin_s = 1e308 is out of range: must be finite, in [0, 60] s",
+            ),
+            (
+                ConfigError::OutOfRange {
+                    knob: Knob::KeyframesMaxRmsErrorFs,
+                    value: f64::NAN,
+                    min: 1e-6,
+                    max: 1.0,
+                    unit: Unit::FullScale,
+                },
+                "keyframes.max_rms_error_fs = NaN is out of range: must be finite, in [0.000001, \
+                 1] of full scale",
+            ),
+            (
+                ConfigError::CountOutOfRange {
+                    knob: Knob::PreprocessUpsample,
+                    value: 300,
+                    min: 1,
+                    max: 32,
+                },
+                "preprocess.upsample = 300 is out of range: must be in [1, 32]",
+            ),
+            (
+                ConfigError::LengthOutOfRange {
+                    knob: Knob::KeyframesPeriodsMs,
+                    len: 0,
+                    min: 1,
+                    max: 1000,
+                },
+                "keyframes.periods_ms (count) = 0 is out of range: must be in [1, 1000]",
+            ),
+            (
+                ConfigError::TooManyTransforms {
+                    grid_x: 1000,
+                    grid_y: 1000,
+                    max: 20_000_000,
+                },
+                "placement.grid_x * grid_y * (grid_y + 1) / 2 = 1000 x 1000 is out of range: \
+                 must be at most 20000000 transforms",
+            ),
+            (
+                ConfigError::SamplingOutOfRange {
+                    knob: SamplingKnob::RateHz,
+                    value: 5000.0,
+                    min: 1.0,
+                    max: 1000.0,
+                },
+                "rate_hz (--rate) = 5000 is out of range: must be finite, in [1, 1000] Hz",
+            ),
+            (
+                ConfigError::Derived {
+                    knob: Knob::PreprocessBlurSigmaMm,
+                    value: 0.01,
+                    sampling: Sampling::PAPER,
+                    limit: DerivedLimit::KernelTooNarrow {
+                        radius_px: 0.0,
+                        truncate: 4.0,
+                        min_px: 4.0,
+                    },
+                },
+                "preprocess.blur_sigma_mm = 0.01 is a kernel radius of 0 px (truncate 4) at 20 \
+                 Hz, 25.4 mm cells, x7: must be at least 4 px, half an upsampled cell",
+            ),
+            (
+                ConfigError::Derived {
+                    knob: Knob::PreprocessUpsample,
+                    value: 32.0,
+                    sampling: at,
+                    limit: DerivedLimit::FrameTooLarge {
+                        side_px: 6400,
+                        rows: 8,
+                        cols: 200,
+                        max_px: 4096,
+                    },
+                },
+                "preprocess.upsample = 32 is 6400 px along the longer side of 8 x 200 cells at \
+                 20 Hz, 25.4 mm cells, x32: must be at most 4096 px",
+            ),
+            (
+                ConfigError::Derived {
+                    knob: Knob::TrackMaxSpeedMmS,
+                    value: 20000.0,
+                    sampling: at,
+                    limit: DerivedLimit::GateTooWide {
+                        gate_px: 4999.6,
+                        max_px: 4096.0,
+                    },
+                },
+                "track.max_speed_mm_s = 20000 is 5000 px per frame at 20 Hz, 25.4 mm cells, \
+                 x32: must be at most 4096 px",
+            ),
+        ];
+        for (e, want) in cases {
+            assert_eq!(describe(&e), want, "{e:?}");
+        }
+    }
+}

@@ -1,9 +1,0 @@
-//! Measurements of a compile, outside the pipeline proper: how much of the touch the
-//! tracked contacts explain ([`coverage`]), tracking against a synthetic recording's
-//! truth ([`evaluate`]), and the presets' speed/accuracy trade ([`trade`]).
-
-pub mod cases;
-pub mod coverage;
-pub mod evaluate;
-pub mod rendered;
-pub mod trade;

@@ -1,0 +1,128 @@
+//! The host's layers hold: each crate under `host/crates/` depends only on crates of a
+//! lower layer, so no crate imports upward and there is no circle. Read from `cargo
+//! metadata`, the graph Cargo itself builds; `cargo test -p touch-e2e --test layers --
+//! --nocapture` prints it.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+use serde_json::Value;
+
+/// Every crate of the host in its layer, lowest first. A crate may depend on crates of
+/// lower layers only; a new crate must be placed here.
+const LAYERS: &[(&str, u32)] = &[
+    // Helpers that know nothing of touch.
+    ("touchc-wide", 0),
+    ("touchc-test-rng", 0),
+    ("touchc-link", 0),
+    // The model every stage shares.
+    ("touchc-model", 1),
+    // The stages, in pipeline order, and what reads a finished stimulus.
+    ("touchc-input", 2),
+    ("touchc-export", 2),
+    ("touchc-tracking", 3),
+    // The fixtures of touchc's tests, benches and examples: recordings from the input
+    // stage's synthesiser, reference trajectories as the model's type.
+    ("touchc-testkit", 3),
+    ("touchc-placement", 4),
+    ("touchc-rendering", 5),
+    ("touchc-encoding", 6),
+    // The one driver of the stages, then what measures it.
+    ("touchc-pipeline", 7),
+    ("touchc-eval", 8),
+    // The command line and its pictures.
+    ("touchc", 9),
+];
+
+fn workspace_graph() -> BTreeMap<String, Vec<(String, String)>> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
+        .current_dir(&root)
+        .output()
+        .expect("cargo metadata runs");
+    assert!(
+        out.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
+    let mut graph = BTreeMap::new();
+    for package in meta["packages"].as_array().expect("packages") {
+        let name = package["name"].as_str().expect("name").to_string();
+        let deps = package["dependencies"]
+            .as_array()
+            .expect("dependencies")
+            .iter()
+            .map(|d| {
+                let kind = d["kind"].as_str().unwrap_or("normal").to_string();
+                (
+                    d["name"].as_str().expect("dependency name").to_string(),
+                    kind,
+                )
+            })
+            .collect();
+        graph.insert(name, deps);
+    }
+    graph
+}
+
+#[test]
+fn no_crate_of_the_host_depends_on_its_own_or_a_higher_layer() {
+    let layer: BTreeMap<&str, u32> = LAYERS.iter().copied().collect();
+    let graph = workspace_graph();
+    let mut upward = Vec::new();
+    for (name, deps) in &graph {
+        if name.starts_with("touchc") && !name.starts_with("touchc-fuzz") {
+            assert!(
+                layer.contains_key(name.as_str()),
+                "{name} is in no layer: place it in LAYERS"
+            );
+        }
+        let Some(&own) = layer.get(name.as_str()) else {
+            continue;
+        };
+        let mut shown = Vec::new();
+        for (dep, kind) in deps {
+            let Some(&theirs) = layer.get(dep.as_str()) else {
+                continue;
+            };
+            shown.push(if kind == "normal" {
+                dep.clone()
+            } else {
+                format!("{dep} ({kind})")
+            });
+            // Dev-dependencies too: a crate's tests import no higher layer either.
+            if theirs >= own {
+                upward.push(format!(
+                    "{name} (layer {own}) -> {dep} (layer {theirs}, {kind})"
+                ));
+            }
+        }
+        println!("{name} (layer {own}) -> {}", shown.join(", "));
+    }
+    assert!(
+        upward.is_empty(),
+        "upward or sideways edges:\n{}",
+        upward.join("\n")
+    );
+}
+
+#[test]
+fn the_model_imports_no_stage() {
+    let graph = workspace_graph();
+    let model = &graph["touchc-model"];
+    let stages: Vec<_> = model
+        .iter()
+        .filter(|(dep, _)| dep.starts_with("touchc-"))
+        .collect();
+    assert!(stages.is_empty(), "touchc-model depends on {stages:?}");
+}
