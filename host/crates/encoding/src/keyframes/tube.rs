@@ -5,7 +5,7 @@
 use touch_protocol::CHANNELS;
 
 /// A line this many keyframes long ends where another channel's bends (see
-/// [`Line::nearly_done`]). Measured with [`LINE_SHIFTS`](super::LINE_SHIFTS) on the same 40 stimuli: 4 with
+/// [`Line::nearly_done`]). Measured with [`LINE_SHIFTS`](super::lines::LINE_SHIFTS) on the same 40 stimuli: 4 with
 /// the slope test gives 9% fewer bytes than never joining, 2% fewer than 6; on the
 /// benchmark's busy synthetic scene, 21% fewer.
 const JOIN_AFTER: usize = 4;
