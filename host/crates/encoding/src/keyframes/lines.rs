@@ -40,6 +40,15 @@ const TOLERANCE_STEPS_AFTER: usize = 1;
 /// factor of the smallest failing one.
 const TOLERANCE_RESOLUTION: f64 = 1.1;
 
+/// The smallest line encoding found: its file, keyframe period (ms), quantisation
+/// shift and tolerance (fraction of full scale).
+struct Lines {
+    bytes: Vec<u8>,
+    period: u16,
+    shift: u8,
+    tol: f64,
+}
+
 /// Keyframes on lines through a tolerance tube (see [`tube_keyframes`]), the largest
 /// tolerance whose modelled error meets the bounds, played once to confirm. `None`
 /// when no such encoding exists or the player does not confirm it: the caller then
@@ -49,119 +58,224 @@ pub(super) fn encode_lines(
     fields: HeaderFields<'_>,
     opts: &KeyframeOptions,
 ) -> Result<Option<Encoded>, KeyframeError> {
-    let bounds = &opts.encoding;
-    let fs_a = f64::from(opts.full_scale_ma) / 1000.0;
-    // The player's output differs from the modelled line by its integer interpolation
-    // (under a Q15 unit) and its 12-bit output code (half a code, 1/4096 of full
-    // scale): the model must stay that far inside the bounds.
-    let margin = 1.0 / 4096.0 + 2.0 / 32768.0;
-    let max_model = bounds.max_abs_error_fs - margin;
-    let rms_model = bounds.max_rms_error_fs * 0.97 - margin / 4.0;
-    if max_model <= 0.0 || rms_model <= 0.0 {
+    let Some(model) = model_bounds(opts) else {
         return Ok(None);
-    }
+    };
     // The longest period first; the next shorter one only when no tolerance passes
     // there (its plain interpolation is so near the max bound that a keyframe no line
     // reaches, rounded to the step, lands over it).
-    let mut best: Option<(Vec<u8>, u16, u8, f64)> = None;
+    let mut best = None;
     for period in faithful_periods(signal, opts) {
-        let p = usize::from(period.max(1));
-        let windows = search_windows(signal, p);
-        let header = |shift| header(fields, opts, period, shift);
-        // The largest tolerance whose modelled error passes, per shift. The RMS error
-        // grows about in proportion to the tolerance, so each guess interpolates the RMS
-        // between the passing and failing tolerances tried (regula falsi, aiming just
-        // under the bound); the second shift starts from the first's answer. Usually
-        // three tube passes for the first shift, one for the second.
-        let mut start = max_model;
-        for shift in LINE_SHIFTS.map(|s| s.min(bounds.max_quant_shift.min(15))) {
-            if best.as_ref().is_some_and(|b| b.2 == shift) {
-                continue;
-            }
-            // (tolerance, RMS) of the largest passing and the smallest failing tried.
-            let mut passing: Option<(f64, f64)> = None;
-            let mut failing: Option<(f64, f64)> = None;
-            let mut tol = start;
-            let steps = if best.is_some() {
-                TOLERANCE_STEPS_AFTER
-            } else {
-                TOLERANCE_STEPS
-            };
-            for _ in 0..steps {
-                let (bytes, rms, max) = tube_bytes(&windows, fs_a, p, shift, tol, &header)?;
-                if rms <= rms_model && max <= max_model {
-                    if best.as_ref().is_none_or(|b| bytes.len() < b.0.len()) {
-                        best = Some((bytes, period, shift, tol));
-                    }
-                    passing = Some((tol, rms));
-                } else if rms <= rms_model {
-                    // A keyframe no line reaches: a smaller tolerance does not mend it.
-                    break;
-                } else {
-                    failing = Some((tol, rms));
-                }
-                let aim = 0.99 * rms_model;
-                tol = match (passing, failing) {
-                    (Some(p), Some(f)) => {
-                        if f.0 < p.0 * TOLERANCE_RESOLUTION {
-                            break;
-                        }
-                        let guess =
-                            p.0 + (aim - p.1) * (f.0 - p.0) / (f.1 - p.1).max(f64::MIN_POSITIVE);
-                        let margin = 0.1 * (f.0 - p.0);
-                        guess.clamp(p.0 + margin, f.0 - margin)
-                    }
-                    (None, Some(f)) => f.0 * (aim / f.1).clamp(0.3, 0.9),
-                    (Some(p), None) if p.0 < max_model => {
-                        (p.0 * (aim / p.1.max(f64::MIN_POSITIVE)).clamp(1.1, 3.0)).min(max_model)
-                    }
-                    _ => break,
-                };
-            }
-            if let Some(b) = &best {
-                start = b.3;
-            }
-        }
+        best = search_period(signal, fields, opts, period, model)?;
         if best.is_some() {
             break;
         }
     }
-    let Some((mut bytes, period, shift, mut tol)) = best else {
+    let Some(Lines {
+        mut bytes,
+        period,
+        shift,
+        mut tol,
+    }) = best
+    else {
         return Ok(None);
     };
-    // Bytes per second of the 1 kHz signal.
-    let density = bytes.len() as f64 * 1000.0 / signal.len() as f64;
-    if !windows_sampled(signal, usize::from(period.max(1)))
-        && density > bounds.allocate_above_bytes_per_s
-    {
-        // A tolerance per second and channel instead of one for all, where that is smaller.
-        let header = |shift| header(fields, opts, period, shift);
-        let p = usize::from(period.max(1));
-        if let Some(b) = allocate(signal, fs_a, p, shift, tol, (rms_model, max_model), &header)? {
-            if b.len() < bytes.len() {
-                bytes = b;
-            }
-        }
-    }
-    if windows_sampled(signal, usize::from(period.max(1))) {
+    let fs_a = f64::from(opts.full_scale_ma) / 1000.0;
+    let p = usize::from(period.max(1));
+    if windows_sampled(signal, p) {
         // The tolerance was found on samples of a long signal: the whole signal's
         // lines, a little tighter while their modelled error misses the bounds.
-        let p = usize::from(period.max(1));
-        let mut fits = false;
-        for _ in 0..TOLERANCE_STEPS {
-            let (keyframes, rms, max) = tube_keyframes(signal, fs_a, p, shift, tol * 32768.0);
-            if rms / 32768.0 <= rms_model && max / 32768.0 <= max_model {
-                bytes = stimulus::encode(header(fields, opts, period, shift), &keyframes)?;
-                fits = true;
-                break;
-            }
-            tol *= 0.9;
-        }
-        if !fits {
+        let whole = whole_signal(signal, fields, opts, period, shift, tol, model)?;
+        let Some((whole_bytes, whole_tol)) = whole else {
             return Ok(None);
+        };
+        (bytes, tol) = (whole_bytes, whole_tol);
+    } else {
+        // Bytes per second of the 1 kHz signal.
+        let density = bytes.len() as f64 * 1000.0 / signal.len() as f64;
+        if density > opts.encoding.allocate_above_bytes_per_s {
+            // A tolerance per second and channel instead of one for all, where that is
+            // smaller.
+            let header = |shift| header(fields, opts, period, shift);
+            if let Some(b) = allocate(signal, fs_a, p, shift, tol, model, &header)? {
+                if b.len() < bytes.len() {
+                    bytes = b;
+                }
+            }
         }
     }
-    let stim = Stimulus::decode(&bytes)?;
+    let Some((rms, max)) = confirmed(signal, &bytes, fields, opts)? else {
+        return Ok(None);
+    };
+    Ok(Some(Encoded {
+        bytes,
+        period_ms: period,
+        quant_shift: shift,
+        tolerance_fs: tol,
+        rms_error_fs: rms,
+        max_error_fs: max,
+        candidates_tried: 1,
+    }))
+}
+
+/// The bounds the modelled lines must meet, `(rms, max)` as fractions of full scale:
+/// the player's output differs from the modelled line by its integer interpolation
+/// (under a Q15 unit) and its 12-bit output code (half a code, 1/4096 of full
+/// scale), so the model must stay that far inside the bounds. `None` when the bounds
+/// leave no room for that.
+fn model_bounds(opts: &KeyframeOptions) -> Option<(f64, f64)> {
+    let bounds = &opts.encoding;
+    let margin = 1.0 / 4096.0 + 2.0 / 32768.0;
+    let max_model = bounds.max_abs_error_fs - margin;
+    let rms_model = bounds.max_rms_error_fs * 0.97 - margin / 4.0;
+    if max_model <= 0.0 || rms_model <= 0.0 {
+        return None;
+    }
+    Some((rms_model, max_model))
+}
+
+/// The smallest encoding at `period` whose modelled error meets `model` (see
+/// [`model_bounds`]), over the shifts of [`LINE_SHIFTS`], each at the largest
+/// tolerance that passes.
+fn search_period(
+    signal: &[[f64; CHANNELS]],
+    fields: HeaderFields<'_>,
+    opts: &KeyframeOptions,
+    period: u16,
+    model: (f64, f64),
+) -> Result<Option<Lines>, KeyframeError> {
+    let max_shift = opts.encoding.max_quant_shift.min(15);
+    let windows = search_windows(signal, usize::from(period.max(1)));
+    let mut best: Option<Lines> = None;
+    // The second shift starts from the first's answer.
+    let mut start = model.1;
+    for shift in LINE_SHIFTS.map(|s| s.min(max_shift)) {
+        if best.as_ref().is_some_and(|b| b.shift == shift) {
+            continue;
+        }
+        let steps = if best.is_some() {
+            TOLERANCE_STEPS_AFTER
+        } else {
+            TOLERANCE_STEPS
+        };
+        let at = Candidates {
+            windows: &windows,
+            fields,
+            opts,
+            period,
+            shift,
+        };
+        search_tolerance(&at, start, steps, model, &mut best)?;
+        if let Some(b) = &best {
+            start = b.tol;
+        }
+    }
+    Ok(best)
+}
+
+/// Where a tolerance search runs: the search windows, at one period and shift.
+struct Candidates<'w, 's, 'f> {
+    windows: &'w [&'s [[f64; CHANNELS]]],
+    fields: HeaderFields<'f>,
+    opts: &'w KeyframeOptions,
+    period: u16,
+    shift: u8,
+}
+
+/// Up to `steps` tube passes from tolerance `start`, keeping in `best` the smallest
+/// file whose modelled error meets `model`. The RMS error grows about in proportion
+/// to the tolerance, so each guess interpolates the RMS between the passing and
+/// failing tolerances tried (regula falsi, aiming just under the bound). Usually
+/// three tube passes for the first shift, one for the second.
+fn search_tolerance(
+    at: &Candidates<'_, '_, '_>,
+    start: f64,
+    steps: usize,
+    (rms_model, max_model): (f64, f64),
+    best: &mut Option<Lines>,
+) -> Result<(), KeyframeError> {
+    let fs_a = f64::from(at.opts.full_scale_ma) / 1000.0;
+    let p = usize::from(at.period.max(1));
+    let header = |shift| header(at.fields, at.opts, at.period, shift);
+    // (tolerance, RMS) of the largest passing and the smallest failing tried.
+    let mut passing: Option<(f64, f64)> = None;
+    let mut failing: Option<(f64, f64)> = None;
+    let mut tol = start;
+    for _ in 0..steps {
+        let (bytes, rms, max) = tube_bytes(at.windows, fs_a, p, at.shift, tol, &header)?;
+        if rms <= rms_model && max <= max_model {
+            if best.as_ref().is_none_or(|b| bytes.len() < b.bytes.len()) {
+                *best = Some(Lines {
+                    bytes,
+                    period: at.period,
+                    shift: at.shift,
+                    tol,
+                });
+            }
+            passing = Some((tol, rms));
+        } else if rms <= rms_model {
+            // A keyframe no line reaches: a smaller tolerance does not mend it.
+            break;
+        } else {
+            failing = Some((tol, rms));
+        }
+        let aim = 0.99 * rms_model;
+        tol = match (passing, failing) {
+            (Some(p), Some(f)) => {
+                if f.0 < p.0 * TOLERANCE_RESOLUTION {
+                    break;
+                }
+                let guess = p.0 + (aim - p.1) * (f.0 - p.0) / (f.1 - p.1).max(f64::MIN_POSITIVE);
+                let margin = 0.1 * (f.0 - p.0);
+                guess.clamp(p.0 + margin, f.0 - margin)
+            }
+            (None, Some(f)) => f.0 * (aim / f.1).clamp(0.3, 0.9),
+            (Some(p), None) if p.0 < max_model => {
+                (p.0 * (aim / p.1.max(f64::MIN_POSITIVE)).clamp(1.1, 3.0)).min(max_model)
+            }
+            _ => break,
+        };
+    }
+    Ok(())
+}
+
+/// The whole signal's lines at `tol` found on search windows, a little tighter while
+/// their modelled error misses `model`: the file and the tolerance, or `None` when
+/// a few tightenings do not meet it.
+fn whole_signal(
+    signal: &[[f64; CHANNELS]],
+    fields: HeaderFields<'_>,
+    opts: &KeyframeOptions,
+    period: u16,
+    shift: u8,
+    mut tol: f64,
+    (rms_model, max_model): (f64, f64),
+) -> Result<Option<(Vec<u8>, f64)>, KeyframeError> {
+    let fs_a = f64::from(opts.full_scale_ma) / 1000.0;
+    let p = usize::from(period.max(1));
+    for _ in 0..TOLERANCE_STEPS {
+        let (keyframes, rms, max) = tube_keyframes(signal, fs_a, p, shift, tol * 32768.0);
+        if rms / 32768.0 <= rms_model && max / 32768.0 <= max_model {
+            let bytes = stimulus::encode(header(fields, opts, period, shift), &keyframes)?;
+            return Ok(Some((bytes, tol)));
+        }
+        tol *= 0.9;
+    }
+    Ok(None)
+}
+
+/// The playback error `(rms, max)` of `bytes`, played by the protocol player, when it
+/// meets the bounds; `None` when it misses them or the player stops at a peak or slew
+/// limit (the caller then tries keyframes rounded one by one). A thermal limit is an
+/// error: the coil's heat is the signal's energy, which no encoding changes.
+fn confirmed(
+    signal: &[[f64; CHANNELS]],
+    bytes: &[u8],
+    fields: HeaderFields<'_>,
+    opts: &KeyframeOptions,
+) -> Result<Option<(f64, f64)>, KeyframeError> {
+    let bounds = &opts.encoding;
+    let stim = Stimulus::decode(bytes)?;
     let played = measure(
         &stim,
         signal,
@@ -180,15 +294,7 @@ pub(super) fn encode_lines(
     if !(rms <= bounds.max_rms_error_fs && max <= bounds.max_abs_error_fs) {
         return Ok(None);
     }
-    Ok(Some(Encoded {
-        bytes,
-        period_ms: period,
-        quant_shift: shift,
-        tolerance_fs: tol,
-        rms_error_fs: rms,
-        max_error_fs: max,
-        candidates_tried: 1,
-    }))
+    Ok(Some((rms, max)))
 }
 
 /// A signal longer than this many search windows' worth is searched on windows.

@@ -6,6 +6,16 @@ use touchc_model::config::KeyframeConfig;
 use super::measure::measure;
 use super::{header, interpolation_error, Encoded, HeaderFields, KeyframeError, KeyframeOptions};
 
+/// What the search of rounded keyframes has seen so far.
+struct Tried {
+    /// Candidates encoded and played.
+    count: usize,
+    /// The smallest RMS error seen and its max error, fractions of full scale.
+    closest: (f64, f64),
+    /// A peak or slew limit the player hit on a candidate.
+    limit_hit: Option<&'static str>,
+}
+
 /// Keyframes rounded one by one: the longest period, then the coarsest resolution,
 /// whose played output meets the bounds.
 pub(super) fn encode_rounded(
@@ -14,10 +24,11 @@ pub(super) fn encode_rounded(
     opts: &KeyframeOptions,
 ) -> Result<Encoded, KeyframeError> {
     let fs_a = f64::from(opts.full_scale_ma) / 1000.0;
-    let mut best: Option<Encoded> = None;
-    let mut closest = (f64::INFINITY, f64::INFINITY);
-    let mut tried = 0;
-    let mut limit_hit = None;
+    let mut tried = Tried {
+        count: 0,
+        closest: (f64::INFINITY, f64::INFINITY),
+        limit_hit: None,
+    };
     let mut periods = opts.encoding.periods_ms.clone();
     periods.sort_unstable_by(|a, b| b.cmp(a));
     let max_a = opts.encoding.max_abs_error_fs * fs_a;
@@ -29,92 +40,115 @@ pub(super) fn encode_rounded(
             continue;
         };
         if rms / fs_a > opts.encoding.max_rms_error_fs {
-            closest = min_pair(closest, (rms / fs_a, max / fs_a));
+            tried.closest = min_pair(tried.closest, (rms / fs_a, max / fs_a));
             continue;
         }
-        // Coarsest passing resolution for this period. The error grows with the shift,
-        // so walk from the shift the error budget predicts (see [`predicted_shift`]):
-        // up while candidates pass, down while they fail. Usually two plays.
-        let max_shift = opts.encoding.max_quant_shift.min(15);
-        let mut shift = predicted_shift(rms / fs_a, max / fs_a, &opts.encoding).min(max_shift);
-        let mut passing: Option<Encoded> = None;
-        loop {
-            tried += 1;
-            let bounds = (
-                opts.encoding.max_rms_error_fs,
-                opts.encoding.max_abs_error_fs,
-            );
-            let candidate = match try_encoding(signal, fields, opts, period, shift, Some(bounds)) {
-                Ok(c) => c,
-                // The coil's heat is the signal's energy: neither a finer resolution
-                // nor more keyframes change it beyond rounding, so stop at once (with
-                // `--fit` the compile scales the signal down and comes back).
-                Err(KeyframeError::LimitHit(kind @ "thermal")) => {
-                    return Err(KeyframeError::LimitHit(kind))
-                }
-                // A peak or slew hit can be rounding's overshoot, which finer
-                // encodings may not have: this one just fails.
-                Err(KeyframeError::LimitHit(kind)) => {
-                    limit_hit = Some(kind);
-                    Encoded::empty()
-                }
-                Err(e) => return Err(e),
-            };
-            closest = min_pair(closest, (candidate.rms_error_fs, candidate.max_error_fs));
-            let passes = candidate.rms_error_fs <= opts.encoding.max_rms_error_fs
-                && candidate.max_error_fs <= opts.encoding.max_abs_error_fs;
-            if passes {
-                passing = Some(candidate);
-                if shift == max_shift {
-                    break;
-                }
-                shift += 1;
-            } else if passing.is_some() || shift == 0 {
-                break;
-            } else {
-                shift -= 1;
-            }
-        }
         // The longest passing period wins: a shorter one only adds keyframes.
-        if passing.is_some() {
-            best = passing;
-            break;
+        let interpolated = (rms / fs_a, max / fs_a);
+        if let Some(mut b) = coarsest_shift(signal, fields, opts, period, interpolated, &mut tried)?
+        {
+            b.candidates_tried = tried.count;
+            return Ok(b);
         }
     }
-    match best {
-        Some(mut b) => {
-            b.candidates_tried = tried;
-            Ok(b)
+    // When the player refused a candidate and none passed, report the limit: it is
+    // the obstacle a smaller signal (`--fit`) removes, where finer keyframes do not.
+    match tried.limit_hit {
+        Some(kind) => Err(KeyframeError::LimitHit(kind)),
+        None => {
+            let finest = periods.last().map_or(1, |&p| p.max(1));
+            Err(unfaithful(signal, fields, opts, finest, &tried))
         }
-        // When the player refused a candidate and none passed, report the limit: it is
-        // the obstacle a smaller signal (`--fit`) removes, where finer keyframes do not.
-        None => match limit_hit {
-            Some(kind) => Err(KeyframeError::LimitHit(kind)),
-            None => {
-                if !closest.0.is_finite() {
-                    // No figure was taken: every candidate played stopped at a bound, or
-                    // every period broke the max bound in interpolation alone. The
-                    // finest period's, in full, for the message: played when candidates
-                    // were (interpolation at 1 ms is exact; what the player misses, a
-                    // ramp-in from 0 A say, shows only in playback), else interpolated.
-                    let finest = periods.last().map_or(1, |&p| p.max(1));
-                    let played = (tried > 0)
-                        .then(|| try_encoding(signal, fields, opts, finest, 0, None).ok())
-                        .flatten();
-                    if let Some(e) = played {
-                        closest = (e.rms_error_fs, e.max_error_fs);
-                    } else if let Some(e) =
-                        interpolation_error(signal, usize::from(finest), f64::INFINITY)
-                    {
-                        closest = (e.0 / fs_a, e.1 / fs_a);
-                    }
-                }
-                Err(KeyframeError::Unfaithful {
-                    rms: closest.0,
-                    max: closest.1,
-                })
+    }
+}
+
+/// The coarsest resolution at `period` whose played output meets the bounds, given
+/// the interpolation error `(rms, max)` (fractions of full scale) of the period. The
+/// error grows with the shift, so the walk starts from the shift the error budget
+/// predicts (see [`predicted_shift`]): up while candidates pass, down while they
+/// fail. Usually two plays.
+fn coarsest_shift(
+    signal: &[[f64; CHANNELS]],
+    fields: HeaderFields<'_>,
+    opts: &KeyframeOptions,
+    period: u16,
+    (rms, max): (f64, f64),
+    tried: &mut Tried,
+) -> Result<Option<Encoded>, KeyframeError> {
+    let max_shift = opts.encoding.max_quant_shift.min(15);
+    let mut shift = predicted_shift(rms, max, &opts.encoding).min(max_shift);
+    let mut passing: Option<Encoded> = None;
+    loop {
+        tried.count += 1;
+        let bounds = (
+            opts.encoding.max_rms_error_fs,
+            opts.encoding.max_abs_error_fs,
+        );
+        let candidate = match try_encoding(signal, fields, opts, period, shift, Some(bounds)) {
+            Ok(c) => c,
+            // The coil's heat is the signal's energy: neither a finer resolution
+            // nor more keyframes change it beyond rounding, so stop at once (with
+            // `--fit` the compile scales the signal down and comes back).
+            Err(KeyframeError::LimitHit(kind @ "thermal")) => {
+                return Err(KeyframeError::LimitHit(kind))
             }
-        },
+            // A peak or slew hit can be rounding's overshoot, which finer
+            // encodings may not have: this one just fails.
+            Err(KeyframeError::LimitHit(kind)) => {
+                tried.limit_hit = Some(kind);
+                Encoded::empty()
+            }
+            Err(e) => return Err(e),
+        };
+        tried.closest = min_pair(
+            tried.closest,
+            (candidate.rms_error_fs, candidate.max_error_fs),
+        );
+        let passes = candidate.rms_error_fs <= opts.encoding.max_rms_error_fs
+            && candidate.max_error_fs <= opts.encoding.max_abs_error_fs;
+        if passes {
+            passing = Some(candidate);
+            if shift == max_shift {
+                break;
+            }
+            shift += 1;
+        } else if passing.is_some() || shift == 0 {
+            break;
+        } else {
+            shift -= 1;
+        }
+    }
+    Ok(passing)
+}
+
+/// The error when no rounded encoding meets the bounds, with the closest figures
+/// `tried` saw. When it saw none (every candidate played stopped at a bound, or every
+/// period broke the max bound in interpolation alone), the figures of the `finest`
+/// period in full: played when candidates were (interpolation at 1 ms is exact; what
+/// the player misses, a ramp-in from 0 A say, shows only in playback), else
+/// interpolated.
+fn unfaithful(
+    signal: &[[f64; CHANNELS]],
+    fields: HeaderFields<'_>,
+    opts: &KeyframeOptions,
+    finest: u16,
+    tried: &Tried,
+) -> KeyframeError {
+    let fs_a = f64::from(opts.full_scale_ma) / 1000.0;
+    let mut closest = tried.closest;
+    if !closest.0.is_finite() {
+        let played = (tried.count > 0)
+            .then(|| try_encoding(signal, fields, opts, finest, 0, None).ok())
+            .flatten();
+        if let Some(e) = played {
+            closest = (e.rms_error_fs, e.max_error_fs);
+        } else if let Some(e) = interpolation_error(signal, usize::from(finest), f64::INFINITY) {
+            closest = (e.0 / fs_a, e.1 / fs_a);
+        }
+    }
+    KeyframeError::Unfaithful {
+        rms: closest.0,
+        max: closest.1,
     }
 }
 
