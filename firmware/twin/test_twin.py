@@ -324,6 +324,46 @@ class ButtonTicks(unittest.TestCase):
         self.assertLessEqual(max(starts), TICK_BUDGET)
 
 
+class PlayingTicks(unittest.TestCase):
+    """Every tick while the six emoji slots play from the button, with no link
+    traffic, stays within the budget; the ticks that play on (each one that decodes
+    its next keyframe among them) keep a margin below it. TWIN_VERBOSE=1 bash run.sh
+    test_twin.PlayingTicks prints the figures."""
+
+    MARGIN = 100  # instructions the playing ticks leave for the link's work
+
+    def test_every_tick_of_a_playback_stays_within_the_budget(self):
+        b = boot(EMOJI)
+        b.run(0.3)
+        b.count_tick_instructions()
+        t, releases = 0.3, []
+        for slot in range(6):
+            want, _ = expected(EMOJI, slot)
+            b.press(t, SHORT)
+            releases.append(t + SHORT)
+            t += SHORT + len(want) / 1000 + 0.2
+            b.press(t, LONG)
+            t += LONG + 0.2
+        b.run(t - b.now())
+        b.count_tick_instructions(False)
+        frames = codes(b)
+        ticks = b.tick_instructions
+        starts = []
+        for release in releases:
+            # The start's window as in ButtonTicks: from the release to two ticks
+            # past the first frame off 0 A.
+            i = first_frame_after(b, release)
+            on = next(k for k in range(i, len(frames)) if frames[k] != IDLE)
+            starts.append((b.frames[i][0], b.frames[on + 2][0]))
+        playing = [n for at, n in ticks if not any(lo <= at <= hi for lo, hi in starts)]
+        worst = max(n for _, n in ticks)
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nsix slots played: worst tick {worst} instructions, worst past the starts "
+                  f"{max(playing)}, over {len(ticks)} ticks")
+        self.assertLessEqual(worst, TICK_BUDGET)
+        self.assertLessEqual(max(playing), TICK_BUDGET - self.MARGIN)
+
+
 class CorruptBank(unittest.TestCase):
     def test_a_corrupt_bank_is_refused_with_its_led_code_and_nothing_plays(self):
         image = bytearray(EMOJI.read_bytes())
