@@ -293,7 +293,7 @@ class StopRamps(unittest.TestCase):
 class ButtonTicks(unittest.TestCase):
     """The tick that starts a slot from the button stays within the budget: its
     player waits ready (the link's task built it), and what the host hears of the
-    press goes out at the next tick. 1,677 instructions (TWIN_VERBOSE=1 bash run.sh
+    press goes out at the next tick. 1,493 instructions (TWIN_VERBOSE=1 bash run.sh
     test_twin.ButtonTicks prints it)."""
 
     def test_the_tick_that_starts_a_slot_by_a_press_stays_within_the_budget(self):
@@ -1155,7 +1155,7 @@ class LinkTwin(unittest.TestCase):
         return start, steady
 
     # With status requests back to back, the worst tick answers one on a keyframe
-    # boundary: 1,587 instructions, median 1,318 (TWIN_VERBOSE=1 bash run.sh
+    # boundary: 1,401 instructions, median 1,134 (TWIN_VERBOSE=1 bash run.sh
     # test_twin.LinkTwin prints them). The snapshot is a few words the tick stores.
     def test_the_tick_stays_within_its_budget_with_the_link_busy(self):
         start, steady = self.tick_costs()
@@ -1164,7 +1164,7 @@ class LinkTwin(unittest.TestCase):
 
     # The tick that starts a slot by `Play` takes the player the link's task built
     # and hands it the heat; the answer and the `Started` event go out at the next
-    # tick: 1,643 instructions (TWIN_VERBOSE=1 prints it).
+    # tick: 1,459 instructions (TWIN_VERBOSE=1 prints it).
     def test_the_tick_that_starts_a_slot_stays_within_its_budget(self):
         start, _ = self.tick_costs()
         self.assertLessEqual(max(start), TICK_BUDGET)
@@ -1260,7 +1260,7 @@ class LinkStream(unittest.TestCase):
 
     def test_the_ticks_of_a_stream_stay_within_the_budget(self):
         # Its begin, its start (the player the link's task built from the first two
-        # keyframes), its data a buffer ahead, its stop and ramp: worst 1,685
+        # keyframes), its data a buffer ahead, its stop and ramp: worst 1,492
         # instructions (TWIN_VERBOSE=1 prints it).
         b = boot(EMOJI)
         h = Host(b)
