@@ -44,6 +44,9 @@ cargo test --locked -p touchc
 step "tests: end-to-end alone"
 cargo test --locked -p touch-e2e
 
+step "API docs: every public item documented, every link resolved"
+RUSTDOCFLAGS='-D warnings' cargo doc --no-deps --workspace --exclude sleeve-firmware --locked -q
+
 step "pipeline library without the CLI and the pictures (no clap, plotters, gif, png, indicatif)"
 cargo build -p touchc --lib --no-default-features --locked
 

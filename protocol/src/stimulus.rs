@@ -318,8 +318,7 @@ impl Keyframes<'_> {
             if self.after_run {
                 return Err(Error::KeyframeOutOfRange);
             }
-            let (run, rest) =
-                postcard::take_from_bytes::<u32>(self.rest).map_err(|_| Error::BadKeyframes)?;
+            let (run, rest) = take_varint(self.rest).ok_or(Error::BadKeyframes)?;
             self.rest = rest;
             if run == 0 || run > self.remaining {
                 return Err(Error::BadKeyframes);
@@ -330,26 +329,32 @@ impl Keyframes<'_> {
         }
         self.after_run = false;
         let (lo, hi) = self.range();
+        // The cursor and the mask stay in registers for the whole record: this runs
+        // in the sleeve's tick at every keyframe boundary.
+        let mut rest = self.rest;
+        let mut bits = mask;
         for c in 0..CHANNELS {
             // In range: stored values are within i16, so the prediction fits in i32.
             let mut next = 2 * self.stored[c] - self.before[c];
-            if mask & (1 << c) != 0 {
-                let (residual, rest) =
-                    postcard::take_from_bytes::<i32>(self.rest).map_err(|_| Error::BadKeyframes)?;
-                self.rest = rest;
-                if residual == 0 {
+            if bits & 1 != 0 {
+                let (zigzag, tail) = take_varint(rest).ok_or(Error::BadKeyframes)?;
+                rest = tail;
+                if zigzag == 0 {
                     return Err(Error::KeyframeOutOfRange);
                 }
+                let residual = ((zigzag >> 1) as i32) ^ -((zigzag & 1) as i32);
                 next = next
                     .checked_add(residual)
                     .ok_or(Error::KeyframeOutOfRange)?;
             }
+            bits >>= 1;
             if next < lo || next > hi {
                 return Err(Error::KeyframeOutOfRange);
             }
             self.before[c] = self.stored[c];
             self.stored[c] = next;
         }
+        self.rest = rest;
         Ok(())
     }
 
@@ -401,6 +406,30 @@ impl Iterator for Keyframes<'_> {
     }
 }
 
+/// Takes one postcard varint `u32` off `bytes`, accepting exactly what
+/// `postcard::take_from_bytes::<u32>` does (at most five bytes, the fifth below 16,
+/// a longer than needed encoding allowed): the same bytes give the same value and
+/// the same rest, or a refusal from both. Postcard's general deserializer costs the
+/// sleeve's keyframe boundary tick some hundred instructions more; most residuals
+/// are one byte, the first test.
+#[inline(always)]
+fn take_varint(bytes: &[u8]) -> Option<(u32, &[u8])> {
+    let (&first, mut rest) = bytes.split_first()?;
+    if first & 0x80 == 0 {
+        return Some((u32::from(first), rest));
+    }
+    let mut out = u32::from(first & 0x7F);
+    for i in 1..5 {
+        let (&byte, tail) = rest.split_first()?;
+        rest = tail;
+        out |= u32::from(byte & 0x7F) << (7 * i);
+        if byte & 0x80 == 0 {
+            return (i < 4 || byte <= 0x0F).then_some((out, rest));
+        }
+    }
+    None
+}
+
 /// Quantises a Q15 value to the stored resolution, rounding to nearest.
 pub fn quantise(q15: i16, shift: u8) -> i32 {
     let shift = u32::from(shift.min(15));
@@ -408,4 +437,53 @@ pub fn quantise(q15: i16, shift: u8) -> i32 {
     let hi = i32::from(i16::MAX) >> shift;
     let half = if shift == 0 { 0 } else { 1 << (shift - 1) };
     ((i32::from(q15) + half) >> shift).clamp(lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The body's varint reader against postcard's own, over every length, the
+    /// values at each byte's edges, over-long encodings, bad last bytes and
+    /// truncation: the same value and the same bytes left, or a refusal from both.
+    #[test]
+    fn varint_reads_what_postcard_reads() {
+        let edges = [0x00u8, 0x01, 0x0F, 0x10, 0x7F, 0x80, 0x81, 0x8F, 0x90, 0xFF];
+        let mut inputs: Vec<Vec<u8>> = vec![vec![]];
+        for len in 1..=6 {
+            let mut next = Vec::new();
+            for prefix in inputs.iter().filter(|p| p.len() == len - 1) {
+                for &b in &edges {
+                    let mut v = prefix.clone();
+                    v.push(b);
+                    next.push(v);
+                }
+            }
+            inputs.extend(next);
+        }
+        for v in [
+            0u32,
+            1,
+            63,
+            64,
+            127,
+            128,
+            16_383,
+            16_384,
+            u32::MAX / 2,
+            u32::MAX,
+        ] {
+            let mut buf = [0u8; 5];
+            inputs.push(postcard::to_slice(&v, &mut buf).unwrap().to_vec());
+        }
+        for bytes in &inputs {
+            let mut with_tail = bytes.clone();
+            with_tail.push(0xAA);
+            for input in [bytes, &with_tail] {
+                let ours = take_varint(input);
+                let theirs = postcard::take_from_bytes::<u32>(input).ok();
+                assert_eq!(ours, theirs, "{input:02x?}");
+            }
+        }
+    }
 }

@@ -50,75 +50,18 @@ pub(super) fn allocate<'a>(
         .map(|f| f * tol)
         .filter(|&t| t <= max_model)
         .collect();
-    // The uniform runs, costed per unit window (a window of either length is a sum of
-    // them: the uniform tube does not depend on the windows).
-    let runs: Vec<WindowCosts> = factors
-        .iter()
-        .map(|&t| {
-            let uniform = Schedule {
-                keyframes: unit,
-                tols: vec![[t * 32768.0; CHANNELS]],
-            };
-            tube_scheduled(signal, fs_a, period, shift, &uniform, true).3
-        })
-        .collect();
+    let runs = uniform_costs(signal, fs_a, period, shift, unit, &factors);
     let q = 32768.0 * rms_model;
     let budget = q * q * (signal.len() * CHANNELS) as f64;
     let mut best: Option<Vec<u8>> = None;
     for per in ALLOCATE_WINDOWS {
-        // The runs' costs per window of `per` units.
-        let costs: Vec<WindowCosts> = runs
-            .iter()
-            .map(|run| {
-                run.chunks(per)
-                    .map(|chunk| {
-                        std::array::from_fn(|c| {
-                            chunk
-                                .iter()
-                                .fold((0, 0.0), |(b, e), w| (b + w[c].0, e + w[c].1))
-                        })
-                    })
-                    .collect()
-            })
-            .collect();
-        let windows = costs.first().map_or(0, Vec::len);
-        // Each window and channel's factor at `lambda`, and the total error predicted.
-        let choose = |lambda: f64| {
-            let mut total = 0.0;
-            let pick: Vec<[usize; CHANNELS]> = (0..windows)
-                .map(|w| {
-                    std::array::from_fn(|c| {
-                        let cost = |f: usize| {
-                            let (bends, error) = costs[f][w][c];
-                            f64::from(bends) + lambda * error
-                        };
-                        let f = (0..costs.len())
-                            .min_by(|&a, &b| cost(a).total_cmp(&cost(b)))
-                            .unwrap_or(0);
-                        total += costs[f][w][c].1;
-                        f
-                    })
-                })
-                .collect();
-            (total, pick)
-        };
+        let costs = per_window(&runs, per);
         let (mut passed, mut missed): (Option<f64>, Option<f64>) = (None, None);
         let mut target = 0.98 * budget;
         for _ in 0..ALLOCATE_TRIES {
-            // The smallest lambda (in log10) whose choice meets the target: the error
-            // falls as lambda grows.
-            let (mut lo, mut hi) = (-40.0f64, 10.0f64);
-            for _ in 0..40 {
-                let mid = 0.5 * (lo + hi);
-                if choose(10f64.powf(mid)).0 <= target {
-                    hi = mid;
-                } else {
-                    lo = mid;
-                }
-            }
             let schedule = Schedule {
                 keyframes: unit * per,
-                tols: choose(10f64.powf(hi))
+                tols: choose(&costs, smallest_lambda(&costs, target))
                     .1
                     .iter()
                     .map(|p| p.map(|f| factors[f] * 32768.0))
@@ -143,4 +86,82 @@ pub(super) fn allocate<'a>(
         }
     }
     Ok(best)
+}
+
+/// The uniform tube at each tolerance of `factors` (fraction of full scale), costed
+/// per window of `unit` keyframes (a window of any of [`ALLOCATE_WINDOWS`] is a sum of
+/// them: the uniform tube does not depend on the windows).
+fn uniform_costs(
+    signal: &[[f64; CHANNELS]],
+    fs_a: f64,
+    period: usize,
+    shift: u8,
+    unit: usize,
+    factors: &[f64],
+) -> Vec<WindowCosts> {
+    factors
+        .iter()
+        .map(|&t| {
+            let uniform = Schedule {
+                keyframes: unit,
+                tols: vec![[t * 32768.0; CHANNELS]],
+            };
+            tube_scheduled(signal, fs_a, period, shift, &uniform, true).3
+        })
+        .collect()
+}
+
+/// The costs of `runs` per window of `per` unit windows.
+fn per_window(runs: &[WindowCosts], per: usize) -> Vec<WindowCosts> {
+    runs.iter()
+        .map(|run| {
+            run.chunks(per)
+                .map(|chunk| {
+                    std::array::from_fn(|c| {
+                        chunk
+                            .iter()
+                            .fold((0, 0.0), |(b, e), w| (b + w[c].0, e + w[c].1))
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Each window and channel's factor (an index into `costs`) at `lambda`: the one that
+/// minimises `bends + lambda * error`; and the total error predicted.
+fn choose(costs: &[WindowCosts], lambda: f64) -> (f64, Vec<[usize; CHANNELS]>) {
+    let windows = costs.first().map_or(0, Vec::len);
+    let mut total = 0.0;
+    let pick: Vec<[usize; CHANNELS]> = (0..windows)
+        .map(|w| {
+            std::array::from_fn(|c| {
+                let cost = |f: usize| {
+                    let (bends, error) = costs[f][w][c];
+                    f64::from(bends) + lambda * error
+                };
+                let f = (0..costs.len())
+                    .min_by(|&a, &b| cost(a).total_cmp(&cost(b)))
+                    .unwrap_or(0);
+                total += costs[f][w][c].1;
+                f
+            })
+        })
+        .collect();
+    (total, pick)
+}
+
+/// The smallest lambda whose choice ([`choose`]) meets `target`, bisected in log10:
+/// the error falls as lambda grows.
+fn smallest_lambda(costs: &[WindowCosts], target: f64) -> f64 {
+    let (mut lo, mut hi) = (-40.0f64, 10.0f64);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if choose(costs, 10f64.powf(mid)).0 <= target {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    10f64.powf(hi)
 }

@@ -5,7 +5,7 @@
 use touch_protocol::CHANNELS;
 
 /// A line this many keyframes long ends where another channel's bends (see
-/// [`Line::nearly_done`]). Measured with [`LINE_SHIFTS`](super::LINE_SHIFTS) on the same 40 stimuli: 4 with
+/// [`Line::nearly_done`]). Measured with [`LINE_SHIFTS`](super::lines::LINE_SHIFTS) on the same 40 stimuli: 4 with
 /// the slope test gives 9% fewer bytes than never joining, 2% fewer than 6; on the
 /// benchmark's busy synthetic scene, 21% fewer.
 const JOIN_AFTER: usize = 4;
@@ -164,71 +164,113 @@ pub(super) fn tube_scheduled(
 ) -> (Vec<[i16; CHANNELS]>, f64, f64, WindowCosts) {
     let n = signal.len();
     let unit = f64::from(1u32 << shift);
-    let to_stored = 32768.0 / fs_a / unit;
-    let (min_s, max_s) = (i64::from(i16::MIN) >> shift, i64::from(i16::MAX) >> shift);
-    // The signal in stored units; 0 after its end (the last keyframe may lie beyond).
-    let row = |t: usize| {
-        signal
-            .get(t)
-            .map_or([0.0; CHANNELS], |s| s.map(|a| a * to_stored))
+    let tube = Tube {
+        signal,
+        to_stored: 32768.0 / fs_a / unit,
+        period,
+        pf: period as f64,
+        min_s: i64::from(i16::MIN) >> shift,
+        max_s: i64::from(i16::MAX) >> shift,
     };
-    let rounded = |t: usize, c: usize| (row(t)[c].round() as i64).clamp(min_s, max_s);
     let count = (n - 1).div_ceil(period) + 1;
-    let pf = period as f64;
     let mut stored = vec![[0i64; CHANNELS]; count];
-    // The model's error, segment by segment, as soon as both ends of a segment are final
-    // on every channel (keyframes up to the earliest line start): those rows were read
-    // lately and are still in cache, where a pass after the tube reads a long signal from
-    // memory again. Segments are taken in order, so the sums are the same.
-    let (mut sum2, mut max, mut done) = (0.0f64, 0.0f64, 0usize);
     let windows = if costs {
         (count - 1).div_ceil(schedule.keyframes).max(1)
     } else {
         0
     };
-    let mut cost: WindowCosts = vec![[(0, 0.0); CHANNELS]; windows];
-    let mut measure_to = |stored: &[[i64; CHANNELS]], upto: usize| {
-        for k in done..upto {
-            let (a, b) = (stored[k].map(|v| v as f64), stored[k + 1].map(|v| v as f64));
-            let mut segment = [0.0f64; CHANNELS];
-            for (i, t) in (k * period..((k + 1) * period).min(n)).enumerate() {
-                let w = i as f64 / pf;
-                let x = row(t);
-                for c in 0..CHANNELS {
-                    let e = a[c] + (b[c] - a[c]) * w - x[c];
-                    segment[c] += e * e;
-                    max = larger(max, e.abs());
-                }
-            }
-            sum2 += segment.iter().sum::<f64>();
-            if let Some(window) =
-                cost.get_mut((k / schedule.keyframes).min(windows.saturating_sub(1)))
-            {
-                for c in 0..CHANNELS {
-                    window[c].1 += segment[c] * unit * unit;
-                    // A bend at keyframe k: the residual of keyframe k + 1.
-                    let before = if k == 0 { 0 } else { stored[k - 1][c] };
-                    if stored[k + 1][c] - 2 * stored[k][c] + before != 0 {
-                        window[c].0 += 1;
-                    }
-                }
-            }
-        }
-        done = done.max(upto);
+    let mut error = ModelError {
+        sum2: 0.0,
+        max: 0.0,
+        done: 0,
+        cost: vec![[(0, 0.0); CHANNELS]; windows],
+        window_keyframes: schedule.keyframes,
+        unit,
     };
-    let mut lines: [Line; CHANNELS] = std::array::from_fn(|c| Line::at(0, rounded(0, c)));
+    let mut lines: [Line; CHANNELS] = std::array::from_fn(|c| Line::at(0, tube.rounded(0, c)));
     stored[0] = lines.map(|l| l.base);
     for j in 1..count {
         let tol = schedule.at(j - 1).map(|t| t / unit);
-        // Every channel's line over the segment ending at keyframe `j`, in step (one
-        // pass over the rows, eight independent chains).
-        let mut extended = lines;
+        let extended = tube.extended(&lines, j, &tol);
+        tube.advance(&mut lines, extended, &mut stored, j, &tol);
+        let upto = lines.iter().map(|l| l.start).min().unwrap_or(0);
+        error.measure_to(&tube, &stored, upto);
+    }
+    for (c, line) in lines.iter().enumerate() {
+        if line.start + 1 < count {
+            line.commit(&mut stored, count - 1, c, tube.pf);
+        }
+    }
+    // The rest of the model's error.
+    error.measure_to(&tube, &stored, count - 1);
+    if (count - 1) * period < n {
+        // A signal of one tick: its only keyframe.
+        let (a, x) = (stored[count - 1], tube.row((count - 1) * period));
+        for c in 0..CHANNELS {
+            let e = a[c] as f64 - x[c];
+            error.sum2 += e * e;
+            error.max = error.max.max(e.abs());
+        }
+    }
+    // In range by construction (every slope and rounded value is clamped to it).
+    let keyframes = stored
+        .iter()
+        .map(|s| s.map(|v| (v << shift).clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16))
+        .collect();
+    (
+        keyframes,
+        unit * (error.sum2 / (n * CHANNELS) as f64).sqrt(),
+        unit * error.max,
+        error.cost,
+    )
+}
+
+/// What each step of [`tube_scheduled`] reads: the signal, converted to stored units,
+/// the keyframe period and the range of stored values.
+struct Tube<'s> {
+    signal: &'s [[f64; CHANNELS]],
+    /// Stored units per ampere.
+    to_stored: f64,
+    period: usize,
+    /// `period` as f64.
+    pf: f64,
+    min_s: i64,
+    max_s: i64,
+}
+
+impl Tube<'_> {
+    /// The signal at tick `t` in stored units; 0 after its end (the last keyframe may
+    /// lie beyond).
+    #[inline(always)]
+    fn row(&self, t: usize) -> [f64; CHANNELS] {
+        self.signal
+            .get(t)
+            .map_or([0.0; CHANNELS], |s| s.map(|a| a * self.to_stored))
+    }
+
+    /// Channel `c` of the signal at tick `t`, rounded to a stored value.
+    #[inline(always)]
+    fn rounded(&self, t: usize, c: usize) -> i64 {
+        (self.row(t)[c].round() as i64).clamp(self.min_s, self.max_s)
+    }
+
+    /// Every channel's line over the segment ending at keyframe `j`, in step (one pass
+    /// over the rows, eight independent chains), at the tube half-widths `tol`.
+    #[inline(always)]
+    fn extended(
+        &self,
+        lines: &[Line; CHANNELS],
+        j: usize,
+        tol: &[f64; CHANNELS],
+    ) -> [Line; CHANNELS] {
+        let (period, pf) = (self.period, self.pf);
+        let mut extended = *lines;
         let from = lines.map(|l| (l.start * period) as f64);
         let base = lines.map(|l| l.base as f64);
         let (mut lo, mut hi) = (lines.map(|l| l.lo), lines.map(|l| l.hi));
         let mut mv = lines.map(|l| l.mv);
         for t in (j - 1) * period + 1..=j * period {
-            let x = row(t);
+            let x = self.row(t);
             for c in 0..CHANNELS {
                 let m = t as f64 - from[c];
                 let per_tick = pf / m;
@@ -241,7 +283,25 @@ pub(super) fn tube_scheduled(
         for (c, e) in extended.iter_mut().enumerate() {
             (e.lo, e.hi, e.mv) = (lo[c], hi[c], mv[c]);
         }
-        let fits: [bool; CHANNELS] = std::array::from_fn(|c| extended[c].fits(j, min_s, max_s));
+        extended
+    }
+
+    /// Each channel's line at keyframe `j`: the `extended` one where it still fits
+    /// (unless another channel bends there and the line is nearly done); else the
+    /// line ends at the keyframe before, written to `stored`, and a new one leaves
+    /// there, or, where not even one segment fits, at the signal's rounded value.
+    #[inline(always)]
+    fn advance(
+        &self,
+        lines: &mut [Line; CHANNELS],
+        mut extended: [Line; CHANNELS],
+        stored: &mut [[i64; CHANNELS]],
+        j: usize,
+        tol: &[f64; CHANNELS],
+    ) {
+        let (period, pf) = (self.period, self.pf);
+        let fits: [bool; CHANNELS] =
+            std::array::from_fn(|c| extended[c].fits(j, self.min_s, self.max_s));
         let bends = (0..CHANNELS).any(|c| !fits[c] && lines[c].start + 1 < j);
         for c in 0..CHANNELS {
             let line = &mut lines[c];
@@ -252,48 +312,77 @@ pub(super) fn tube_scheduled(
             }
             if line.start + 1 < j {
                 // The line ends at the last keyframe it reached; a new one leaves there.
-                line.commit(&mut stored, j - 1, c, pf);
+                line.commit(stored, j - 1, c, pf);
                 let mut fresh = Line::at(j - 1, stored[j - 1][c]);
                 for t in (j - 1) * period + 1..=j * period {
-                    fresh.take(t, row(t)[c], period, pf, tol[c]);
+                    fresh.take(t, self.row(t)[c], period, pf, tol[c]);
                 }
-                if fresh.fits(j, min_s, max_s) {
+                if fresh.fits(j, self.min_s, self.max_s) {
                     *line = fresh;
                     continue;
                 }
             }
-            stored[j][c] = rounded(j * period, c);
+            stored[j][c] = self.rounded(j * period, c);
             *line = Line::at(j, stored[j][c]);
         }
-        measure_to(&stored, lines.iter().map(|l| l.start).min().unwrap_or(0));
     }
-    for (c, line) in lines.iter().enumerate() {
-        if line.start + 1 < count {
-            line.commit(&mut stored, count - 1, c, pf);
+}
+
+/// The model's error in [`tube_scheduled`], segment by segment, as soon as both ends
+/// of a segment are final on every channel (keyframes up to the earliest line start):
+/// those rows were read lately and are still in cache, where a pass after the tube
+/// reads a long signal from memory again. Segments are taken in order, so the sums
+/// are the same.
+struct ModelError {
+    /// Sum of squared errors, stored units squared.
+    sum2: f64,
+    /// Largest error, stored units.
+    max: f64,
+    /// Segments measured.
+    done: usize,
+    /// Per window and channel (none when the caller wants no costs).
+    cost: WindowCosts,
+    /// Keyframes per window of `cost`.
+    window_keyframes: usize,
+    /// Q15 units per stored unit.
+    unit: f64,
+}
+
+impl ModelError {
+    /// Adds the segments before keyframe `upto` not yet measured.
+    #[inline(always)]
+    fn measure_to(&mut self, tube: &Tube<'_>, stored: &[[i64; CHANNELS]], upto: usize) {
+        let (period, pf, n) = (tube.period, tube.pf, tube.signal.len());
+        let (unit, windows) = (self.unit, self.cost.len());
+        for k in self.done..upto {
+            let (a, b) = (stored[k].map(|v| v as f64), stored[k + 1].map(|v| v as f64));
+            let mut segment = [0.0f64; CHANNELS];
+            for (i, t) in (k * period..((k + 1) * period).min(n)).enumerate() {
+                let w = i as f64 / pf;
+                let x = tube.row(t);
+                for c in 0..CHANNELS {
+                    let e = a[c] + (b[c] - a[c]) * w - x[c];
+                    segment[c] += e * e;
+                    self.max = larger(self.max, e.abs());
+                }
+            }
+            self.sum2 += segment.iter().sum::<f64>();
+            if let Some(window) = self
+                .cost
+                .get_mut((k / self.window_keyframes).min(windows.saturating_sub(1)))
+            {
+                for c in 0..CHANNELS {
+                    window[c].1 += segment[c] * unit * unit;
+                    // A bend at keyframe k: the residual of keyframe k + 1.
+                    let before = if k == 0 { 0 } else { stored[k - 1][c] };
+                    if stored[k + 1][c] - 2 * stored[k][c] + before != 0 {
+                        window[c].0 += 1;
+                    }
+                }
+            }
         }
+        self.done = self.done.max(upto);
     }
-    // The rest of the model's error.
-    measure_to(&stored, count - 1);
-    if (count - 1) * period < n {
-        // A signal of one tick: its only keyframe.
-        let (a, x) = (stored[count - 1], row((count - 1) * period));
-        for c in 0..CHANNELS {
-            let e = a[c] as f64 - x[c];
-            sum2 += e * e;
-            max = max.max(e.abs());
-        }
-    }
-    // In range by construction (every slope and rounded value is clamped to it).
-    let keyframes = stored
-        .iter()
-        .map(|s| s.map(|v| (v << shift).clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16))
-        .collect();
-    (
-        keyframes,
-        unit * (sum2 / (n * CHANNELS) as f64).sqrt(),
-        unit * max,
-        cost,
-    )
 }
 
 /// `x.ceil()` for the slopes of a line (finite, far inside i64), without the libm

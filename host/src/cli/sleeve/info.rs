@@ -1,0 +1,166 @@
+//! `touchc sleeve list` and `touchc sleeve info`: which ports may be a sleeve, and
+//! what one holds.
+
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::{bail, Context};
+use serde_json::json;
+use touch_protocol::link::BankState;
+use touchc::link::serial;
+use touchc::link::{DeviceInfo, SlotEntry};
+
+use super::{connect, describe, open, USB_IDS};
+use crate::cli::escaped;
+
+pub(super) fn list(probe: bool) -> anyhow::Result<()> {
+    let found = serial::candidates(USB_IDS).context("cannot list the serial ports")?;
+    if found.is_empty() {
+        bail!("no sleeve attached (no USB serial port found)");
+    }
+    let mut out = std::io::stdout().lock();
+    for c in &found {
+        let (vid, pid) = c.usb.unwrap_or((0, 0));
+        let kind = if c.is_sleeve {
+            "sleeve (USB)"
+        } else {
+            "USB-serial adapter"
+        };
+        let mut line = format!("{}  {kind}  {vid:04x}:{pid:04x}", c.path.display());
+        if let Some(p) = &c.product {
+            line.push_str(&format!("  {}", escaped(p)));
+        }
+        if probe {
+            match open(&c.path).and_then(|mut s| Ok(s.info()?)) {
+                Ok(i) => line.push_str(&format!(
+                    "  firmware {}, layout {}",
+                    escaped(&i.firmware),
+                    escaped(&i.layout)
+                )),
+                Err(_) => line.push_str("  (no sleeve answered)"),
+            }
+        }
+        writeln!(out, "{line}")?;
+    }
+    Ok(())
+}
+
+pub(super) fn info(port: Option<&Path>, as_json: bool) -> anyhow::Result<()> {
+    let mut link = connect(port)?;
+    let p = link.port.clone();
+    let i = link.client.info().map_err(|e| describe(e, &p, "info"))?;
+    let slots = match i.bank {
+        BankState::Flashed(s) | BankState::Builtin(s) => s.slots,
+        BankState::Refused { .. } => 0,
+    };
+    let mut entries = Vec::new();
+    for slot in 0..slots {
+        entries.push(
+            link.client
+                .slot(slot)
+                .map_err(|e| describe(e, &p, "slot"))?,
+        );
+    }
+    let mut out = std::io::stdout().lock();
+    if as_json {
+        writeln!(out, "{}", info_json(&p, &i, &entries))?;
+        return Ok(());
+    }
+    info_text(&mut out, &p, &i, &entries)
+}
+
+/// The sleeve's info and slots as one JSON object.
+fn info_json(p: &Path, i: &DeviceInfo, entries: &[SlotEntry]) -> serde_json::Value {
+    let bank = match i.bank {
+        BankState::Flashed(s) => {
+            json!({"state": "flashed", "bytes": s.len, "slots": s.slots})
+        }
+        BankState::Builtin(s) => {
+            json!({"state": "builtin", "bytes": s.len, "slots": s.slots})
+        }
+        BankState::Refused { blinks } => json!({"state": "refused", "led_code": blinks}),
+    };
+    json!({
+        "port": p.display().to_string(),
+        "link_version": i.link_version,
+        "firmware": i.firmware,
+        "layout": i.layout,
+        "layout_hash": format!("{:08x}", i.layout_hash),
+        "full_scale_ma": i.full_scale_ma,
+        "limits": {
+            "peak_ma": i.limits.peak_ma,
+            "slew_ma_per_ms": i.limits.slew_ma_per_ms,
+            "continuous_ma": i.limits.continuous_ma,
+            "i2t_budget_ma2s": i.limits.i2t_budget_ma2s,
+        },
+        "bank_capacity": i.bank_capacity,
+        "bank": bank,
+        "slots": entries.iter().map(|s| json!({
+            "slot": s.slot, "name": s.name, "duration_ms": s.duration_ms,
+            "playback_ms": s.playback_ms, "playable": s.playable,
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// The sleeve's info and slots in words, one fact a line.
+fn info_text(
+    out: &mut impl Write,
+    p: &Path,
+    i: &DeviceInfo,
+    entries: &[SlotEntry],
+) -> anyhow::Result<()> {
+    writeln!(out, "port:      {}", p.display())?;
+    writeln!(
+        out,
+        "firmware:  {} (link version {})",
+        escaped(&i.firmware),
+        i.link_version
+    )?;
+    writeln!(
+        out,
+        "layout:    {} ({:08x})",
+        escaped(&i.layout),
+        i.layout_hash
+    )?;
+    let l = i.limits;
+    writeln!(
+        out,
+        "limits:    peak {} mA, slew {} mA/ms, continuous {} mA, I2t budget {} A2s; full scale {} mA",
+        l.peak_ma,
+        l.slew_ma_per_ms,
+        l.continuous_ma,
+        f64::from(l.i2t_budget_ma2s) / 1e6,
+        i.full_scale_ma
+    )?;
+    match i.bank {
+        BankState::Flashed(s) => writeln!(
+            out,
+            "bank:      flashed, {} slots, {} of {} bytes",
+            s.slots, s.len, i.bank_capacity
+        )?,
+        BankState::Builtin(s) => writeln!(
+            out,
+            "bank:      built in (the bank region is erased), {} slots",
+            s.slots
+        )?,
+        BankState::Refused { blinks } => writeln!(
+            out,
+            "bank:      refused (LED code {blinks}); nothing plays until a good bank is uploaded"
+        )?,
+    }
+    for s in entries {
+        writeln!(
+            out,
+            "  slot {:>2}: {:<16} {:>7.3} s{}",
+            s.slot,
+            escaped(&s.name),
+            f64::from(s.playback_ms) / 1000.0,
+            if s.playable {
+                ""
+            } else {
+                "  (another layout: never played)"
+            }
+        )?;
+    }
+    Ok(())
+}
