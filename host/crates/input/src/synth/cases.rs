@@ -9,7 +9,7 @@ use super::{Gesture, Sensor, SynthSpec, Tuning};
 pub const RATES_HZ: [f64; 2] = [20.0, 54.0];
 
 /// Seconds of sensor noise before and after the touch: more than any tare window.
-const QUIET_S: f64 = 1.5;
+pub const QUIET_S: f64 = 1.5;
 
 /// One synthetic case: a name, the sensor and rate, and the spec that generates it.
 #[derive(Debug, Clone, PartialEq)]
