@@ -26,9 +26,9 @@ Examples:
   touchc compile a.npy b.npy c.npz --out-dir stimuli/
   touchc synth stroke -o - | touchc compile - -o stroke.touch
 
-A stimulus lasts longer than its recording (3.4 s longer at 20 Hz with the default
-preset): the 4 Hz low-pass filter rings out after the last frame (2.4 s of it) and the
-current ramps in and out over 0.5 s at each end.";
+A stimulus lasts longer than its recording (2.9 s longer with the default preset, at
+any rate): the 4 Hz low-pass filter rings out after the last frame (1.9 s of it, after
+a 50 ms lead) and the current ramps in and out over 0.5 s at each end.";
 
 /// Arguments of `touchc compile`.
 #[derive(Debug, clap::Args)]
