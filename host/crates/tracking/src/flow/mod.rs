@@ -254,8 +254,13 @@ pub fn min_cost_flow_within(
 ) -> Result<FlowSolution, FlowError> {
     check_nodes(g, source, sink)?;
     let n = g.n_nodes;
-    let out_edges = Adjacency::new(n, &g.edges, |e| e.from);
-    let in_edges = Adjacency::new(n, &g.edges, |e| e.to);
+    let net = Net {
+        g,
+        out_edges: Adjacency::new(n, &g.edges, |e| e.from),
+        in_edges: Adjacency::new(n, &g.edges, |e| e.to),
+        source,
+        sink,
+    };
     let mut used = vec![false; g.edges.len()];
     let mut first_used_at = vec![usize::MAX; g.edges.len()];
     let mut units = 0usize;
@@ -277,151 +282,47 @@ pub fn min_cost_flow_within(
     let mut work = 2 * g.edges.len() as u64;
     let mut budget_reached = false;
 
-    // First path: DP in index order (edges only go forward).
-    let mut pot = vec![f64::INFINITY; n];
-    let mut pred = vec![Step::None; n];
-    pot[source] = 0.0;
-    for v in source + 1..n {
-        let mut best = f64::INFINITY;
-        for &e in in_edges.of(v) {
-            let edge = &g.edges[e];
-            let d = pot[edge.from] + edge.cost;
-            if d < best {
-                best = d;
-                pred[v] = Step::Forward(e);
-            }
-        }
-        pot[v] = best;
-    }
+    let (mut pot, pred) = first_path(&net);
+    prune(&net, &mut pot);
 
-    // Prune nodes on no negative source-sink path (shortest prefix + shortest suffix
-    // >= 0). Exact: every path of a min-cost k-flow is negative (else dropping it would
-    // beat the min-cost (k-1)-flow), so no accepted flow ever uses a pruned node. On
-    // tracking graphs this removes nearly all noise detections before any Dijkstra.
-    let mut suffix = vec![f64::INFINITY; n];
-    suffix[sink] = 0.0;
-    for u in (source..sink).rev() {
-        for &e in out_edges.of(u) {
-            let edge = &g.edges[e];
-            suffix[u] = suffix[u].min(edge.cost + suffix[edge.to]);
-        }
-    }
-    for v in 0..n {
-        let through = pot[v] + suffix[v];
-        if v != source && v != sink && through.partial_cmp(&PRUNE_MARGIN) != Some(Ordering::Less) {
-            pot[v] = f64::INFINITY;
-        }
-    }
-
-    let mut dist = vec![f64::INFINITY; n];
-    let mut heap = BinaryHeap::new();
+    let mut search = Search {
+        dist: vec![f64::INFINITY; n],
+        pred,
+        heap: BinaryHeap::new(),
+    };
     loop {
         if !pot[sink].is_finite() {
             break;
         }
-        // True marginal cost of the path found (reduced costs only steer the search).
-        let mut path = Vec::new();
-        let mut marginal = 0.0;
-        let mut v = sink;
-        while v != source {
-            match pred[v] {
-                Step::Forward(e) => {
-                    marginal += g.edges[e].cost;
-                    path.push(Step::Forward(e));
-                    v = g.edges[e].from;
-                }
-                Step::Backward(e) => {
-                    marginal -= g.edges[e].cost;
-                    path.push(Step::Backward(e));
-                    v = g.edges[e].to;
-                }
-                Step::None => break,
-            }
-        }
-        if v != source || marginal >= 0.0 {
+        let Some((path, marginal)) = trace(&net, &search.pred) else {
+            break;
+        };
+        if marginal >= 0.0 {
             break;
         }
-        for step in path {
-            match step {
-                Step::Forward(e) => {
-                    used[e] = true;
-                    if first_used_at[e] == usize::MAX {
-                        first_used_at[e] = units;
-                    }
-                }
-                Step::Backward(e) => used[e] = false,
-                Step::None => {}
-            }
-        }
+        augment(&path, &mut used, &mut first_used_at, units);
         units += 1;
         total_cost += marginal;
         marginals.push(marginal);
         if units >= max_units {
             break;
         }
-
-        // Next path: Dijkstra on reduced costs c + pot[u] - pot[v] >= 0.
-        dist.iter_mut().for_each(|d| *d = f64::INFINITY);
-        pred.iter_mut().for_each(|p| *p = Step::None);
-        dist[source] = 0.0;
-        heap.clear();
-        heap.push(Reverse((Dist(0.0), source)));
-        let mut reached_sink = f64::INFINITY;
-        while let Some(Reverse((Dist(d), u))) = heap.pop() {
-            if d > dist[u] {
-                continue;
-            }
-            work += (out_edges.of(u).len() + in_edges.of(u).len()) as u64;
-            if work > budget {
-                budget_reached = true;
-                break;
-            }
-            if u == sink {
-                // The sink's path is final; nothing popped later can change it.
-                reached_sink = d;
-                break;
-            }
-            let mut relax = |v: usize, cost: f64, step: Step, heap: &mut BinaryHeap<_>| {
-                if !pot[v].is_finite() {
-                    return;
-                }
-                let nd = d + (cost + pot[u] - pot[v]).max(0.0);
-                if nd < dist[v] {
-                    dist[v] = nd;
-                    pred[v] = step;
-                    heap.push(Reverse((Dist(nd), v)));
-                }
-            };
-            for &e in out_edges.of(u) {
-                if !used[e] {
-                    relax(g.edges[e].to, g.edges[e].cost, Step::Forward(e), &mut heap);
-                }
-            }
-            for &e in in_edges.of(u) {
-                if used[e] {
-                    relax(
-                        g.edges[e].from,
-                        -g.edges[e].cost,
-                        Step::Backward(e),
-                        &mut heap,
-                    );
-                }
-            }
-        }
-        if budget_reached {
+        let Some(reached_sink) = next_path(&net, &used, &pot, &mut search, &mut work, budget)
+        else {
             // This search did not finish: the flow so far is the answer.
+            budget_reached = true;
             break;
-        }
+        };
         // Early exit: nodes not settled before the sink get the sink's distance, which
         // keeps every reduced cost non-negative (for a settled u and unsettled v,
         // dist(sink) <= dist(v) <= dist(u) + c'). Unreachable stays unreachable: pruned
         // nodes keep their infinite potential.
-        for (p, &d) in pot.iter_mut().zip(&dist) {
+        for (p, &d) in pot.iter_mut().zip(&search.dist) {
             *p += d.min(reached_sink);
         }
     }
 
-    let (paths, found_at) = decompose(g, &in_edges, source, sink, &used, &first_used_at);
+    let (paths, found_at) = decompose(g, &net.in_edges, source, sink, &used, &first_used_at);
     Ok(FlowSolution {
         units,
         total_cost,
@@ -432,6 +333,164 @@ pub fn min_cost_flow_within(
         work,
         budget_reached,
     })
+}
+
+/// The graph with its edge lists, and the two ends of the flow.
+struct Net<'a> {
+    g: &'a FlowGraph,
+    out_edges: Adjacency,
+    in_edges: Adjacency,
+    source: usize,
+    sink: usize,
+}
+
+/// The Dijkstra state, kept across searches so each one reuses its allocations.
+struct Search {
+    dist: Vec<f64>,
+    pred: Vec<Step>,
+    heap: BinaryHeap<Reverse<(Dist, usize)>>,
+}
+
+/// First path: DP in index order (edges only go forward); the shortest distance of
+/// every node from the source, and the edge each was reached by.
+fn first_path(net: &Net) -> (Vec<f64>, Vec<Step>) {
+    let (g, source, n) = (net.g, net.source, net.g.n_nodes);
+    let mut pot = vec![f64::INFINITY; n];
+    let mut pred = vec![Step::None; n];
+    pot[source] = 0.0;
+    for v in source + 1..n {
+        let mut best = f64::INFINITY;
+        for &e in net.in_edges.of(v) {
+            let edge = &g.edges[e];
+            let d = pot[edge.from] + edge.cost;
+            if d < best {
+                best = d;
+                pred[v] = Step::Forward(e);
+            }
+        }
+        pot[v] = best;
+    }
+    (pot, pred)
+}
+
+/// Prune nodes on no negative source-sink path (shortest prefix plus shortest suffix
+/// at least 0). Exact: every path of a min-cost k-flow is negative (else dropping it would
+/// beat the min-cost (k-1)-flow), so no accepted flow ever uses a pruned node. On
+/// tracking graphs this removes nearly all noise detections before any Dijkstra.
+fn prune(net: &Net, pot: &mut [f64]) {
+    let (g, source, sink, n) = (net.g, net.source, net.sink, net.g.n_nodes);
+    let mut suffix = vec![f64::INFINITY; n];
+    suffix[sink] = 0.0;
+    for u in (source..sink).rev() {
+        for &e in net.out_edges.of(u) {
+            let edge = &g.edges[e];
+            suffix[u] = suffix[u].min(edge.cost + suffix[edge.to]);
+        }
+    }
+    for v in 0..n {
+        let through = pot[v] + suffix[v];
+        if v != source && v != sink && through.partial_cmp(&PRUNE_MARGIN) != Some(Ordering::Less) {
+            pot[v] = f64::INFINITY;
+        }
+    }
+}
+
+/// The path `pred` leads back from the sink, sink first, with its true marginal cost
+/// (reduced costs only steer the search); `None` if it does not reach the source.
+fn trace(net: &Net, pred: &[Step]) -> Option<(Vec<Step>, f64)> {
+    let g = net.g;
+    let mut path = Vec::new();
+    let mut marginal = 0.0;
+    let mut v = net.sink;
+    while v != net.source {
+        match pred[v] {
+            Step::Forward(e) => {
+                marginal += g.edges[e].cost;
+                path.push(Step::Forward(e));
+                v = g.edges[e].from;
+            }
+            Step::Backward(e) => {
+                marginal -= g.edges[e].cost;
+                path.push(Step::Backward(e));
+                v = g.edges[e].to;
+            }
+            Step::None => break,
+        }
+    }
+    (v == net.source).then_some((path, marginal))
+}
+
+/// Sends one unit along `path`, the augmentation numbered `units`.
+fn augment(path: &[Step], used: &mut [bool], first_used_at: &mut [usize], units: usize) {
+    for &step in path {
+        match step {
+            Step::Forward(e) => {
+                used[e] = true;
+                if first_used_at[e] == usize::MAX {
+                    first_used_at[e] = units;
+                }
+            }
+            Step::Backward(e) => used[e] = false,
+            Step::None => {}
+        }
+    }
+}
+
+/// Next path: Dijkstra on reduced costs c + pot[u] - pot[v] >= 0, leaving the tree in
+/// `search`; the sink's distance (infinite if unreached), or `None` once `work` passes
+/// `budget`.
+fn next_path(
+    net: &Net,
+    used: &[bool],
+    pot: &[f64],
+    search: &mut Search,
+    work: &mut u64,
+    budget: u64,
+) -> Option<f64> {
+    let (g, source, sink) = (net.g, net.source, net.sink);
+    let Search { dist, pred, heap } = search;
+    dist.iter_mut().for_each(|d| *d = f64::INFINITY);
+    pred.iter_mut().for_each(|p| *p = Step::None);
+    dist[source] = 0.0;
+    heap.clear();
+    heap.push(Reverse((Dist(0.0), source)));
+    let mut reached_sink = f64::INFINITY;
+    while let Some(Reverse((Dist(d), u))) = heap.pop() {
+        if d > dist[u] {
+            continue;
+        }
+        *work += (net.out_edges.of(u).len() + net.in_edges.of(u).len()) as u64;
+        if *work > budget {
+            return None;
+        }
+        if u == sink {
+            // The sink's path is final; nothing popped later can change it.
+            reached_sink = d;
+            break;
+        }
+        let mut relax = |v: usize, cost: f64, step: Step, heap: &mut BinaryHeap<_>| {
+            if !pot[v].is_finite() {
+                return;
+            }
+            let nd = d + (cost + pot[u] - pot[v]).max(0.0);
+            if nd < dist[v] {
+                dist[v] = nd;
+                pred[v] = step;
+                heap.push(Reverse((Dist(nd), v)));
+            }
+        };
+        for &e in net.out_edges.of(u) {
+            if !used[e] {
+                relax(g.edges[e].to, g.edges[e].cost, Step::Forward(e), heap);
+            }
+        }
+        for &e in net.in_edges.of(u) {
+            if used[e] {
+                relax(g.edges[e].from, -g.edges[e].cost, Step::Backward(e), heap);
+            }
+        }
+    }
+    Some(reached_sink)
 }
 
 /// Splits the flow into paths, walking back from each used sink edge; with each path,
