@@ -323,16 +323,17 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
             min_readings: cfg.input.min_touch_readings,
         });
         let signal = vec![[0.0; CHANNELS]];
-        return finish(
-            (&input_name, shape),
+        return finish(Finish {
+            input_name: &input_name,
+            shape,
             opts,
-            &metadata,
+            metadata: &metadata,
             clock,
             warnings,
             signal,
-            1.0,
-            None,
-        );
+            fit_scale: 1.0,
+            scene: None,
+        });
     }
 
     // Stages 1-3, on the active scene only.
@@ -450,16 +451,17 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         covered,
         rendered: (rendered, shortfall),
     };
-    finish(
-        (&input_name, shape),
+    finish(Finish {
+        input_name: &input_name,
+        shape,
         opts,
-        &metadata,
+        metadata: &metadata,
         clock,
         warnings,
         signal,
         fit_scale,
-        Some(scene),
-    )
+        scene: Some(scene),
+    })
 }
 
 /// What stages 1-5 made of a recording with touch.
@@ -524,18 +526,35 @@ fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
 const REFIT_STEP: f64 = 0.99;
 const MAX_REFITS: u32 = 20;
 
-/// Stage 7 and the report; `scene` is `None` for a recording without touch.
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    (input_name, shape): (&str, (usize, usize, usize)),
-    opts: &CompileOptions,
-    metadata: &Metadata,
-    mut clock: Clock,
-    mut warnings: Vec<Warning>,
-    mut signal: Vec<[f64; CHANNELS]>,
-    mut fit_scale: f64,
+/// What stage 7 and the report take from the stages before.
+struct Finish<'a> {
+    input_name: &'a str,
+    shape: (usize, usize, usize),
+    opts: &'a CompileOptions,
+    metadata: &'a Metadata,
+    clock: Clock,
+    warnings: Vec<Warning>,
+    /// The conditioned signal, at the output rate.
+    signal: Vec<[f64; CHANNELS]>,
+    /// The factor `--fit` scaled the signal by (1 without it).
+    fit_scale: f64,
+    /// `None` for a recording without touch.
     scene: Option<Scene>,
-) -> Result<Compiled, CompileError> {
+}
+
+/// Stage 7 and the report.
+fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
+    let Finish {
+        input_name,
+        shape,
+        opts,
+        metadata,
+        mut clock,
+        mut warnings,
+        mut signal,
+        mut fit_scale,
+        scene,
+    } = f;
     let no_touch = scene.is_none();
     let (tracked, placement, signals, crop, covered, rendered) = match scene {
         Some(s) => (
@@ -559,22 +578,8 @@ fn finish(
         limits: opts.limits,
     };
     let options = KeyframeOptions::new(&opts.config.keyframes);
-    let mut refits = 0;
-    let encoded = loop {
-        match keyframes::encode(&signal, fields, &options) {
-            // A signal fitted to the limits in f64 sits on them; the player's
-            // interpolation and rounding can land it just over (a long touch fitted to
-            // the thermal budget). Step down until the played codes pass too.
-            Err(KeyframeError::LimitHit(_)) if opts.fit && refits < MAX_REFITS => {
-                for v in signal.iter_mut().flatten() {
-                    *v *= REFIT_STEP;
-                }
-                fit_scale *= REFIT_STEP;
-                refits += 1;
-            }
-            result => break result?,
-        }
-    };
+    let (encoded, refits) =
+        encode_refitting(&mut signal, &mut fit_scale, fields, &options, opts.fit)?;
     if fit_scale < 1.0 {
         warnings.push(Warning::Fitted {
             scale: fit_scale,
@@ -650,4 +655,32 @@ fn finish(
         placement,
         signals,
     })
+}
+
+/// Stage 7: `signal` encoded. With `fit`, a signal whose played codes trip a limit is
+/// scaled down by [`REFIT_STEP`] (and `fit_scale` with it) and encoded again, at most
+/// [`MAX_REFITS`] times; returns the encoding and the number of refits.
+fn encode_refitting(
+    signal: &mut [[f64; CHANNELS]],
+    fit_scale: &mut f64,
+    fields: HeaderFields<'_>,
+    options: &KeyframeOptions,
+    fit: bool,
+) -> Result<(keyframes::Encoded, u32), KeyframeError> {
+    let mut refits = 0;
+    loop {
+        match keyframes::encode(signal, fields, options) {
+            // A signal fitted to the limits in f64 sits on them; the player's
+            // interpolation and rounding can land it just over (a long touch fitted to
+            // the thermal budget). Step down until the played codes pass too.
+            Err(KeyframeError::LimitHit(_)) if fit && refits < MAX_REFITS => {
+                for v in signal.iter_mut().flatten() {
+                    *v *= REFIT_STEP;
+                }
+                *fit_scale *= REFIT_STEP;
+                refits += 1;
+            }
+            result => return result.map(|e| (e, refits)),
+        }
+    }
 }
