@@ -545,16 +545,14 @@ struct Finish<'a> {
 /// Stage 7 and the report.
 fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
     let Finish {
-        input_name,
-        shape,
-        opts,
-        metadata,
         mut clock,
         mut warnings,
         mut signal,
         mut fit_scale,
         scene,
+        ..
     } = f;
+    let opts = f.opts;
     let no_touch = scene.is_none();
     let (tracked, placement, signals, crop, covered, rendered) = match scene {
         Some(s) => (
@@ -571,15 +569,7 @@ fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
         .iter()
         .any(|w| matches!(w, Warning::Input(InputWarning::TareErasedTouch { .. })));
     let name = stimulus_name(&opts.name);
-    let fields = HeaderFields {
-        name,
-        layout_hash: opts.layout.geometry_hash(),
-        layout: opts.layout.id(),
-        limits: opts.limits,
-    };
-    let options = KeyframeOptions::new(&opts.config.keyframes);
-    let (encoded, refits) =
-        encode_refitting(&mut signal, &mut fit_scale, fields, &options, opts.fit)?;
+    let (encoded, refits) = encode_refitting(&mut signal, &mut fit_scale, name, opts)?;
     if fit_scale < 1.0 {
         warnings.push(Warning::Fitted {
             scale: fit_scale,
@@ -591,8 +581,8 @@ fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
     let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
     let bytes = encoded.bytes.len();
     let report = Report {
-        input: input_name.to_string(),
-        shape: [shape.0, shape.1, shape.2],
+        input: f.input_name.to_string(),
+        shape: [f.shape.0, f.shape.1, f.shape.2],
         name: name.to_string(),
         transform: placement.as_ref().map(|p| {
             let t = &p.transform;
@@ -627,23 +617,14 @@ fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
         fit_scale,
         no_touch,
         crop,
-        // Coverage is of the recorded touch: when the tare removed it, none is played.
-        coverage: match &covered {
-            Some(c) => c.0.ratio(),
-            None if tare_erased => 0.0,
-            None => 1.0,
-        },
+        coverage: played_ratio(covered.as_ref().map(|c| &c.0), tare_erased),
         coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
         misses: covered.map(|c| c.1),
-        rendered_coverage: match &rendered {
-            Some(r) => r.0.ratio(),
-            None if tare_erased => 0.0,
-            None => 1.0,
-        },
+        rendered_coverage: played_ratio(rendered.as_ref().map(|r| &r.0), tare_erased),
         rendered_detail: rendered.map_or_else(Coverage::default, |r| r.0),
         shortfall: rendered.and_then(|r| r.1),
         warnings,
-        metadata: *metadata,
+        metadata: *f.metadata,
         config: opts.config.clone(),
         layout: opts.layout.id().to_string(),
     };
@@ -657,23 +638,30 @@ fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
     })
 }
 
-/// Stage 7: `signal` encoded. With `fit`, a signal whose played codes trip a limit is
-/// scaled down by [`REFIT_STEP`] (and `fit_scale` with it) and encoded again, at most
-/// [`MAX_REFITS`] times; returns the encoding and the number of refits.
+/// Stage 7: `signal` encoded as stimulus `name`. With `--fit`, a signal whose played
+/// codes trip a limit is scaled down by [`REFIT_STEP`] (and `fit_scale` with it) and
+/// encoded again, at most [`MAX_REFITS`] times; returns the encoding and the number of
+/// refits.
 fn encode_refitting(
     signal: &mut [[f64; CHANNELS]],
     fit_scale: &mut f64,
-    fields: HeaderFields<'_>,
-    options: &KeyframeOptions,
-    fit: bool,
+    name: &str,
+    opts: &CompileOptions,
 ) -> Result<(keyframes::Encoded, u32), KeyframeError> {
+    let fields = HeaderFields {
+        name,
+        layout_hash: opts.layout.geometry_hash(),
+        layout: opts.layout.id(),
+        limits: opts.limits,
+    };
+    let options = KeyframeOptions::new(&opts.config.keyframes);
     let mut refits = 0;
     loop {
-        match keyframes::encode(signal, fields, options) {
+        match keyframes::encode(signal, fields, &options) {
             // A signal fitted to the limits in f64 sits on them; the player's
             // interpolation and rounding can land it just over (a long touch fitted to
             // the thermal budget). Step down until the played codes pass too.
-            Err(KeyframeError::LimitHit(_)) if fit && refits < MAX_REFITS => {
+            Err(KeyframeError::LimitHit(_)) if opts.fit && refits < MAX_REFITS => {
                 for v in signal.iter_mut().flatten() {
                     *v *= REFIT_STEP;
                 }
@@ -682,5 +670,15 @@ fn encode_refitting(
             }
             result => return result.map(|e| (e, refits)),
         }
+    }
+}
+
+/// A coverage's ratio; without one (no touch tracked), 1, or 0 when the tare removed
+/// the recorded touch (none is played).
+fn played_ratio(coverage: Option<&Coverage>, tare_erased: bool) -> f64 {
+    match coverage {
+        Some(c) => c.ratio(),
+        None if tare_erased => 0.0,
+        None => 1.0,
     }
 }
