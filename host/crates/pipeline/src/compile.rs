@@ -5,6 +5,8 @@
 
 use std::time::Instant;
 
+use ndarray::Array3;
+
 use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
 use crate::rendered::{self, Shortfall};
 use touch_protocol::{Limits, CHANNELS};
@@ -285,7 +287,6 @@ impl std::ops::Deref for Input<'_> {
 fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, CompileError> {
     let cfg = &opts.config;
     let mut clock = Clock::new();
-    let mut warnings = Vec::new();
 
     // Every knob, in the units of this recording, before any work.
     let metadata = Metadata::resolve(&opts.metadata, &rec.file_metadata(), cfg);
@@ -293,35 +294,13 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     let (_, rows, cols) = rec.dim();
     cfg.validate_for(&sampling, (rows, cols))?;
 
-    // Stage 0: tare and trim, and the paper's "no touch" filter.
     let shape = rec.dim();
-    let (tared, tare_note) = rec.tare_noting(&cfg.input, &sampling)?;
-    let mut notes: Vec<InputWarning> = touchc_input::sanity::transposed(shape)
-        .into_iter()
-        .chain(tare_note)
-        .collect();
-    warnings.extend(
-        touchc_input::sanity::check(&rec, tared.view(), cfg, &sampling)
-            .into_iter()
-            .map(Warning::Sanity),
-    );
-    let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
-    let silent = touched <= cfg.input.min_touch_readings;
-    if silent {
-        notes.extend(touchc_input::sanity::erased_touch(&rec, cfg, &sampling));
-    }
+    let (tared, mut warnings, silent) = tare_stage(&rec, cfg, &sampling)?;
     // Nothing reads the raw frames after this: only the name.
     let input_name = rec.name().to_string();
     drop(rec);
     clock.stage(Stage::Tare);
-    // The input's own warnings first: what the later ones say may follow from them.
-    warnings.splice(0..0, notes.into_iter().map(Warning::Input));
     if silent {
-        warnings.push(Warning::NoTouch {
-            readings: touched,
-            threshold_psi: cfg.input.touch_threshold_psi,
-            min_readings: cfg.input.min_touch_readings,
-        });
         let signal = vec![[0.0; CHANNELS]];
         return finish(Finish {
             input_name: &input_name,
@@ -353,17 +332,98 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
     clock.stage(Stage::Coverage);
 
-    // Stage 4.
+    let placement = place_stage(&tracked, &covered.0, tared.dim(), opts, &mut warnings)?;
+    clock.stage(Stage::Placement);
+
+    let (signals, rendered) = signals_stage(
+        tared.view(),
+        &tracked,
+        placement.as_ref(),
+        &covered.0,
+        opts,
+        &sampling,
+        &mut warnings,
+    )?;
+    // The tared copy of the recording is not read after stage 5.
+    drop(tared);
+    clock.stage(Stage::Signals);
+
+    let (signal, fit_scale) = condition_stage(&signals, opts, &sampling)?;
+    clock.stage(Stage::Condition);
+
+    let scene = Scene {
+        tracked,
+        placement,
+        signals,
+        crop,
+        covered,
+        rendered,
+    };
+    finish(Finish {
+        input_name: &input_name,
+        shape,
+        opts,
+        metadata: &metadata,
+        clock,
+        warnings,
+        signal,
+        fit_scale,
+        scene: Some(scene),
+    })
+}
+
+/// Stage 0: tare and trim, and the paper's "no touch" filter. Returns the tared frames,
+/// the warnings so far (the input's own first: what the later ones say may follow from
+/// them), and whether the recording has too little touch to compile.
+fn tare_stage(
+    rec: &Recording,
+    cfg: &Config,
+    sampling: &Sampling,
+) -> Result<(Array3<f64>, Vec<Warning>, bool), CompileError> {
+    let (tared, tare_note) = rec.tare_noting(&cfg.input, sampling)?;
+    let mut notes: Vec<InputWarning> = touchc_input::sanity::transposed(rec.dim())
+        .into_iter()
+        .chain(tare_note)
+        .collect();
+    let sanity = touchc_input::sanity::check(rec, tared.view(), cfg, sampling);
+    let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
+    let silent = touched <= cfg.input.min_touch_readings;
+    if silent {
+        notes.extend(touchc_input::sanity::erased_touch(rec, cfg, sampling));
+    }
+    let mut warnings: Vec<Warning> = notes.into_iter().map(Warning::Input).collect();
+    warnings.extend(sanity.into_iter().map(Warning::Sanity));
+    if silent {
+        warnings.push(Warning::NoTouch {
+            readings: touched,
+            threshold_psi: cfg.input.touch_threshold_psi,
+            min_readings: cfg.input.min_touch_readings,
+        });
+    }
+    Ok((tared, warnings, silent))
+}
+
+/// Stage 4: the placement of the tracked trajectories on a recording of `dim` (frames,
+/// rows, cols), `None` without any; warns when tracking stopped at one of its limits
+/// (`covered` is the coverage it reached).
+fn place_stage(
+    tracked: &TrackOutput,
+    covered: &Coverage,
+    dim: (usize, usize, usize),
+    opts: &CompileOptions,
+    warnings: &mut Vec<Warning>,
+) -> Result<Option<Placement>, CompileError> {
+    let cfg = &opts.config;
     let (rows_px, cols_px) = (
-        tared.dim().1 * cfg.preprocess.upsample,
-        tared.dim().2 * cfg.preprocess.upsample,
+        dim.1 * cfg.preprocess.upsample,
+        dim.2 * cfg.preprocess.upsample,
     );
     if tracked.trajectories.len() >= cfg.track.max_trajectories {
         // The flow stops at this many units: a further contact would have needed one more.
         warnings.push(Warning::TrajectoryLimit {
             trajectories: tracked.trajectories.len(),
             max_trajectories: cfg.track.max_trajectories,
-            coverage: covered.0.ratio(),
+            coverage: covered.ratio(),
         });
     }
     if tracked.flow_budget_reached {
@@ -371,31 +431,40 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
             flow_work: tracked.flow_work,
             work_per_edge: touchc_tracking::track::FLOW_WORK_PER_EDGE,
             trajectories: tracked.trajectories.len(),
-            coverage: covered.0.ratio(),
+            coverage: covered.ratio(),
         });
     }
-    let placement = if tracked.trajectories.is_empty() {
+    if tracked.trajectories.is_empty() {
         warnings.push(Warning::NoTrajectory);
-        None
-    } else {
-        Some(placement::place(
-            &tracked.trajectories,
-            rows_px,
-            cols_px,
-            tracked.pitch_mm(),
-            &opts.layout,
-            &cfg.placement,
-        )?)
-    };
-    clock.stage(Stage::Placement);
+        return Ok(None);
+    }
+    Ok(Some(placement::place(
+        &tracked.trajectories,
+        rows_px,
+        cols_px,
+        tracked.pitch_mm(),
+        &opts.layout,
+        &cfg.placement,
+    )?))
+}
 
-    // Stage 5.
-    let frames = tared.dim().0;
-    let signals = match &placement {
-        Some(p) => signals::recomputed_actuator_signals(&tracked, p, tared.view(), cfg, &sampling)?,
-        None => ChannelSignals::silent(frames),
+/// Stage 5: the actuator signals of `placement` (silent without one), and the share of
+/// the touch pressure they render, with its shortfall against the tracked `covered`.
+fn signals_stage(
+    tared: ndarray::ArrayView3<f64>,
+    tracked: &TrackOutput,
+    placement: Option<&Placement>,
+    covered: &Coverage,
+    opts: &CompileOptions,
+    sampling: &Sampling,
+    warnings: &mut Vec<Warning>,
+) -> Result<(ChannelSignals, (Coverage, Option<Shortfall>)), CompileError> {
+    let cfg = &opts.config;
+    let signals = match placement {
+        Some(p) => signals::recomputed_actuator_signals(tracked, p, tared, cfg, sampling)?,
+        None => ChannelSignals::silent(tared.dim().0),
     };
-    if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {
+    if let Some(p) = placement.filter(|p| p.transforms_inexact > 0) {
         warnings.push(Warning::SubsetBudget {
             node_budget: p.node_budget,
             transforms_inexact: p.transforms_inexact,
@@ -403,12 +472,12 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
             trajectories: tracked.trajectories.len(),
         });
     }
-    if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
+    if placement.is_some_and(|p| p.selected.is_empty()) {
         warnings.push(Warning::OutsideWorkspaces);
     }
-    let rendered = match &placement {
+    let rendered = match placement {
         Some(p) => rendered::measure(
-            tared.view(),
+            tared,
             cfg.input.touch_threshold_psi,
             sampling.pitch_mm,
             &p.circles,
@@ -416,18 +485,24 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         ),
         None => Coverage {
             explained_psi: 0.0,
-            ..covered.0
+            ..*covered
         },
     };
-    let shortfall = Shortfall::of(covered.0.ratio(), rendered.ratio());
+    let shortfall = Shortfall::of(covered.ratio(), rendered.ratio());
     if let Some(s) = shortfall {
         warnings.push(Warning::Shortfall(s));
     }
-    // The tared copy of the recording is not read after stage 5.
-    drop(tared);
-    clock.stage(Stage::Signals);
+    Ok((signals, (rendered, shortfall)))
+}
 
-    // Stage 6.
+/// Stage 6: the signals conditioned to the output rate and, with `--fit`, fitted to the
+/// limits (else checked against them); returns the signal and the fit's scale.
+fn condition_stage(
+    signals: &ChannelSignals,
+    opts: &CompileOptions,
+    sampling: &Sampling,
+) -> Result<(Vec<[f64; CHANNELS]>, f64), CompileError> {
+    let cfg = &opts.config;
     let conditioned = condition::condition(&signals.psi, &cfg.signal, sampling.rate_hz)?;
     let mut signal = conditioned.output;
     let limits = condition::Limits::from(opts.limits);
@@ -441,27 +516,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         condition::check_limits(&signal, &limits)?;
         1.0
     };
-    clock.stage(Stage::Condition);
-
-    let scene = Scene {
-        tracked,
-        placement,
-        signals,
-        crop,
-        covered,
-        rendered: (rendered, shortfall),
-    };
-    finish(Finish {
-        input_name: &input_name,
-        shape,
-        opts,
-        metadata: &metadata,
-        clock,
-        warnings,
-        signal,
-        fit_scale,
-        scene: Some(scene),
-    })
+    Ok((signal, fit_scale))
 }
 
 /// What stages 1-5 made of a recording with touch.
