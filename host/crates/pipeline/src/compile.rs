@@ -3,28 +3,31 @@
 //! Each stage lives in its own module; this one only hands each stage's output to
 //! the next, measures it, and gathers the figures of the [`Report`].
 
-use std::time::Instant;
-
 use ndarray::Array3;
 
 use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
 use crate::rendered::{self, Shortfall};
 use touch_protocol::{Limits, CHANNELS};
-use touchc_encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
+use touchc_encoding::keyframes::KeyframeError;
 use touchc_input::recording::{Recording, RecordingError};
 use touchc_input::warning::InputWarning;
 use touchc_model::config::Config;
 use touchc_model::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
 use touchc_model::crop::Crop;
 use touchc_model::layout::Layout;
-use touchc_model::stage::{Shares, Stage, StageSeconds};
+use touchc_model::stage::{Stage, StageSeconds};
 use touchc_placement::{self as placement, Placement, PlacementError};
 use touchc_rendering::condition::{self, ConditionError, LimitViolation};
 use touchc_rendering::signals::{self, ChannelSignals};
 use touchc_tracking::scene;
 use touchc_tracking::track::{TrackError, TrackOutput};
 
+mod clock;
+mod finish;
 mod warning;
+
+use clock::Clock;
+use finish::{finish, Finish};
 
 pub use warning::Warning;
 
@@ -216,43 +219,6 @@ pub fn stimulus_name(name: &str) -> &str {
         end -= 1;
     }
     &name[..end]
-}
-
-struct Clock {
-    seconds: StageSeconds,
-    start: Instant,
-    lap: Instant,
-}
-
-impl Clock {
-    fn new() -> Self {
-        let now = Instant::now();
-        Clock {
-            seconds: StageSeconds::default(),
-            start: now,
-            lap: now,
-        }
-    }
-
-    fn stage(&mut self, stage: Stage) {
-        self.split(&[(stage, 1.0)]);
-    }
-
-    /// The time since the last lap, shared out among `shares` (stage, share).
-    fn split(&mut self, shares: &Shares) {
-        let now = Instant::now();
-        let elapsed = (now - self.lap).as_secs_f64();
-        for &(stage, share) in shares {
-            self.seconds.add(stage, share * elapsed);
-        }
-        self.lap = now;
-    }
-
-    fn finish(mut self) -> StageSeconds {
-        self.seconds
-            .add(Stage::Total, self.start.elapsed().as_secs_f64());
-        self.seconds
-    }
 }
 
 /// Compiles `rec` into a stimulus.
@@ -573,167 +539,5 @@ fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
         gate_mm_s: cfg.track.max_speed_mm_s,
         min_frames,
         touch_tracking: cfg.track.bridge.is_some() && cfg.detect.split.is_some(),
-    }
-}
-
-/// With `--fit`: the factor by which a fitted signal is scaled again when its encoding
-/// still trips a limit in the player, and how many times at most (0.99^20 = 0.82).
-const REFIT_STEP: f64 = 0.99;
-const MAX_REFITS: u32 = 20;
-
-/// What stage 7 and the report take from the stages before.
-struct Finish<'a> {
-    input_name: &'a str,
-    shape: (usize, usize, usize),
-    opts: &'a CompileOptions,
-    metadata: &'a Metadata,
-    clock: Clock,
-    warnings: Vec<Warning>,
-    /// The conditioned signal, at the output rate.
-    signal: Vec<[f64; CHANNELS]>,
-    /// The factor `--fit` scaled the signal by (1 without it).
-    fit_scale: f64,
-    /// `None` for a recording without touch.
-    scene: Option<Scene>,
-}
-
-/// Stage 7 and the report.
-fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
-    let Finish {
-        mut clock,
-        mut warnings,
-        mut signal,
-        mut fit_scale,
-        scene,
-        ..
-    } = f;
-    let opts = f.opts;
-    let no_touch = scene.is_none();
-    let (tracked, placement, signals, crop, covered, rendered) = match scene {
-        Some(s) => (
-            Some(s.tracked),
-            s.placement,
-            Some(s.signals),
-            Some(s.crop),
-            Some(s.covered),
-            Some(s.rendered),
-        ),
-        None => (None, None, None, None, None, None),
-    };
-    let tare_erased = warnings
-        .iter()
-        .any(|w| matches!(w, Warning::Input(InputWarning::TareErasedTouch { .. })));
-    let name = stimulus_name(&opts.name);
-    let (encoded, refits) = encode_refitting(&mut signal, &mut fit_scale, name, opts)?;
-    if fit_scale < 1.0 {
-        warnings.push(Warning::Fitted {
-            scale: fit_scale,
-            refits,
-            refit_step: REFIT_STEP,
-        });
-    }
-    clock.stage(Stage::Keyframes);
-    let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
-    let bytes = encoded.bytes.len();
-    let report = Report {
-        input: f.input_name.to_string(),
-        shape: [f.shape.0, f.shape.1, f.shape.2],
-        name: name.to_string(),
-        transform: placement.as_ref().map(|p| {
-            let t = &p.transform;
-            [t.x_mm, t.y_mm, t.scale, t.rotation, t.split_mm]
-        }),
-        score: placement.as_ref().map_or(0.0, |p| p.score),
-        selected: placement
-            .as_ref()
-            .map_or_else(Vec::new, |p| p.selected.clone()),
-        trajectories: tracked.as_ref().map_or(0, |t| t.trajectories.len()),
-        transforms: placement.as_ref().map_or(0, |p| p.scores.len()),
-        transforms_evaluated: placement.as_ref().map_or(0, |p| p.transforms_evaluated),
-        transforms_inexact: placement.as_ref().map_or(0, |p| p.transforms_inexact),
-        trajectory_limit_reached: tracked
-            .as_ref()
-            .is_some_and(|t| t.trajectories.len() >= opts.config.track.max_trajectories),
-        flow_work: tracked.as_ref().map_or(0, |t| t.flow_work),
-        flow_budget_reached: tracked.as_ref().is_some_and(|t| t.flow_budget_reached),
-        seconds: clock.finish(),
-        bytes,
-        duration_s,
-        bytes_per_second: if duration_s > 0.0 {
-            bytes as f64 / duration_s
-        } else {
-            0.0
-        },
-        rms_error_fs: encoded.rms_error_fs,
-        max_error_fs: encoded.max_error_fs,
-        keyframe_period_ms: encoded.period_ms,
-        quant_shift: encoded.quant_shift,
-        line_tolerance_fs: encoded.tolerance_fs,
-        fit_scale,
-        no_touch,
-        crop,
-        coverage: played_ratio(covered.as_ref().map(|c| &c.0), tare_erased),
-        coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
-        misses: covered.map(|c| c.1),
-        rendered_coverage: played_ratio(rendered.as_ref().map(|r| &r.0), tare_erased),
-        rendered_detail: rendered.map_or_else(Coverage::default, |r| r.0),
-        shortfall: rendered.and_then(|r| r.1),
-        warnings,
-        metadata: *f.metadata,
-        config: opts.config.clone(),
-        layout: opts.layout.id().to_string(),
-    };
-    Ok(Compiled {
-        stimulus: encoded.bytes,
-        report,
-        signal,
-        tracked,
-        placement,
-        signals,
-    })
-}
-
-/// Stage 7: `signal` encoded as stimulus `name`. With `--fit`, a signal whose played
-/// codes trip a limit is scaled down by [`REFIT_STEP`] (and `fit_scale` with it) and
-/// encoded again, at most [`MAX_REFITS`] times; returns the encoding and the number of
-/// refits.
-fn encode_refitting(
-    signal: &mut [[f64; CHANNELS]],
-    fit_scale: &mut f64,
-    name: &str,
-    opts: &CompileOptions,
-) -> Result<(keyframes::Encoded, u32), KeyframeError> {
-    let fields = HeaderFields {
-        name,
-        layout_hash: opts.layout.geometry_hash(),
-        layout: opts.layout.id(),
-        limits: opts.limits,
-    };
-    let options = KeyframeOptions::new(&opts.config.keyframes);
-    let mut refits = 0;
-    loop {
-        match keyframes::encode(signal, fields, &options) {
-            // A signal fitted to the limits in f64 sits on them; the player's
-            // interpolation and rounding can land it just over (a long touch fitted to
-            // the thermal budget). Step down until the played codes pass too.
-            Err(KeyframeError::LimitHit(_)) if opts.fit && refits < MAX_REFITS => {
-                for v in signal.iter_mut().flatten() {
-                    *v *= REFIT_STEP;
-                }
-                *fit_scale *= REFIT_STEP;
-                refits += 1;
-            }
-            result => return result.map(|e| (e, refits)),
-        }
-    }
-}
-
-/// A coverage's ratio; without one (no touch tracked), 1, or 0 when the tare removed
-/// the recorded touch (none is played).
-fn played_ratio(coverage: Option<&Coverage>, tare_erased: bool) -> f64 {
-    match coverage {
-        Some(c) => c.ratio(),
-        None if tare_erased => 0.0,
-        None => 1.0,
     }
 }
