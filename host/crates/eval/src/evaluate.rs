@@ -17,11 +17,13 @@
 //!   frames (sensor noise, the quiet stretches before and after a touch);
 //! * **coverage**: [`touchc_pipeline::coverage`]'s share of the touch pressure near a trajectory.
 
+use std::collections::BTreeMap;
+
 use ndarray::ArrayView3;
 use serde::Serialize;
 
 use touchc_input::recording::{Recording, RecordingError};
-use touchc_input::synth::{Truth, TruthPoint};
+use touchc_input::synth::{Truth, TruthContact, TruthPoint};
 use touchc_model::config::Sampling;
 use touchc_model::trajectory::Trajectory;
 use touchc_pipeline::compile::Compiled;
@@ -142,109 +144,24 @@ pub fn evaluate(
     upsample: usize,
 ) -> Evaluation {
     let frames = tared.dim().0;
-    // Truth points per tared frame.
-    let mut present: Vec<Vec<(usize, TruthPoint)>> = vec![Vec::new(); frames];
-    for (k, c) in truth.contacts.iter().enumerate() {
-        for p in &c.points {
-            if let Some(f) = p.frame.checked_sub(offset).filter(|&f| f < frames) {
-                present[f].push((k, *p));
-            }
-        }
-    }
+    let present = present_by_frame(truth, offset, frames);
     let tracks: Vec<Vec<ContactPoint>> = trajectories
         .iter()
         .map(|t| coverage::contact_points(std::slice::from_ref(t), upsample))
         .collect();
-    let dist2 =
-        |p: &ContactPoint, q: &TruthPoint| (p.row - q.row).powi(2) + (p.col - q.col).powi(2);
-    let follow2 = FOLLOW_CELLS * FOLLOW_CELLS;
-
-    // Life of each contact in tared frames, and how long each trajectory follows it.
-    // Frames the tare and trim dropped count as life too (never followed): touch at the
-    // start or end of a recording is touch lost.
-    let life: Vec<Vec<i64>> = truth
-        .contacts
-        .iter()
-        .map(|c| {
-            c.points
-                .iter()
-                .filter(|p| p.pressure_psi > threshold_psi)
-                .map(|p| p.frame as i64 - offset as i64)
-                .collect()
-        })
-        .collect();
+    let life = lives(truth, offset, threshold_psi);
     let contacts = truth
         .contacts
         .iter()
         .zip(&life)
         .filter(|(_, life)| !life.is_empty())
-        .map(|(c, life)| {
-            let at = |f: usize| {
-                c.points
-                    .iter()
-                    .find(|p| p.frame.checked_sub(offset) == Some(f))
-            };
-            let follows = |p: &ContactPoint| {
-                life.contains(&(p.frame as i64))
-                    && at(p.frame).is_some_and(|q| dist2(p, q) <= follow2)
-            };
-            let followed = tracks
-                .iter()
-                .map(|track| track.iter().filter(|p| follows(p)).count())
-                .max()
-                .unwrap_or(0);
-            // Which trajectories follow it in each frame of its life, in frame order.
-            let mut by_frame: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-            for (j, track) in tracks.iter().enumerate() {
-                for p in track.iter().filter(|p| follows(p)) {
-                    by_frame.entry(p.frame).or_default().push(j);
-                }
-            }
-            let mut splits = 0;
-            let mut last: Option<&Vec<usize>> = None;
-            for now in by_frame.values() {
-                if last.is_some_and(|l| !l.iter().any(|j| now.contains(j))) {
-                    splits += 1;
-                }
-                last = Some(now);
-            }
-            ContactResult {
-                id: c.id,
-                gesture: c.gesture.name().to_string(),
-                life: life.len(),
-                followed,
-                splits,
-            }
-        })
+        .map(|(c, life)| contact_result(c, life, offset, &tracks))
         .collect::<Vec<_>>();
-
     let (mut merges, mut false_contacts) = (0, 0);
     for track in &tracks {
-        let mut held = vec![0usize; truth.contacts.len()];
-        let mut touching = 0;
-        for p in track.iter().filter(|p| p.frame < frames) {
-            let near = present[p.frame]
-                .iter()
-                .filter(|(_, q)| q.pressure_psi > PRESENT_PSI)
-                .map(|(k, q)| (*k, dist2(p, q), q.radius_cells.max(FOLLOW_CELLS)))
-                .filter(|&(_, d2, r)| d2 <= r * r)
-                .min_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((k, _, _)) = near {
-                touching += 1;
-                held[k] += 1;
-            }
-        }
-        let claimed = held
-            .iter()
-            .zip(&life)
-            .filter(|(&n, life)| n >= 2 || (n >= 1 && n >= life.len()))
-            .count();
-        if claimed >= 2 {
-            merges += 1;
-        }
-        if 2 * touching < track.len() {
-            false_contacts += 1;
-        }
+        let (merged, false_contact) = judge_track(track, &present, &life, frames);
+        merges += usize::from(merged);
+        false_contacts += usize::from(false_contact);
     }
     let all: Vec<ContactPoint> = tracks.into_iter().flatten().collect();
     let coverage = coverage::measure(tared, threshold_psi, &all, DEFAULT_RADIUS_CELLS);
@@ -257,6 +174,122 @@ pub fn evaluate(
         false_contacts,
         coverage,
     }
+}
+
+/// Squared distance, in cells, from a trajectory point to a truth point.
+fn dist2(p: &ContactPoint, q: &TruthPoint) -> f64 {
+    (p.row - q.row).powi(2) + (p.col - q.col).powi(2)
+}
+
+/// The truth points of each tared frame, with the index of their contact.
+fn present_by_frame(truth: &Truth, offset: usize, frames: usize) -> Vec<Vec<(usize, TruthPoint)>> {
+    let mut present: Vec<Vec<(usize, TruthPoint)>> = vec![Vec::new(); frames];
+    for (k, c) in truth.contacts.iter().enumerate() {
+        for p in &c.points {
+            if let Some(f) = p.frame.checked_sub(offset).filter(|&f| f < frames) {
+                present[f].push((k, *p));
+            }
+        }
+    }
+    present
+}
+
+/// The life of each contact: the tared frames it presses above `threshold_psi` in.
+/// Frames the tare and trim dropped count as life too (negative or past the end, never
+/// followed): touch at the start or end of a recording is touch lost.
+fn lives(truth: &Truth, offset: usize, threshold_psi: f64) -> Vec<Vec<i64>> {
+    truth
+        .contacts
+        .iter()
+        .map(|c| {
+            c.points
+                .iter()
+                .filter(|p| p.pressure_psi > threshold_psi)
+                .map(|p| p.frame as i64 - offset as i64)
+                .collect()
+        })
+        .collect()
+}
+
+/// How long the best of `tracks` follows contact `c` over its `life`, and how often it
+/// is handed from one trajectory to another.
+fn contact_result(
+    c: &TruthContact,
+    life: &[i64],
+    offset: usize,
+    tracks: &[Vec<ContactPoint>],
+) -> ContactResult {
+    let follow2 = FOLLOW_CELLS * FOLLOW_CELLS;
+    let at = |f: usize| {
+        c.points
+            .iter()
+            .find(|p| p.frame.checked_sub(offset) == Some(f))
+    };
+    let follows = |p: &ContactPoint| {
+        life.contains(&(p.frame as i64)) && at(p.frame).is_some_and(|q| dist2(p, q) <= follow2)
+    };
+    let followed = tracks
+        .iter()
+        .map(|track| track.iter().filter(|p| follows(p)).count())
+        .max()
+        .unwrap_or(0);
+    // Which trajectories follow it in each frame of its life, in frame order.
+    let mut by_frame: BTreeMap<usize, Vec<usize>> = Default::default();
+    for (j, track) in tracks.iter().enumerate() {
+        for p in track.iter().filter(|p| follows(p)) {
+            by_frame.entry(p.frame).or_default().push(j);
+        }
+    }
+    ContactResult {
+        id: c.id,
+        gesture: c.gesture.name().to_string(),
+        life: life.len(),
+        followed,
+        splits: handovers(&by_frame),
+    }
+}
+
+/// Frames (in order) whose followers share none with the previous followed frame's.
+fn handovers(by_frame: &BTreeMap<usize, Vec<usize>>) -> usize {
+    let mut splits = 0;
+    let mut last: Option<&Vec<usize>> = None;
+    for now in by_frame.values() {
+        if last.is_some_and(|l| !l.iter().any(|j| now.contains(j))) {
+            splits += 1;
+        }
+        last = Some(now);
+    }
+    splits
+}
+
+/// Whether `track` is a merge (claims two or more contacts) and whether it is a false
+/// contact (near no pressing contact in most of its points).
+fn judge_track(
+    track: &[ContactPoint],
+    present: &[Vec<(usize, TruthPoint)>],
+    life: &[Vec<i64>],
+    frames: usize,
+) -> (bool, bool) {
+    let mut held = vec![0usize; life.len()];
+    let mut touching = 0;
+    for p in track.iter().filter(|p| p.frame < frames) {
+        let near = present[p.frame]
+            .iter()
+            .filter(|(_, q)| q.pressure_psi > PRESENT_PSI)
+            .map(|(k, q)| (*k, dist2(p, q), q.radius_cells.max(FOLLOW_CELLS)))
+            .filter(|&(_, d2, r)| d2 <= r * r)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((k, _, _)) = near {
+            touching += 1;
+            held[k] += 1;
+        }
+    }
+    let claimed = held
+        .iter()
+        .zip(life)
+        .filter(|(&n, life)| n >= 2 || (n >= 1 && n >= life.len()))
+        .count();
+    (claimed >= 2, 2 * touching < track.len())
 }
 
 #[cfg(test)]

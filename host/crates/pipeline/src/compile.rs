@@ -3,26 +3,31 @@
 //! Each stage lives in its own module; this one only hands each stage's output to
 //! the next, measures it, and gathers the figures of the [`Report`].
 
-use std::time::Instant;
+use ndarray::Array3;
 
 use crate::coverage::{self, Coverage, Misses, Tracking, DEFAULT_RADIUS_CELLS};
 use crate::rendered::{self, Shortfall};
 use touch_protocol::{Limits, CHANNELS};
-use touchc_encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
+use touchc_encoding::keyframes::KeyframeError;
 use touchc_input::recording::{Recording, RecordingError};
 use touchc_input::warning::InputWarning;
 use touchc_model::config::Config;
 use touchc_model::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
 use touchc_model::crop::Crop;
 use touchc_model::layout::Layout;
-use touchc_model::stage::{Shares, Stage, StageSeconds};
+use touchc_model::stage::{Stage, StageSeconds};
 use touchc_placement::{self as placement, Placement, PlacementError};
 use touchc_rendering::condition::{self, ConditionError, LimitViolation};
 use touchc_rendering::signals::{self, ChannelSignals};
 use touchc_tracking::scene;
 use touchc_tracking::track::{TrackError, TrackOutput};
 
+mod clock;
+mod finish;
 mod warning;
+
+use clock::Clock;
+use finish::{finish, Finish};
 
 pub use warning::Warning;
 
@@ -216,43 +221,6 @@ pub fn stimulus_name(name: &str) -> &str {
     &name[..end]
 }
 
-struct Clock {
-    seconds: StageSeconds,
-    start: Instant,
-    lap: Instant,
-}
-
-impl Clock {
-    fn new() -> Self {
-        let now = Instant::now();
-        Clock {
-            seconds: StageSeconds::default(),
-            start: now,
-            lap: now,
-        }
-    }
-
-    fn stage(&mut self, stage: Stage) {
-        self.split(&[(stage, 1.0)]);
-    }
-
-    /// The time since the last lap, shared out among `shares` (stage, share).
-    fn split(&mut self, shares: &Shares) {
-        let now = Instant::now();
-        let elapsed = (now - self.lap).as_secs_f64();
-        for &(stage, share) in shares {
-            self.seconds.add(stage, share * elapsed);
-        }
-        self.lap = now;
-    }
-
-    fn finish(mut self) -> StageSeconds {
-        self.seconds
-            .add(Stage::Total, self.start.elapsed().as_secs_f64());
-        self.seconds
-    }
-}
-
 /// Compiles `rec` into a stimulus.
 pub fn compile(rec: &Recording, opts: &CompileOptions) -> Result<Compiled, CompileError> {
     compile_from(Input::Borrowed(rec), opts)
@@ -285,7 +253,6 @@ impl std::ops::Deref for Input<'_> {
 fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, CompileError> {
     let cfg = &opts.config;
     let mut clock = Clock::new();
-    let mut warnings = Vec::new();
 
     // Every knob, in the units of this recording, before any work.
     let metadata = Metadata::resolve(&opts.metadata, &rec.file_metadata(), cfg);
@@ -293,46 +260,25 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     let (_, rows, cols) = rec.dim();
     cfg.validate_for(&sampling, (rows, cols))?;
 
-    // Stage 0: tare and trim, and the paper's "no touch" filter.
     let shape = rec.dim();
-    let (tared, tare_note) = rec.tare_noting(&cfg.input, &sampling)?;
-    let mut notes: Vec<InputWarning> = touchc_input::sanity::transposed(shape)
-        .into_iter()
-        .chain(tare_note)
-        .collect();
-    warnings.extend(
-        touchc_input::sanity::check(&rec, tared.view(), cfg, &sampling)
-            .into_iter()
-            .map(Warning::Sanity),
-    );
-    let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
-    let silent = touched <= cfg.input.min_touch_readings;
-    if silent {
-        notes.extend(touchc_input::sanity::erased_touch(&rec, cfg, &sampling));
-    }
+    let (tared, mut warnings, silent) = tare_stage(&rec, cfg, &sampling)?;
     // Nothing reads the raw frames after this: only the name.
     let input_name = rec.name().to_string();
     drop(rec);
     clock.stage(Stage::Tare);
-    // The input's own warnings first: what the later ones say may follow from them.
-    warnings.splice(0..0, notes.into_iter().map(Warning::Input));
     if silent {
-        warnings.push(Warning::NoTouch {
-            readings: touched,
-            threshold_psi: cfg.input.touch_threshold_psi,
-            min_readings: cfg.input.min_touch_readings,
-        });
         let signal = vec![[0.0; CHANNELS]];
-        return finish(
-            (&input_name, shape),
+        return finish(Finish {
+            input_name: &input_name,
+            shape,
             opts,
-            &metadata,
+            metadata: &metadata,
             clock,
             warnings,
             signal,
-            1.0,
-            None,
-        );
+            fit_scale: 1.0,
+            scene: None,
+        });
     }
 
     // Stages 1-3, on the active scene only.
@@ -352,17 +298,98 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
     clock.stage(Stage::Coverage);
 
-    // Stage 4.
+    let placement = place_stage(&tracked, &covered.0, tared.dim(), opts, &mut warnings)?;
+    clock.stage(Stage::Placement);
+
+    let (signals, rendered) = signals_stage(
+        tared.view(),
+        &tracked,
+        placement.as_ref(),
+        &covered.0,
+        opts,
+        &sampling,
+        &mut warnings,
+    )?;
+    // The tared copy of the recording is not read after stage 5.
+    drop(tared);
+    clock.stage(Stage::Signals);
+
+    let (signal, fit_scale) = condition_stage(&signals, opts, &sampling)?;
+    clock.stage(Stage::Condition);
+
+    let scene = Scene {
+        tracked,
+        placement,
+        signals,
+        crop,
+        covered,
+        rendered,
+    };
+    finish(Finish {
+        input_name: &input_name,
+        shape,
+        opts,
+        metadata: &metadata,
+        clock,
+        warnings,
+        signal,
+        fit_scale,
+        scene: Some(scene),
+    })
+}
+
+/// Stage 0: tare and trim, and the paper's "no touch" filter. Returns the tared frames,
+/// the warnings so far (the input's own first: what the later ones say may follow from
+/// them), and whether the recording has too little touch to compile.
+fn tare_stage(
+    rec: &Recording,
+    cfg: &Config,
+    sampling: &Sampling,
+) -> Result<(Array3<f64>, Vec<Warning>, bool), CompileError> {
+    let (tared, tare_note) = rec.tare_noting(&cfg.input, sampling)?;
+    let mut notes: Vec<InputWarning> = touchc_input::sanity::transposed(rec.dim())
+        .into_iter()
+        .chain(tare_note)
+        .collect();
+    let sanity = touchc_input::sanity::check(rec, tared.view(), cfg, sampling);
+    let touched = scene::touch_readings(tared.view(), cfg.input.touch_threshold_psi);
+    let silent = touched <= cfg.input.min_touch_readings;
+    if silent {
+        notes.extend(touchc_input::sanity::erased_touch(rec, cfg, sampling));
+    }
+    let mut warnings: Vec<Warning> = notes.into_iter().map(Warning::Input).collect();
+    warnings.extend(sanity.into_iter().map(Warning::Sanity));
+    if silent {
+        warnings.push(Warning::NoTouch {
+            readings: touched,
+            threshold_psi: cfg.input.touch_threshold_psi,
+            min_readings: cfg.input.min_touch_readings,
+        });
+    }
+    Ok((tared, warnings, silent))
+}
+
+/// Stage 4: the placement of the tracked trajectories on a recording of `dim` (frames,
+/// rows, cols), `None` without any; warns when tracking stopped at one of its limits
+/// (`covered` is the coverage it reached).
+fn place_stage(
+    tracked: &TrackOutput,
+    covered: &Coverage,
+    dim: (usize, usize, usize),
+    opts: &CompileOptions,
+    warnings: &mut Vec<Warning>,
+) -> Result<Option<Placement>, CompileError> {
+    let cfg = &opts.config;
     let (rows_px, cols_px) = (
-        tared.dim().1 * cfg.preprocess.upsample,
-        tared.dim().2 * cfg.preprocess.upsample,
+        dim.1 * cfg.preprocess.upsample,
+        dim.2 * cfg.preprocess.upsample,
     );
     if tracked.trajectories.len() >= cfg.track.max_trajectories {
         // The flow stops at this many units: a further contact would have needed one more.
         warnings.push(Warning::TrajectoryLimit {
             trajectories: tracked.trajectories.len(),
             max_trajectories: cfg.track.max_trajectories,
-            coverage: covered.0.ratio(),
+            coverage: covered.ratio(),
         });
     }
     if tracked.flow_budget_reached {
@@ -370,31 +397,40 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
             flow_work: tracked.flow_work,
             work_per_edge: touchc_tracking::track::FLOW_WORK_PER_EDGE,
             trajectories: tracked.trajectories.len(),
-            coverage: covered.0.ratio(),
+            coverage: covered.ratio(),
         });
     }
-    let placement = if tracked.trajectories.is_empty() {
+    if tracked.trajectories.is_empty() {
         warnings.push(Warning::NoTrajectory);
-        None
-    } else {
-        Some(placement::place(
-            &tracked.trajectories,
-            rows_px,
-            cols_px,
-            tracked.pitch_mm(),
-            &opts.layout,
-            &cfg.placement,
-        )?)
-    };
-    clock.stage(Stage::Placement);
+        return Ok(None);
+    }
+    Ok(Some(placement::place(
+        &tracked.trajectories,
+        rows_px,
+        cols_px,
+        tracked.pitch_mm(),
+        &opts.layout,
+        &cfg.placement,
+    )?))
+}
 
-    // Stage 5.
-    let frames = tared.dim().0;
-    let signals = match &placement {
-        Some(p) => signals::recomputed_actuator_signals(&tracked, p, tared.view(), cfg, &sampling)?,
-        None => ChannelSignals::silent(frames),
+/// Stage 5: the actuator signals of `placement` (silent without one), and the share of
+/// the touch pressure they render, with its shortfall against the tracked `covered`.
+fn signals_stage(
+    tared: ndarray::ArrayView3<f64>,
+    tracked: &TrackOutput,
+    placement: Option<&Placement>,
+    covered: &Coverage,
+    opts: &CompileOptions,
+    sampling: &Sampling,
+    warnings: &mut Vec<Warning>,
+) -> Result<(ChannelSignals, (Coverage, Option<Shortfall>)), CompileError> {
+    let cfg = &opts.config;
+    let signals = match placement {
+        Some(p) => signals::recomputed_actuator_signals(tracked, p, tared, cfg, sampling)?,
+        None => ChannelSignals::silent(tared.dim().0),
     };
-    if let Some(p) = placement.as_ref().filter(|p| p.transforms_inexact > 0) {
+    if let Some(p) = placement.filter(|p| p.transforms_inexact > 0) {
         warnings.push(Warning::SubsetBudget {
             node_budget: p.node_budget,
             transforms_inexact: p.transforms_inexact,
@@ -402,12 +438,12 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
             trajectories: tracked.trajectories.len(),
         });
     }
-    if placement.as_ref().is_some_and(|p| p.selected.is_empty()) {
+    if placement.is_some_and(|p| p.selected.is_empty()) {
         warnings.push(Warning::OutsideWorkspaces);
     }
-    let rendered = match &placement {
+    let rendered = match placement {
         Some(p) => rendered::measure(
-            tared.view(),
+            tared,
             cfg.input.touch_threshold_psi,
             sampling.pitch_mm,
             &p.circles,
@@ -415,18 +451,24 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         ),
         None => Coverage {
             explained_psi: 0.0,
-            ..covered.0
+            ..*covered
         },
     };
-    let shortfall = Shortfall::of(covered.0.ratio(), rendered.ratio());
+    let shortfall = Shortfall::of(covered.ratio(), rendered.ratio());
     if let Some(s) = shortfall {
         warnings.push(Warning::Shortfall(s));
     }
-    // The tared copy of the recording is not read after stage 5.
-    drop(tared);
-    clock.stage(Stage::Signals);
+    Ok((signals, (rendered, shortfall)))
+}
 
-    // Stage 6.
+/// Stage 6: the signals conditioned to the output rate and, with `--fit`, fitted to the
+/// limits (else checked against them); returns the signal and the fit's scale.
+fn condition_stage(
+    signals: &ChannelSignals,
+    opts: &CompileOptions,
+    sampling: &Sampling,
+) -> Result<(Vec<[f64; CHANNELS]>, f64), CompileError> {
+    let cfg = &opts.config;
     let conditioned = condition::condition(&signals.psi, &cfg.signal, sampling.rate_hz)?;
     let mut signal = conditioned.output;
     let limits = condition::Limits::from(opts.limits);
@@ -440,26 +482,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         condition::check_limits(&signal, &limits)?;
         1.0
     };
-    clock.stage(Stage::Condition);
-
-    let scene = Scene {
-        tracked,
-        placement,
-        signals,
-        crop,
-        covered,
-        rendered: (rendered, shortfall),
-    };
-    finish(
-        (&input_name, shape),
-        opts,
-        &metadata,
-        clock,
-        warnings,
-        signal,
-        fit_scale,
-        Some(scene),
-    )
+    Ok((signal, fit_scale))
 }
 
 /// What stages 1-5 made of a recording with touch.
@@ -517,137 +540,4 @@ fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
         min_frames,
         touch_tracking: cfg.track.bridge.is_some() && cfg.detect.split.is_some(),
     }
-}
-
-/// With `--fit`: the factor by which a fitted signal is scaled again when its encoding
-/// still trips a limit in the player, and how many times at most (0.99^20 = 0.82).
-const REFIT_STEP: f64 = 0.99;
-const MAX_REFITS: u32 = 20;
-
-/// Stage 7 and the report; `scene` is `None` for a recording without touch.
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    (input_name, shape): (&str, (usize, usize, usize)),
-    opts: &CompileOptions,
-    metadata: &Metadata,
-    mut clock: Clock,
-    mut warnings: Vec<Warning>,
-    mut signal: Vec<[f64; CHANNELS]>,
-    mut fit_scale: f64,
-    scene: Option<Scene>,
-) -> Result<Compiled, CompileError> {
-    let no_touch = scene.is_none();
-    let (tracked, placement, signals, crop, covered, rendered) = match scene {
-        Some(s) => (
-            Some(s.tracked),
-            s.placement,
-            Some(s.signals),
-            Some(s.crop),
-            Some(s.covered),
-            Some(s.rendered),
-        ),
-        None => (None, None, None, None, None, None),
-    };
-    let tare_erased = warnings
-        .iter()
-        .any(|w| matches!(w, Warning::Input(InputWarning::TareErasedTouch { .. })));
-    let name = stimulus_name(&opts.name);
-    let fields = HeaderFields {
-        name,
-        layout_hash: opts.layout.geometry_hash(),
-        layout: opts.layout.id(),
-        limits: opts.limits,
-    };
-    let options = KeyframeOptions::new(&opts.config.keyframes);
-    let mut refits = 0;
-    let encoded = loop {
-        match keyframes::encode(&signal, fields, &options) {
-            // A signal fitted to the limits in f64 sits on them; the player's
-            // interpolation and rounding can land it just over (a long touch fitted to
-            // the thermal budget). Step down until the played codes pass too.
-            Err(KeyframeError::LimitHit(_)) if opts.fit && refits < MAX_REFITS => {
-                for v in signal.iter_mut().flatten() {
-                    *v *= REFIT_STEP;
-                }
-                fit_scale *= REFIT_STEP;
-                refits += 1;
-            }
-            result => break result?,
-        }
-    };
-    if fit_scale < 1.0 {
-        warnings.push(Warning::Fitted {
-            scale: fit_scale,
-            refits,
-            refit_step: REFIT_STEP,
-        });
-    }
-    clock.stage(Stage::Keyframes);
-    let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
-    let bytes = encoded.bytes.len();
-    let report = Report {
-        input: input_name.to_string(),
-        shape: [shape.0, shape.1, shape.2],
-        name: name.to_string(),
-        transform: placement.as_ref().map(|p| {
-            let t = &p.transform;
-            [t.x_mm, t.y_mm, t.scale, t.rotation, t.split_mm]
-        }),
-        score: placement.as_ref().map_or(0.0, |p| p.score),
-        selected: placement
-            .as_ref()
-            .map_or_else(Vec::new, |p| p.selected.clone()),
-        trajectories: tracked.as_ref().map_or(0, |t| t.trajectories.len()),
-        transforms: placement.as_ref().map_or(0, |p| p.scores.len()),
-        transforms_evaluated: placement.as_ref().map_or(0, |p| p.transforms_evaluated),
-        transforms_inexact: placement.as_ref().map_or(0, |p| p.transforms_inexact),
-        trajectory_limit_reached: tracked
-            .as_ref()
-            .is_some_and(|t| t.trajectories.len() >= opts.config.track.max_trajectories),
-        flow_work: tracked.as_ref().map_or(0, |t| t.flow_work),
-        flow_budget_reached: tracked.as_ref().is_some_and(|t| t.flow_budget_reached),
-        seconds: clock.finish(),
-        bytes,
-        duration_s,
-        bytes_per_second: if duration_s > 0.0 {
-            bytes as f64 / duration_s
-        } else {
-            0.0
-        },
-        rms_error_fs: encoded.rms_error_fs,
-        max_error_fs: encoded.max_error_fs,
-        keyframe_period_ms: encoded.period_ms,
-        quant_shift: encoded.quant_shift,
-        line_tolerance_fs: encoded.tolerance_fs,
-        fit_scale,
-        no_touch,
-        crop,
-        // Coverage is of the recorded touch: when the tare removed it, none is played.
-        coverage: match &covered {
-            Some(c) => c.0.ratio(),
-            None if tare_erased => 0.0,
-            None => 1.0,
-        },
-        coverage_detail: covered.map_or_else(Coverage::default, |c| c.0),
-        misses: covered.map(|c| c.1),
-        rendered_coverage: match &rendered {
-            Some(r) => r.0.ratio(),
-            None if tare_erased => 0.0,
-            None => 1.0,
-        },
-        rendered_detail: rendered.map_or_else(Coverage::default, |r| r.0),
-        shortfall: rendered.and_then(|r| r.1),
-        warnings,
-        metadata: *metadata,
-        config: opts.config.clone(),
-        layout: opts.layout.id().to_string(),
-    };
-    Ok(Compiled {
-        stimulus: encoded.bytes,
-        report,
-        signal,
-        tracked,
-        placement,
-        signals,
-    })
 }

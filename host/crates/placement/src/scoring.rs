@@ -228,38 +228,85 @@ pub(super) fn score_transform(
     if s.near.is_empty() {
         return None;
     }
-    let Scene {
-        points,
-        start,
-        extent,
-        gains,
-        row_y,
-        ..
-    } = scene;
-    let mut row_mask_ready = false;
-    let bonus = cfg.centre_bonus;
-    let r2 = circles.map(|c| c.r_mm * c.r_mm);
-    let y_range = circles.map(|c| {
-        let slack = slack(c.y_mm, c.r_mm);
-        (c.y_mm - c.r_mm - slack, c.y_mm + c.r_mm + slack)
-    });
+    let test = InCircle {
+        circles,
+        r2: circles.map(|c| c.r_mm * c.r_mm),
+        bonus: cfg.centre_bonus,
+    };
+    if !collect_hits(&test, scene, s) {
+        return None;
+    }
+    let problem = conflicts(s, &scene.gains);
+    choose(s, problem.as_ref());
 
-    // In-circle points, trajectory by trajectory in ascending order, each trajectory's
-    // in detection order (the published sums run in that order).
-    let mut touched = false;
-    for &(t, x_mask) in &s.near {
-        let Some([_, _, y0, y1]) = extent[t] else {
-            continue;
-        };
-        let mut near = 0u32;
-        let mut bits = x_mask;
+    let mut score = 0.0;
+    for (&sum, &chosen) in s.sums.iter().zip(&s.chosen) {
+        if chosen {
+            score += sum;
+        }
+    }
+    if let Some(out) = selected {
+        out.clear();
+        let chosen = s.candidates.iter().zip(&s.chosen).filter(|c| *c.1);
+        out.extend(chosen.map(|c| *c.0));
+    }
+    for h in &s.hits {
+        s.head[h.frame] = NONE;
+    }
+    s.hits.clear();
+    s.shared.clear();
+    s.candidates.clear();
+    s.sums.clear();
+    Some(score)
+}
+
+/// A transform's circles with what the exact in-circle test needs.
+struct InCircle<'a> {
+    circles: &'a [Circle; CHANNELS],
+    /// Per circle: its radius squared.
+    r2: [f64; CHANNELS],
+    /// The centre bonus of the weight.
+    bonus: f64,
+}
+
+impl InCircle<'_> {
+    /// The circles among `bits` that contain `pt`, and the point's weight.
+    #[inline]
+    fn test(&self, pt: &Point, mut bits: u32) -> (u32, f64) {
+        let mut mask = 0u32;
+        let mut weight = 0.0;
+        // Channel order, later circles overwriting the weight, as the published code does.
         while bits != 0 {
             let a = bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            if y1 >= y_range[a].0 && y0 <= y_range[a].1 {
-                near |= 1 << a;
+            let c = &self.circles[a];
+            let d2 = c.dist2(pt.x, pt.y);
+            if d2 <= self.r2[a] {
+                mask |= 1 << a;
+                weight = c.weight * ((1.0 + self.bonus) - self.bonus * d2 / self.r2[a]);
             }
         }
+        (mask, weight)
+    }
+}
+
+/// Records the in-circle points of the near trajectories: each candidate's sum and its
+/// hits chained by frame. Trajectories in ascending order, each trajectory's points in
+/// detection order (the published sums run in that order). Returns whether any point
+/// lies in a circle.
+fn collect_hits(test: &InCircle, scene: &Scene, s: &mut Scratch) -> bool {
+    let y_range = test.circles.map(|c| {
+        let slack = slack(c.y_mm, c.r_mm);
+        (c.y_mm - c.r_mm - slack, c.y_mm + c.r_mm + slack)
+    });
+    let mut row_mask_ready = false;
+    let mut touched = false;
+    for i in 0..s.near.len() {
+        let (t, x_mask) = s.near[i];
+        let Some([_, _, y0, y1]) = scene.extent[t] else {
+            continue;
+        };
+        let near = near_in_y(x_mask, y0, y1, &y_range);
         if near == 0 {
             continue;
         }
@@ -270,63 +317,85 @@ pub(super) fn score_transform(
         // costs less than the look-ups.
         let per_point = near.count_ones() > 2;
         if per_point && !row_mask_ready {
-            mask_lines(&mut s.row_mask, row_y, circles.map(|c| (c.y_mm, c.r_mm)));
+            let lines = test.circles.map(|c| (c.y_mm, c.r_mm));
+            mask_lines(&mut s.row_mask, &scene.row_y, lines);
             row_mask_ready = true;
         }
-        let candidate = gains[t] > 0.0;
-        let local = s.candidates.len();
-        let mut inside = false;
-        let mut sum = 0.0;
-        for pt in &points[start[t]..start[t + 1]] {
-            let mut mask = 0u32;
-            let mut weight = 0.0;
-            let mut bits = if per_point {
-                near & s.col_mask[pt.col] & s.row_mask[pt.row]
-            } else {
-                near
-            };
-            // Channel order, later circles overwriting the weight, as the published code does.
-            while bits != 0 {
-                let a = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let c = &circles[a];
-                let d2 = c.dist2(pt.x, pt.y);
-                if d2 <= r2[a] {
-                    mask |= 1 << a;
-                    weight = c.weight * ((1.0 + bonus) - bonus * d2 / r2[a]);
-                }
-            }
-            if mask == 0 {
-                continue;
-            }
-            inside = true;
-            sum += pt.cost * weight;
-            if candidate {
-                let next = s.head[pt.frame];
-                if next != NONE && s.hits[next].next == NONE {
-                    s.shared.push(pt.frame);
-                }
-                s.head[pt.frame] = s.hits.len();
-                s.hits.push(Hit {
-                    frame: pt.frame,
-                    local,
-                    mask,
-                    next,
-                });
-            }
-        }
+        let candidate = scene.gains[t] > 0.0;
+        let points = &scene.points[scene.start[t]..scene.start[t + 1]];
+        let (inside, sum) = trajectory_hits(test, points, near, per_point, candidate, s);
         touched |= inside;
         if candidate && inside {
             s.candidates.push(t);
             s.sums.push(sum);
         }
     }
-    if !touched {
-        return None;
-    }
+    touched
+}
 
-    // A frame where two candidates are inside circles constrains them. Frames in
-    // ascending order, members in candidate order, as the published grouping by frame.
+/// The circles of `x_mask` whose y range (with slack) meets `[y0, y1]`.
+#[inline]
+fn near_in_y(x_mask: u32, y0: f64, y1: f64, y_range: &[(f64, f64); CHANNELS]) -> u32 {
+    let mut near = 0u32;
+    let mut bits = x_mask;
+    while bits != 0 {
+        let a = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        if y1 >= y_range[a].0 && y0 <= y_range[a].1 {
+            near |= 1 << a;
+        }
+    }
+    near
+}
+
+/// Tests one trajectory's points against the circles of `near`; a candidate's in-circle
+/// points are chained as hits of their frames (as the next candidate). Returns whether a
+/// point lies in a circle and the sum of `cost * weight` over those that do.
+#[inline]
+fn trajectory_hits(
+    test: &InCircle,
+    points: &[Point],
+    near: u32,
+    per_point: bool,
+    candidate: bool,
+    s: &mut Scratch,
+) -> (bool, f64) {
+    let local = s.candidates.len();
+    let mut inside = false;
+    let mut sum = 0.0;
+    for pt in points {
+        let bits = if per_point {
+            near & s.col_mask[pt.col] & s.row_mask[pt.row]
+        } else {
+            near
+        };
+        let (mask, weight) = test.test(pt, bits);
+        if mask == 0 {
+            continue;
+        }
+        inside = true;
+        sum += pt.cost * weight;
+        if candidate {
+            let next = s.head[pt.frame];
+            if next != NONE && s.hits[next].next == NONE {
+                s.shared.push(pt.frame);
+            }
+            s.head[pt.frame] = s.hits.len();
+            s.hits.push(Hit {
+                frame: pt.frame,
+                local,
+                mask,
+                next,
+            });
+        }
+    }
+    (inside, sum)
+}
+
+/// The subset problem of the candidates, or `None` when nothing constrains them. A frame
+/// where two candidates are inside circles constrains them. Frames in ascending order,
+/// members in candidate order, as the published grouping by frame.
+fn conflicts(s: &mut Scratch, gains: &[f64]) -> Option<SubsetProblem> {
     s.shared.sort_unstable();
     let mut problem: Option<SubsetProblem> = None;
     let new_problem = || SubsetProblem::new(s.candidates.iter().map(|&t| gains[t]).collect());
@@ -353,8 +422,14 @@ pub(super) fn score_transform(
                 .add_hall_group(group.clone());
         }
     }
+    problem
+}
+
+/// Sets `chosen` per candidate: all of them when nothing constrains them, else the best
+/// compatible subset the node budget finds (noting when it is not proven best).
+fn choose(s: &mut Scratch, problem: Option<&SubsetProblem>) {
     s.chosen.clear();
-    match &problem {
+    match problem {
         None => s.chosen.resize(s.candidates.len(), true),
         Some(p) => {
             s.chosen.resize(s.candidates.len(), false);
@@ -365,24 +440,4 @@ pub(super) fn score_transform(
             }
         }
     }
-
-    let mut score = 0.0;
-    for (&sum, &chosen) in s.sums.iter().zip(&s.chosen) {
-        if chosen {
-            score += sum;
-        }
-    }
-    if let Some(out) = selected {
-        out.clear();
-        let chosen = s.candidates.iter().zip(&s.chosen).filter(|c| *c.1);
-        out.extend(chosen.map(|c| *c.0));
-    }
-    for h in &s.hits {
-        s.head[h.frame] = NONE;
-    }
-    s.hits.clear();
-    s.shared.clear();
-    s.candidates.clear();
-    s.sums.clear();
-    Some(score)
 }
