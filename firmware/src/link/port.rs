@@ -453,3 +453,6 @@ impl<'a> TickPort<'_, 'a> {
         self.fed.load(Ordering::Acquire)
     }
 }
+
+#[cfg(test)]
+mod tests;
