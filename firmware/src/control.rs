@@ -24,9 +24,9 @@
 //! (the host tests of the controller alone), the tick builds the player itself.
 
 //!
-//! The parts, by what they do: [`announce`] tells the host and the log (and keeps
-//! what a start leaves to the next tick), [`stream`] runs the host's stream, and
-//! [`commands`] answers the link's commands; this module holds the state, the
+//! The parts, by what they do: `announce` tells the host and the log (and keeps
+//! what a start leaves to the next tick), `stream` runs the host's stream, and
+//! `commands` answers the link's commands; this module holds the state, the
 //! button's rules and the tick that steps the player.
 
 mod announce;

@@ -30,7 +30,7 @@ impl Later {
 }
 
 impl Controller<'_> {
-    /// Sends what the last tick left for this one ([`Later`]), before anything
+    /// Sends what the last tick left for this one (`Later`), before anything
     /// else this tick tells the host (the engine calls it before the buttons'). The
     /// tick that does takes no link command.
     #[inline(always)]

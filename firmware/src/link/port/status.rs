@@ -106,8 +106,9 @@ impl Published {
 }
 
 impl LinkPort<'_, '_> {
-    /// The state the tick published for the last [`Answer::Status`] (or a later
-    /// one, if the tick answered another `Status` meanwhile).
+    /// The state the tick published for the last
+    /// [`Answer::Status`](super::Answer::Status) (or a later one, if the tick
+    /// answered another `Status` meanwhile).
     pub fn snapshot(&self) -> Snapshot {
         let p = self.published;
         loop {
