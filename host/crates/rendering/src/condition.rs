@@ -44,6 +44,7 @@
 //! the steepest frame-to-frame step.
 
 use rayon::prelude::*;
+use sci_rs::signal::filter::design::Sos;
 
 use crate::signals::CHANNELS;
 use pchip::{eval_channels, resampled_position, Pchip};
@@ -212,19 +213,7 @@ pub fn condition(
 ) -> Result<Conditioned, ConditionError> {
     validate(cfg, frame_rate_hz)?;
     let sos = design_lowpass(cfg.lowpass_order, cfg.lowpass_hz, frame_rate_hz)?;
-    let frames = psi[0].len();
-    for (channel, x) in psi.iter().enumerate() {
-        if x.len() != frames {
-            return Err(ConditionError::LengthMismatch {
-                channel,
-                len: x.len(),
-                expected: frames,
-            });
-        }
-        if let Some(frame) = x.iter().position(|v| !v.is_finite()) {
-            return Err(ConditionError::NotFinite { channel, frame });
-        }
-    }
+    let frames = checked_frames(psi)?;
 
     // 1-2. Silence below tare, spikes.
     let mut work: [Vec<f64>; CHANNELS] =
@@ -241,25 +230,77 @@ pub fn condition(
     // silence before the recording would come out as exact silence: one frame of it
     // (or 50 ms) is enough, and the stimulus does not make the wearer wait for nothing.
     let span = Span::new(cfg, &sos, frame_rate_hz, frames)?;
+    let filtered = padded_lowpass(work, &span, frames, unit, &sos, cfg.zero_phase);
+
+    // 5. Joint normalisation.
+    let top = filtered.iter().flatten().fold(0.0_f64, |m, &v| m.max(v));
+    let frames_a = normalised(filtered, top, cfg);
+
+    // 6-7. 1 kHz reconstruction framed by the ramps.
+    let ramp = (cfg.ramp_s * OUTPUT_RATE_HZ).round() as usize;
+    let output = reconstructed(&frames_a, &span, frame_rate_hz, ramp)?;
+
+    Ok(Conditioned {
+        frame_rate_hz,
+        pad_frames: span.pad,
+        tail_frames: span.tail,
+        start_frame: span.start,
+        frames_a,
+        full_scale_psi: top * unit,
+        ramp_samples: ramp,
+        output,
+    })
+}
+
+/// The number of frames every channel of `psi` has, or the first channel whose length
+/// differs from channel 0's or whose samples are not all finite.
+fn checked_frames(psi: &[Vec<f64>; CHANNELS]) -> Result<usize, ConditionError> {
+    let frames = psi[0].len();
+    for (channel, x) in psi.iter().enumerate() {
+        if x.len() != frames {
+            return Err(ConditionError::LengthMismatch {
+                channel,
+                len: x.len(),
+                expected: frames,
+            });
+        }
+        if let Some(frame) = x.iter().position(|v| !v.is_finite()) {
+            return Err(ConditionError::NotFinite { channel, frame });
+        }
+    }
+    Ok(frames)
+}
+
+/// Steps 3-4: each channel of `work` (`frames` long) in units of `unit`, between the
+/// silence `span` pads around it, through the low-pass.
+fn padded_lowpass(
+    work: [Vec<f64>; CHANNELS],
+    span: &Span,
+    frames: usize,
+    unit: f64,
+    sos: &[Sos<f64>],
+    zero_phase: bool,
+) -> Vec<Vec<f64>> {
     let (pad, tail) = (span.pad, span.tail);
-    let filtered: Vec<Vec<f64>> = work
-        .iter()
+    // What the 1 kHz signal is built beside is its peak of memory (an hour's is 230 MB):
+    // each 20 Hz copy goes as soon as it is used (4.6 MB apiece at an hour), `work`
+    // when this returns.
+    work.iter()
         .map(|x| {
             let mut padded = vec![0.0; pad + frames + tail];
             for (p, &v) in padded[pad..pad + frames].iter_mut().zip(x) {
                 *p = v / unit;
             }
-            lowpass(&padded, &sos, cfg.zero_phase)
+            lowpass(&padded, sos, zero_phase)
         })
-        .collect();
-    // What the 1 kHz signal is built beside is its peak of memory (an hour's is 230 MB):
-    // each 20 Hz copy goes as soon as it is used (4.6 MB apiece at an hour).
-    drop(work);
+        .collect()
+}
 
-    // 5. Joint normalisation.
-    let top = filtered.iter().flatten().fold(0.0_f64, |m, &v| m.max(v));
-    let len = pad + frames + tail;
-    let frames_a: Vec<[f64; CHANNELS]> = (0..len)
+/// Step 5: the filtered channels, frame by frame, as currents in `[pre_dent, peak]`,
+/// `top` (the largest filtered value) mapping to the peak.
+fn normalised(filtered: Vec<Vec<f64>>, top: f64, cfg: &SignalConfig) -> Vec<[f64; CHANNELS]> {
+    let len = filtered.first().map_or(0, Vec::len);
+    (0..len)
         .map(|t| {
             std::array::from_fn(|ch| {
                 let u = if top > 0.0 {
@@ -271,11 +312,19 @@ pub fn condition(
                 cfg.pre_dent_a * (1.0 - u) + cfg.peak_a * u
             })
         })
-        .collect();
-    drop(filtered);
+        .collect()
+}
 
-    // 6-7. 1 kHz reconstruction framed by the ramps. `len >= 2` (pad >= 1), so every
-    // channel has an interpolant; the fallback only keeps this free of panics.
+/// Steps 6-7: the 1 kHz signal through `frames_a` over `span`, framed by raised-cosine
+/// ramps of `ramp` samples.
+fn reconstructed(
+    frames_a: &[[f64; CHANNELS]],
+    span: &Span,
+    frame_rate_hz: f64,
+    ramp: usize,
+) -> Result<Vec<[f64; CHANNELS]>, ConditionError> {
+    // `frames_a.len() >= 2` (pad >= 1), so every channel has an interpolant; the
+    // fallback only keeps this free of panics.
     let columns: Vec<Vec<f64>> = (0..CHANNELS)
         .map(|ch| frames_a.iter().map(|f| f[ch]).collect())
         .collect();
@@ -283,10 +332,9 @@ pub fn condition(
     let Ok(curves) = <[Pchip; CHANNELS]>::try_from(curves) else {
         return Err(ConditionError::InvalidParameter {
             name: "frames",
-            value: len as f64,
+            value: frames_a.len() as f64,
         });
     };
-    let ramp = (cfg.ramp_s * OUTPUT_RATE_HZ).round() as usize;
     let body = span.body;
     let start = span.start;
     let at = |j: usize| -> [f64; CHANNELS] {
@@ -301,17 +349,7 @@ pub fn condition(
     // cost more than the samples).
     output.par_extend((0..body).into_par_iter().map(at));
     output.extend((1..=ramp).map(|j| last.map(|v| v * raised_cosine(ramp - j, ramp))));
-
-    Ok(Conditioned {
-        frame_rate_hz,
-        pad_frames: pad,
-        tail_frames: tail,
-        start_frame: start,
-        frames_a,
-        full_scale_psi: top * unit,
-        ramp_samples: ramp,
-        output,
-    })
+    Ok(output)
 }
 
 /// Weight `j / n` of the way along a raised-cosine ramp: 0 at `j = 0`, 1 at `j = n`, with
