@@ -58,7 +58,7 @@ mod pchip;
 mod span;
 
 pub use errors::ConditionError;
-pub(crate) use filter::design_lowpass;
+use filter::design_lowpass;
 pub use filter::lowpass;
 pub use limits::{check_limits, fit, fit_to, LimitViolation, Limits};
 
