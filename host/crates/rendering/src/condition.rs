@@ -17,7 +17,7 @@
 //!    the 1 kHz output rate; 50 ms before, the paper's one frame at 20 Hz): the padding
 //!    covers them and the 1 kHz signal starts and ends at those instants, so the same
 //!    touch lasts as long at any frame rate.
-//! 4. **Low-pass** (`design_lowpass`, [`lowpass`]): 5th-order 4 Hz Butterworth at the
+//! 4. **Low-pass** (`design_lowpass`, `lowpass`): 5th-order 4 Hz Butterworth at the
 //!    frame rate, as second-order sections, causal from zero state (the paper) or
 //!    forward-backward (`zero_phase`).
 //! 5. **Joint normalisation** to `[pre_dent, peak]`: `a = pre + (peak - pre) * clamp(p / P, 0, 1)`
@@ -47,6 +47,7 @@ use rayon::prelude::*;
 use sci_rs::signal::filter::design::Sos;
 
 use crate::signals::CHANNELS;
+use filter::{design_lowpass, lowpass};
 use pchip::{eval_channels, resampled_position, Pchip};
 use span::Span;
 use touchc_model::config::SignalConfig;
@@ -58,8 +59,6 @@ mod pchip;
 mod span;
 
 pub use errors::ConditionError;
-use filter::design_lowpass;
-pub use filter::lowpass;
 pub use limits::{check_limits, fit, fit_to, LimitViolation, Limits};
 
 /// Update rate of the sleeve's outputs, Hz (docs/hardware.md): the rate of

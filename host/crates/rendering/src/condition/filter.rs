@@ -20,7 +20,7 @@ pub(super) const SETTLE_TOLERANCE: f64 = 1e-6;
 ///
 /// SOS only: at 1 kHz the 4 Hz poles sit so close to z = 1 that the single (b, a)
 /// polynomial loses them to rounding (in f32 a pole lands outside the unit circle).
-pub(crate) fn design_lowpass(
+pub(super) fn design_lowpass(
     order: usize,
     cutoff_hz: f64,
     rate_hz: f64,
@@ -61,7 +61,7 @@ pub(crate) fn design_lowpass(
 /// time-reversed output (also from zero state), which squares the magnitude response and
 /// cancels the phase. Zero state, not scipy's `sosfiltfilt` edge handling: callers pad
 /// with the true signal outside `x` (silence) instead of an odd reflection.
-pub fn lowpass(x: &[f64], sos: &[Sos<f64>], zero_phase: bool) -> Vec<f64> {
+pub(super) fn lowpass(x: &[f64], sos: &[Sos<f64>], zero_phase: bool) -> Vec<f64> {
     let run = |input: &mut dyn Iterator<Item = f64>| -> Vec<f64> {
         let mut sections: Vec<Sos<f64>> = sos.iter().map(|s| Sos::new(s.b, s.a)).collect();
         sosfilt_dyn(input, &mut sections)
