@@ -190,10 +190,10 @@ fn message(err: &anyhow::Error) -> String {
         // outer error quoted it.
         let words = if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
             Some(toml_message(e))
+        } else if let Some(e) = cause.downcast_ref::<touchc::config::ConfigError>() {
+            Some(config_error::describe(e))
         } else {
-            cause
-                .downcast_ref::<touchc::config::ConfigError>()
-                .map(config_error::describe)
+            advice(cause).map(|advice| format!("{text}{advice}"))
         };
         if let Some(words) = words {
             out = out.replace(&text, &words);
@@ -208,6 +208,23 @@ fn message(err: &anyhow::Error) -> String {
         out.push_str(&text);
     }
     out
+}
+
+/// What to try, after the library's account of an error that a flag can put right.
+fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<&'static str> {
+    use touchc::compile::CompileError;
+    use touchc::tracking::track::TrackError;
+    let track = match cause.downcast_ref::<CompileError>() {
+        Some(CompileError::Limits(_)) => return Some(" (use --fit to scale it down)"),
+        Some(CompileError::Track(e)) => Some(e),
+        _ => cause.downcast_ref::<TrackError>(),
+    };
+    match track {
+        Some(TrackError::TooDense { .. }) => {
+            Some("; check the tare, or narrow the link gate with --max-speed-mm-s")
+        }
+        _ => None,
+    }
 }
 
 /// A TOML error in one line: `line 2, column 9: <what>`, or `<what> (in `key`)` for a
@@ -423,6 +440,39 @@ pub(crate) fn stimulus_in<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The command line adds the flag to try to the library's account of the error, in
+    /// the words `touchc` has always printed, however the error was wrapped.
+    #[test]
+    fn errors_a_flag_puts_right_name_the_flag() {
+        use touchc::compile::CompileError;
+        use touchc::rendering::condition::LimitViolation;
+        use touchc::tracking::track::TrackError;
+        let thermal = LimitViolation::Thermal {
+            channel: 5,
+            sample: 30_000,
+            bucket_a2s: 30.5,
+            budget_a2s: 30.0,
+        };
+        let err =
+            anyhow::Error::new(CompileError::Limits(thermal)).context("hold.npy: cannot compile");
+        assert_eq!(
+            message(&err),
+            "hold.npy: cannot compile: the signal breaks the safety limits: channel 5, sample \
+             30000: thermal load 30.5 A^2 s exceeds 30 A^2 s (use --fit to scale it down)"
+        );
+        let dense = || TrackError::TooDense {
+            detections: 9,
+            limit: 40,
+        };
+        let want = "the scene is too dense to track: 9 detections would link into more than 40 \
+                    edges; check the tare, or narrow the link gate with --max-speed-mm-s";
+        let tracked = anyhow::Error::new(dense()).context("a.npy: cannot track");
+        assert_eq!(message(&tracked), format!("a.npy: cannot track: {want}"));
+        let compiled =
+            anyhow::Error::new(CompileError::Track(dense())).context("a.npy: cannot compile");
+        assert_eq!(message(&compiled), format!("a.npy: cannot compile: {want}"));
+    }
 
     #[test]
     fn a_message_is_one_line_with_its_quoted_values_clipped() {
