@@ -148,7 +148,7 @@ pub fn zip(entries: &[Entry<'_>]) -> Vec<u8> {
 
 /// `[6, 2, 3]` ones as a `pressure` entry whose 1 MiB of extra zeros deflate to about 1
 /// kB, declaring the size the header needs: a zip bomb that only reading finds.
-pub fn zip_bomb() -> Vec<u8> {
+pub(crate) fn zip_bomb() -> Vec<u8> {
     let mut data = small_npy(6, 1.0);
     let honest = data.len() as u32;
     data.resize(data.len() + (1 << 20), 0);
