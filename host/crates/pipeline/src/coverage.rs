@@ -258,7 +258,7 @@ pub enum UntrackedBy {
 
 impl MissCause {
     /// The share of the missed touch this cause holds, 0 to 1.
-    pub fn share(&self) -> f64 {
+    pub(crate) fn share(&self) -> f64 {
         match *self {
             MissCause::Brief { share, .. }
             | MissCause::Untracked { share, .. }

@@ -48,7 +48,7 @@ pub fn scalar_npy(descr: &str, body: &[u8]) -> Vec<u8> {
 }
 
 /// CRC-32 (IEEE), bit by bit: the zip writer below must not share code with the reader.
-pub fn crc32(bytes: &[u8]) -> u32 {
+pub(crate) fn crc32(bytes: &[u8]) -> u32 {
     let mut crc = !0u32;
     for &b in bytes {
         crc ^= u32::from(b);
