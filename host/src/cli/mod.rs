@@ -210,19 +210,34 @@ fn message(err: &anyhow::Error) -> String {
     out
 }
 
-/// What to try, after the library's account of an error that a flag can put right.
-fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<&'static str> {
+/// What to try, after the library's account of an error that a flag, a knob or another
+/// file can put right.
+fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
     use touchc::compile::CompileError;
+    use touchc::input::recording::RecordingError;
     use touchc::tracking::track::TrackError;
-    let track = match cause.downcast_ref::<CompileError>() {
-        Some(CompileError::Limits(_)) => return Some(" (use --fit to scale it down)"),
+    let compile = cause.downcast_ref::<CompileError>();
+    let track = match compile {
+        Some(CompileError::Limits(_)) => return Some(" (use --fit to scale it down)".into()),
         Some(CompileError::Track(e)) => Some(e),
         _ => cause.downcast_ref::<TrackError>(),
     };
-    match track {
-        Some(TrackError::TooDense { .. }) => {
-            Some("; check the tare, or narrow the link gate with --max-speed-mm-s")
+    let recording = match (compile, track) {
+        (_, Some(TrackError::TooDense { .. })) => {
+            return Some("; check the tare, or narrow the link gate with --max-speed-mm-s".into())
         }
+        (Some(CompileError::Recording(e)), _) | (_, Some(TrackError::Recording(e))) => Some(e),
+        _ => cause.downcast_ref::<RecordingError>(),
+    };
+    match recording? {
+        RecordingError::MemberTooLarge { .. } => {
+            Some("; save the array as a .npy file instead".into())
+        }
+        RecordingError::TooShort { .. } => Some(format!(
+            " ({}, {})",
+            touchc::config::Knob::InputTareS,
+            touchc::config::Knob::InputTrimS
+        )),
         _ => None,
     }
 }
@@ -446,6 +461,7 @@ mod tests {
     #[test]
     fn errors_a_flag_puts_right_name_the_flag() {
         use touchc::compile::CompileError;
+        use touchc::input::recording::RecordingError;
         use touchc::rendering::condition::LimitViolation;
         use touchc::tracking::track::TrackError;
         let thermal = LimitViolation::Thermal {
@@ -472,6 +488,33 @@ mod tests {
         let compiled =
             anyhow::Error::new(CompileError::Track(dense())).context("a.npy: cannot compile");
         assert_eq!(message(&compiled), format!("a.npy: cannot compile: {want}"));
+        let short = || RecordingError::TooShort {
+            name: "short.npy".into(),
+            frames: 30,
+            tare: 20,
+            min: 41,
+        };
+        let want = "short.npy: 30 frame(s) is too short: the tare window (20 frames) and the \
+                    trim at each end need at least 41 frames (input.tare_s, input.trim_s)";
+        for err in [
+            anyhow::Error::new(short()),
+            anyhow::Error::new(CompileError::Recording(short())),
+            anyhow::Error::new(CompileError::Track(TrackError::Recording(short()))),
+        ] {
+            assert_eq!(message(&err), want);
+        }
+        let big = anyhow::Error::new(RecordingError::MemberTooLarge {
+            name: "big.npz".into(),
+            entry: "pressure.npy".into(),
+            needed: 1 << 40,
+            budget: 1 << 29,
+        });
+        assert_eq!(
+            message(&big),
+            "big.npz: entry \"pressure.npy\" needs 1099511627776 bytes decompressed, more than \
+             the 536870912 bytes an archive entry may take (an archive's sizes can claim far \
+             more than its file holds); save the array as a .npy file instead"
+        );
     }
 
     #[test]

@@ -5,6 +5,8 @@
 use std::path::{Path, PathBuf};
 
 use touchc::compile::CompileError;
+use touchc::config::Knob;
+use touchc::input::recording::RecordingError;
 use touchc::rendering::condition::LimitViolation;
 use touchc::tracking::track::TrackError;
 
@@ -138,5 +140,30 @@ fn errors_that_call_for_a_flag_leave_it_to_the_command_line() {
     };
     for text in [limits.to_string(), dense.to_string()] {
         assert!(!names_a_flag(&text), "{text}");
+    }
+}
+
+/// Errors whose remedy is a knob or another file state what happened; the command line
+/// names the knobs and words the remedy.
+#[test]
+fn recording_errors_leave_knobs_and_remedies_to_the_command_line() {
+    let too_large = RecordingError::MemberTooLarge {
+        name: "big.npz".into(),
+        entry: "pressure.npy".into(),
+        needed: 1 << 40,
+        budget: 1 << 29,
+    };
+    let too_short = RecordingError::TooShort {
+        name: "short.npy".into(),
+        frames: 30,
+        tare: 20,
+        min: 41,
+    };
+    for text in [too_large.to_string(), too_short.to_string()] {
+        assert!(!names_a_flag(&text), "{text}");
+        assert!(!text.contains("save the array"), "{text}");
+        for knob in Knob::ALL {
+            assert!(!text.contains(&knob.to_string()), "{text}");
+        }
     }
 }
