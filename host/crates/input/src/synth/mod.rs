@@ -25,9 +25,9 @@ mod contacts;
 use contacts::*;
 
 /// Rows of the published sensor frame.
-pub const ROWS: usize = 8;
+pub(crate) const ROWS: usize = 8;
 /// Columns of the published sensor frame.
-pub const COLS: usize = 21;
+pub(crate) const COLS: usize = 21;
 
 /// A gesture the generator can produce.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
