@@ -365,6 +365,28 @@ mod tests {
         }
     }
 
+    /// The split's extent reaches down from its level: the level is its largest value,
+    /// whatever the table's own bound.
+    #[test]
+    fn the_extent_is_held_below_the_level() {
+        for extent in [0.75, 2.0] {
+            let mut c = Config::default();
+            let split = c.detect.split.as_mut().expect("the touch preset splits");
+            split.level = 0.5;
+            split.extent = Some(extent);
+            assert_eq!(
+                c.validate(),
+                Err(ConfigError::OutOfRange {
+                    knob: Knob::DetectSplitExtent,
+                    value: extent,
+                    min: 1e-6,
+                    max: 0.5,
+                    unit: Unit::None,
+                })
+            );
+        }
+    }
+
     #[test]
     fn the_error_holds_knob_value_and_range() {
         let mut c = Config::default();
