@@ -508,6 +508,34 @@ mod tests {
         lookup(&toml::Table::try_from(config).unwrap(), knob).cloned()
     }
 
+    /// A flag of one knob is its key with dashes (`--blur-sigma-mm` sets
+    /// `preprocess.blur_sigma_mm`), so a knob renamed in the table renames its flag or
+    /// fails here; a flag of two knobs is named by what they share.
+    #[test]
+    fn a_knob_flag_is_named_by_its_key() {
+        for flag in KNOBS {
+            let want = match flag.kind {
+                Kind::Count(k) | Kind::Real(k) => k.key().replace('_', "-"),
+                Kind::Grid { x, y } => {
+                    let (x, y) = (x.key(), y.key());
+                    assert_eq!(
+                        x.strip_suffix("_x"),
+                        y.strip_suffix("_y"),
+                        "--{}",
+                        flag.flag
+                    );
+                    x.trim_end_matches("_x").replace('_', "-")
+                }
+                Kind::Search { stride, keep } => {
+                    let table = |k: Knob| k.key().split_once('.').map(|(t, _)| t.to_string());
+                    assert_eq!(table(stride), table(keep), "--{}", flag.flag);
+                    table(stride).unwrap_or_default().replace('_', "-")
+                }
+            };
+            assert_eq!(flag.flag, want);
+        }
+    }
+
     /// Every knob flag writes the knobs it names, and only through their section and
     /// key, to a config that round-trips through TOML: a flag or a field renamed on one
     /// side only fails here.
