@@ -72,7 +72,8 @@ macro_rules! knobs {
 
 knobs! {
     InputRateHz => "input", "rate_hz", |c| real(c.input.rate_hz), reals(RATE_HZ_RANGE, Unit::Hz);
-    InputPitchMm => "input", "pitch_mm", |c| real(c.input.pitch_mm), reals(PITCH_MM_RANGE, Unit::Mm);
+    InputPitchMm => "input", "pitch_mm",
+        |c| real(c.input.pitch_mm), reals(PITCH_MM_RANGE, Unit::Mm);
     InputBaseline => "input", "baseline", |_c| None, Range::Free;
     InputTareS => "input", "tare_s", |c| real(c.input.tare_s), reals(0.0..=60.0, Unit::S);
     InputTrimS => "input", "trim_s", |c| real(c.input.trim_s), reals(0.0..=60.0, Unit::S);
