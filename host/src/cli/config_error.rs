@@ -1,7 +1,7 @@
 //! A knob out of range in words: the library's [`ConfigError`] holds the knob, the
 //! value and the range as values; here they become the message a person reads.
 
-use touchc::config::{ConfigError, DerivedLimit, SamplingKnob, Unit};
+use touchc::config::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
 use touchc::display::Shortest;
 
 /// The message `touchc` prints for `e` (after `config: `).
@@ -37,8 +37,9 @@ pub fn describe(e: &ConfigError) -> String {
             grid_y,
             max,
         } => format!(
-            "placement.grid_x * grid_y * (grid_y + 1) / 2 = {grid_x} x {grid_y} is out of \
-             range: must be at most {max} transforms"
+            "{} * grid_y * (grid_y + 1) / 2 = {grid_x} x {grid_y} is out of range: must be at \
+             most {max} transforms",
+            Knob::PlacementGridX
         ),
         ConfigError::SamplingOutOfRange {
             knob,
@@ -64,39 +65,7 @@ pub fn describe(e: &ConfigError) -> String {
             sampling,
             limit,
         } => {
-            let (derived, range) = match *limit {
-                DerivedLimit::KernelTooNarrow {
-                    radius_px,
-                    truncate,
-                    min_px,
-                } => (
-                    format!("a kernel radius of {radius_px} px (truncate {truncate})"),
-                    format!("at least {min_px} px, half an upsampled cell"),
-                ),
-                DerivedLimit::KernelTooWide { radius_px, max_px } => (
-                    format!("a kernel radius of {radius_px:.0} px"),
-                    format!("at most {max_px} px"),
-                ),
-                DerivedLimit::FrameTooLarge {
-                    side_px,
-                    rows,
-                    cols,
-                    max_px,
-                } => (
-                    format!("{side_px} px along the longer side of {rows} x {cols} cells"),
-                    format!("at most {max_px} px"),
-                ),
-                DerivedLimit::GateTooWide { gate_px, max_px } => (
-                    format!("{gate_px:.0} px per frame"),
-                    format!("at most {max_px} px"),
-                ),
-                DerivedLimit::AboveNyquist { nyquist_hz } => (
-                    "the low-pass cut-off".to_string(),
-                    format!("below the Nyquist frequency, {nyquist_hz} Hz"),
-                ),
-                // A bound this command line does not know yet still names its figures.
-                other => (format!("{other:?}"), String::new()),
-            };
+            let (derived, range) = derived_words(*limit);
             format!(
                 "{knob} = {} is {derived} at {} Hz, {} mm cells, x{}: must be {range}",
                 Shortest(*value),
@@ -106,6 +75,43 @@ pub fn describe(e: &ConfigError) -> String {
             )
         }
         other => other.to_string(),
+    }
+}
+
+/// What a knob became at the recording's sampling, and the bound it had to meet.
+fn derived_words(limit: DerivedLimit) -> (String, String) {
+    match limit {
+        DerivedLimit::KernelTooNarrow {
+            radius_px,
+            truncate,
+            min_px,
+        } => (
+            format!("a kernel radius of {radius_px} px (truncate {truncate})"),
+            format!("at least {min_px} px, half an upsampled cell"),
+        ),
+        DerivedLimit::KernelTooWide { radius_px, max_px } => (
+            format!("a kernel radius of {radius_px:.0} px"),
+            format!("at most {max_px} px"),
+        ),
+        DerivedLimit::FrameTooLarge {
+            side_px,
+            rows,
+            cols,
+            max_px,
+        } => (
+            format!("{side_px} px along the longer side of {rows} x {cols} cells"),
+            format!("at most {max_px} px"),
+        ),
+        DerivedLimit::GateTooWide { gate_px, max_px } => (
+            format!("{gate_px:.0} px per frame"),
+            format!("at most {max_px} px"),
+        ),
+        DerivedLimit::AboveNyquist { nyquist_hz } => (
+            "the low-pass cut-off".to_string(),
+            format!("below the Nyquist frequency, {nyquist_hz} Hz"),
+        ),
+        // A bound this command line does not know yet still names its figures.
+        other => (format!("{other:?}"), String::new()),
     }
 }
 
@@ -129,7 +135,7 @@ fn unit_suffix(unit: Unit) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use touchc::config::{Knob, Sampling};
+    use touchc::config::Sampling;
 
     /// Each error in the words `touchc` has always printed for it.
     #[test]

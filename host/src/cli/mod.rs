@@ -190,10 +190,10 @@ fn message(err: &anyhow::Error) -> String {
         // outer error quoted it.
         let words = if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
             Some(toml_message(e))
+        } else if let Some(e) = cause.downcast_ref::<touchc::config::ConfigError>() {
+            Some(config_error::describe(e))
         } else {
-            cause
-                .downcast_ref::<touchc::config::ConfigError>()
-                .map(config_error::describe)
+            advice(cause).map(|advice| format!("{text}{advice}"))
         };
         if let Some(words) = words {
             out = out.replace(&text, &words);
@@ -208,6 +208,38 @@ fn message(err: &anyhow::Error) -> String {
         out.push_str(&text);
     }
     out
+}
+
+/// What to try, after the library's account of an error that a flag, a knob or another
+/// file can put right.
+fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
+    use touchc::compile::CompileError;
+    use touchc::input::recording::RecordingError;
+    use touchc::tracking::track::TrackError;
+    let compile = cause.downcast_ref::<CompileError>();
+    let track = match compile {
+        Some(CompileError::Limits(_)) => return Some(" (use --fit to scale it down)".into()),
+        Some(CompileError::Track(e)) => Some(e),
+        _ => cause.downcast_ref::<TrackError>(),
+    };
+    let recording = match (compile, track) {
+        (_, Some(TrackError::TooDense { .. })) => {
+            return Some("; check the tare, or narrow the link gate with --max-speed-mm-s".into())
+        }
+        (Some(CompileError::Recording(e)), _) | (_, Some(TrackError::Recording(e))) => Some(e),
+        _ => cause.downcast_ref::<RecordingError>(),
+    };
+    match recording? {
+        RecordingError::MemberTooLarge { .. } => {
+            Some("; save the array as a .npy file instead".into())
+        }
+        RecordingError::TooShort { .. } => Some(format!(
+            " ({}, {})",
+            touchc::config::Knob::InputTareS,
+            touchc::config::Knob::InputTrimS
+        )),
+        _ => None,
+    }
 }
 
 /// A TOML error in one line: `line 2, column 9: <what>`, or `<what> (in `key`)` for a
@@ -423,6 +455,67 @@ pub(crate) fn stimulus_in<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The command line adds the flag to try to the library's account of the error, in
+    /// the words `touchc` has always printed, however the error was wrapped.
+    #[test]
+    fn errors_a_flag_puts_right_name_the_flag() {
+        use touchc::compile::CompileError;
+        use touchc::input::recording::RecordingError;
+        use touchc::rendering::condition::LimitViolation;
+        use touchc::tracking::track::TrackError;
+        let thermal = LimitViolation::Thermal {
+            channel: 5,
+            sample: 30_000,
+            bucket_a2s: 30.5,
+            budget_a2s: 30.0,
+        };
+        let err =
+            anyhow::Error::new(CompileError::Limits(thermal)).context("hold.npy: cannot compile");
+        assert_eq!(
+            message(&err),
+            "hold.npy: cannot compile: the signal breaks the safety limits: channel 5, sample \
+             30000: thermal load 30.5 A^2 s exceeds 30 A^2 s (use --fit to scale it down)"
+        );
+        let dense = || TrackError::TooDense {
+            detections: 9,
+            limit: 40,
+        };
+        let want = "the scene is too dense to track: 9 detections would link into more than 40 \
+                    edges; check the tare, or narrow the link gate with --max-speed-mm-s";
+        let tracked = anyhow::Error::new(dense()).context("a.npy: cannot track");
+        assert_eq!(message(&tracked), format!("a.npy: cannot track: {want}"));
+        let compiled =
+            anyhow::Error::new(CompileError::Track(dense())).context("a.npy: cannot compile");
+        assert_eq!(message(&compiled), format!("a.npy: cannot compile: {want}"));
+        let short = || RecordingError::TooShort {
+            name: "short.npy".into(),
+            frames: 30,
+            tare: 20,
+            min: 41,
+        };
+        let want = "short.npy: 30 frame(s) is too short: the tare window (20 frames) and the \
+                    trim at each end need at least 41 frames (input.tare_s, input.trim_s)";
+        for err in [
+            anyhow::Error::new(short()),
+            anyhow::Error::new(CompileError::Recording(short())),
+            anyhow::Error::new(CompileError::Track(TrackError::Recording(short()))),
+        ] {
+            assert_eq!(message(&err), want);
+        }
+        let big = anyhow::Error::new(RecordingError::MemberTooLarge {
+            name: "big.npz".into(),
+            entry: "pressure.npy".into(),
+            needed: 1 << 40,
+            budget: 1 << 29,
+        });
+        assert_eq!(
+            message(&big),
+            "big.npz: entry \"pressure.npy\" needs 1099511627776 bytes decompressed, more than \
+             the 536870912 bytes an archive entry may take (an archive's sizes can claim far \
+             more than its file holds); save the array as a .npy file instead"
+        );
+    }
 
     #[test]
     fn a_message_is_one_line_with_its_quoted_values_clipped() {

@@ -32,14 +32,14 @@ pub struct ConfigArgs {
     #[arg(
         long,
         value_name = "HZ",
-        help = sampling_help("The recording's frame rate, Hz, 1 to 1000", "rate_hz"),
+        help = sampling_help("The recording's frame rate, Hz, 1 to 1000", Knob::InputRateHz),
         help_heading = INPUT_AND_SENSOR
     )]
     pub rate: Option<f64>,
     #[arg(
         long,
         value_name = "MM",
-        help = sampling_help("The sensor's cell pitch, mm, 0.1 to 100", "pitch_mm"),
+        help = sampling_help("The sensor's cell pitch, mm, 0.1 to 100", Knob::InputPitchMm),
         help_heading = INPUT_AND_SENSOR
     )]
     pub pitch_mm: Option<f64>,
@@ -76,12 +76,11 @@ fn preset_help() -> String {
     )
 }
 
-/// Help of `--rate` and `--pitch-mm`: the file's value wins, else the config's `key`.
-fn sampling_help(what: &str, key: &str) -> String {
-    let key = format!("input.{key}");
+/// Help of `--rate` and `--pitch-mm`: the file's value wins, else the config's `knob`.
+fn sampling_help(what: &str, knob: Knob) -> String {
     format!(
-        "{what} (default: the file's, else `{key}`, {})",
-        default_of(&key).unwrap_or_else(|| "?".into())
+        "{what} (default: the file's, else `{knob}`, {})",
+        lookup(default_table(), knob).map_or_else(|| "?".into(), plain)
     )
 }
 
@@ -100,21 +99,67 @@ enum Kind {
 }
 
 impl Kind {
-    /// The config section every key of the flag is in.
-    fn section(self) -> &'static str {
+    /// The knobs the flag writes.
+    fn knobs(self) -> Vec<Knob> {
         match self {
-            Kind::Count(k) | Kind::Real(k) | Kind::Grid { x: k, .. } => k.section(),
-            Kind::Search { stride, .. } => stride.section(),
+            Kind::Count(k) | Kind::Real(k) => vec![k],
+            Kind::Grid { x, y } => vec![x, y],
+            Kind::Search { stride, keep } => vec![stride, keep],
         }
     }
 }
 
-/// The table (in its section) and the key in it of a knob below an optional table
-/// (`coarse_to_fine.stride`); the whole key for any other knob.
-fn table_and_key(knob: Knob) -> (Option<&'static str>, &'static str) {
-    match knob.key().split_once('.') {
-        Some((table, key)) => (Some(table), key),
-        None => (None, knob.key()),
+/// The value of `knob` in `table` (a config's TOML image), found by its section and key.
+fn lookup(table: &toml::Table, knob: Knob) -> Option<&toml::Value> {
+    let mut v = table.get(knob.section());
+    for part in knob.key().split('.') {
+        v = v?.as_table()?.get(part);
+    }
+    v
+}
+
+/// What a knob flag writes into a config's TOML image.
+#[derive(Debug, Clone)]
+enum Assignment {
+    /// The knob's value (its optional table created if absent).
+    Set(Knob, toml::Value),
+    /// The optional table that holds the knob removed (`--coarse-to-fine off`).
+    Clear(Knob),
+}
+
+impl Assignment {
+    /// The knob written.
+    fn knob(&self) -> Knob {
+        match self {
+            Assignment::Set(k, _) | Assignment::Clear(k) => *k,
+        }
+    }
+
+    /// Writes the assignment into `table`, a config's TOML image.
+    fn apply(&self, table: &mut toml::Table) {
+        let knob = self.knob();
+        let mut parts: Vec<&str> = std::iter::once(knob.section())
+            .chain(knob.key().split('.'))
+            .collect();
+        if let Assignment::Clear(_) = self {
+            // The key's own table goes, not the key alone.
+            parts.pop();
+        }
+        let Some(last) = parts.pop() else { return };
+        let mut t = table;
+        for part in parts {
+            let entry = t
+                .entry(part)
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            let Some(inner) = entry.as_table_mut() else {
+                return;
+            };
+            t = inner;
+        }
+        match self {
+            Assignment::Set(_, v) => t.insert(last.to_string(), v.clone()),
+            Assignment::Clear(_) => t.remove(last),
+        };
     }
 }
 
@@ -204,13 +249,6 @@ fn default_table() -> &'static toml::Table {
     TABLE.get_or_init(|| toml::Table::try_from(Config::default()).unwrap_or_default())
 }
 
-/// The value of `section.key` in [`Config::default`], as a flag would write it.
-fn default_of(path: &str) -> Option<String> {
-    let (section, key) = path.split_once('.')?;
-    let section = default_table().get(section)?.as_table()?;
-    Some(plain(section.get(key)?))
-}
-
 /// A TOML number as a person types it (`2000`, not `2000.0`).
 fn plain(v: &toml::Value) -> String {
     match v {
@@ -222,32 +260,16 @@ fn plain(v: &toml::Value) -> String {
 impl Flag {
     /// The key's value in [`Config::default`], in the flag's own syntax.
     fn default_text(&self) -> String {
-        let section = default_table()
-            .get(self.kind.section())
-            .and_then(toml::Value::as_table);
-        let get = |key: &str| section.and_then(|s| s.get(key)).map(plain);
+        let get = |k: Knob| lookup(default_table(), k).map(plain);
         let text = match self.kind {
-            Kind::Count(k) | Kind::Real(k) => get(k.key()),
-            Kind::Grid { x, y } => get(x.key())
-                .zip(get(y.key()))
-                .map(|(x, y)| format!("{x},{y}")),
+            Kind::Count(k) | Kind::Real(k) => get(k),
+            Kind::Grid { x, y } => get(x).zip(get(y)).map(|(x, y)| format!("{x},{y}")),
             // An absent search is `off`.
-            Kind::Search { stride, keep } => {
-                let (table, stride) = table_and_key(stride);
-                let (_, keep) = table_and_key(keep);
-                Some(
-                    match table
-                        .and_then(|t| section.and_then(|s| s.get(t)))
-                        .and_then(toml::Value::as_table)
-                    {
-                        Some(t) => {
-                            let get = |k: &str| t.get(k).map_or_else(|| "?".into(), plain);
-                            format!("{},{}", get(stride), get(keep))
-                        }
-                        None => "off".into(),
-                    },
-                )
-            }
+            Kind::Search { stride, keep } => Some(
+                get(stride)
+                    .zip(get(keep))
+                    .map_or_else(|| "off".into(), |(s, k)| format!("{s},{k}")),
+            ),
         };
         text.unwrap_or_else(|| "?".into())
     }
@@ -266,34 +288,28 @@ impl Flag {
         }
     }
 
-    /// The `(key, value)` pairs the flag's value in `m` writes into its section, `None`
-    /// as a value removing the key.
-    fn assignments(&self, m: &ArgMatches) -> Vec<(String, Option<toml::Value>)> {
+    /// What the flag's value in `m` writes.
+    fn assignments(&self, m: &ArgMatches) -> Vec<Assignment> {
         let int = |n: usize| toml::Value::Integer(i64::try_from(n).unwrap_or(i64::MAX));
         match self.kind {
             Kind::Count(k) => m
                 .get_one::<usize>(self.flag)
-                .map(|&n| vec![(k.key().to_string(), Some(int(n)))]),
+                .map(|&n| vec![Assignment::Set(k, int(n))]),
             Kind::Real(k) => m
                 .get_one::<f64>(self.flag)
-                .map(|&v| vec![(k.key().to_string(), Some(toml::Value::Float(v)))]),
-            Kind::Grid { x, y } => m.get_one::<(usize, usize)>(self.flag).map(|&(gx, gy)| {
-                vec![
-                    (x.key().to_string(), Some(int(gx))),
-                    (y.key().to_string(), Some(int(gy))),
-                ]
-            }),
-            Kind::Search { stride, keep } => m.get_one::<Search>(self.flag).map(|Search(s)| {
-                let (table, stride_key) = table_and_key(stride);
-                let (_, keep_key) = table_and_key(keep);
-                let value = s.map(|s| {
-                    let mut t = toml::Table::new();
-                    t.insert(stride_key.into(), int(s.stride));
-                    t.insert(keep_key.into(), int(s.keep));
-                    toml::Value::Table(t)
-                });
-                vec![(table.unwrap_or(stride_key).to_string(), value)]
-            }),
+                .map(|&v| vec![Assignment::Set(k, toml::Value::Float(v))]),
+            Kind::Grid { x, y } => m
+                .get_one::<(usize, usize)>(self.flag)
+                .map(|&(gx, gy)| vec![Assignment::Set(x, int(gx)), Assignment::Set(y, int(gy))]),
+            Kind::Search { stride, keep } => {
+                m.get_one::<Search>(self.flag).map(|Search(s)| match s {
+                    Some(s) => vec![
+                        Assignment::Set(stride, int(s.stride)),
+                        Assignment::Set(keep, int(s.keep)),
+                    ],
+                    None => vec![Assignment::Clear(stride)],
+                })
+            }
         }
         .unwrap_or_default()
     }
@@ -301,7 +317,7 @@ impl Flag {
 
 /// The knob flags given, as assignments to the config's TOML image.
 #[derive(Debug, Clone, Default)]
-pub struct Knobs(Vec<(&'static str, String, Option<toml::Value>)>);
+pub struct Knobs(Vec<Assignment>);
 
 impl FromArgMatches for Knobs {
     fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
@@ -311,11 +327,12 @@ impl FromArgMatches for Knobs {
     }
 
     fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
-        for knob in KNOBS {
-            for (key, value) in knob.assignments(m) {
-                let section = knob.kind.section();
-                self.0.retain(|(s, k, _)| !(*s == section && *k == key));
-                self.0.push((section, key, value));
+        for flag in KNOBS {
+            let assignments = flag.assignments(m);
+            if !assignments.is_empty() {
+                let knobs = flag.kind.knobs();
+                self.0.retain(|a| !knobs.contains(&a.knob()));
+                self.0.extend(assignments);
             }
         }
         Ok(())
@@ -417,13 +434,8 @@ fn layered(
             .with_context(|| format!("--set {}: not a TOML value", super::clip(set)))?;
         merge(&mut table, over);
     }
-    for (section, key, value) in &knobs.0 {
-        if let Some(toml::Value::Table(s)) = table.get_mut(*section) {
-            match value {
-                Some(v) => s.insert(key.clone(), v.clone()),
-                None => s.remove(key),
-            };
-        }
+    for assignment in &knobs.0 {
+        assignment.apply(&mut table);
     }
     let config: Config = table.try_into().with_context(|| {
         if sets.is_empty() {
@@ -493,12 +505,35 @@ mod tests {
 
     /// The value of `knob` in `config`'s TOML image, found by the knob's section and key.
     fn value_of(config: &Config, knob: Knob) -> Option<toml::Value> {
-        let table = toml::Table::try_from(config).unwrap();
-        let mut v = table.get(knob.section()).cloned();
-        for part in knob.key().split('.') {
-            v = v.and_then(|v| v.as_table().and_then(|t| t.get(part)).cloned());
+        lookup(&toml::Table::try_from(config).unwrap(), knob).cloned()
+    }
+
+    /// A flag of one knob is its key with dashes (`--blur-sigma-mm` sets
+    /// `preprocess.blur_sigma_mm`), so a knob renamed in the table renames its flag or
+    /// fails here; a flag of two knobs is named by what they share.
+    #[test]
+    fn a_knob_flag_is_named_by_its_key() {
+        for flag in KNOBS {
+            let want = match flag.kind {
+                Kind::Count(k) | Kind::Real(k) => k.key().replace('_', "-"),
+                Kind::Grid { x, y } => {
+                    let (x, y) = (x.key(), y.key());
+                    assert_eq!(
+                        x.strip_suffix("_x"),
+                        y.strip_suffix("_y"),
+                        "--{}",
+                        flag.flag
+                    );
+                    x.trim_end_matches("_x").replace('_', "-")
+                }
+                Kind::Search { stride, keep } => {
+                    let table = |k: Knob| k.key().split_once('.').map(|(t, _)| t.to_string());
+                    assert_eq!(table(stride), table(keep), "--{}", flag.flag);
+                    table(stride).unwrap_or_default().replace('_', "-")
+                }
+            };
+            assert_eq!(flag.flag, want);
         }
-        v
     }
 
     /// Every knob flag writes the knobs it names, and only through their section and

@@ -4,7 +4,7 @@
 use std::fmt::Write;
 
 use touchc::compile::Warning;
-use touchc::config::Baseline;
+use touchc::config::{Baseline, Knob};
 use touchc::coverage::{MissCause, UntrackedBy};
 use touchc::input::sanity::SanityWarning;
 use touchc::input::warning::{ErasedBy, InputWarning, TransposedBy};
@@ -44,9 +44,10 @@ pub fn describe(w: &Warning) -> String {
             max_trajectories,
             coverage,
         } => format!(
-            "the trajectory limit was reached ({trajectories} of track.max_trajectories = \
-             {max_trajectories}): contacts beyond it are not tracked; raise it with \
-             --max-trajectories (coverage {coverage:.2} says how much touch is explained)"
+            "the trajectory limit was reached ({trajectories} of {} = {max_trajectories}): \
+             contacts beyond it are not tracked; raise it with --max-trajectories (coverage \
+             {coverage:.2} says how much touch is explained)",
+            Knob::TrackMaxTrajectories
         ),
         Warning::FlowBudget {
             flow_work,
@@ -161,10 +162,12 @@ fn cause(c: &MissCause, touch_tracking: bool) -> String {
              tracked in its frame: a large contact (a flat hand) or a second one; {}",
             pct(share),
             if touch_tracking {
-                "contact splitting is on: try a finer lattice (--set \
-                 detect.split.spacing_cells=1)"
+                format!(
+                    "contact splitting is on: try a finer lattice (--set {}=1)",
+                    Knob::DetectSplitSpacingCells
+                )
             } else {
-                "try --preset touch (contact splitting)"
+                "try --preset touch (contact splitting)".to_string()
             }
         ),
     }
@@ -197,7 +200,8 @@ fn sanity(w: &SanityWarning) -> String {
             "touch in the tare window: {cells} cell(s) read up to {highest_psi:.3} psi above \
              their resting level during the first {tare_s} s ({frames} frames), which the \
              leading baseline subtracts from the whole recording; if the recording begins \
-             mid-touch, try --set input.baseline=robust"
+             mid-touch, try --set {}=robust",
+            Knob::InputBaseline
         ),
         SanityWarning::ImplausibleSpeed {
             median_mm_s,
@@ -297,19 +301,20 @@ fn input(w: &InputWarning) -> String {
                     f,
                     "the recording begins mid-touch and the leading baseline subtracts the \
                      first seconds from all of it: use the default preset (touch) or --set \
-                     input.baseline=robust",
+                     {}=robust",
+                    Knob::InputBaseline
                 ),
                 (ErasedBy::TouchThroughout, Baseline::Leading) => write!(
                     f,
                     "the touch is held from the tare window on: use the default preset \
-                     (touch) or --set input.baseline=robust, and record rest before or after \
-                     the touch",
+                     (touch) or --set {}=robust, and record rest before or after the touch",
+                    Knob::InputBaseline
                 ),
                 (ErasedBy::TouchThroughout, Baseline::Robust) => write!(
                     f,
                     "each touched cell is pressed for most of the recording, so its low \
-                     quantile (input.baseline_quantile) is the touch: record rest before or \
-                     after the touch",
+                     quantile ({}) is the touch: record rest before or after the touch",
+                    Knob::InputBaselineQuantile
                 ),
             };
         }

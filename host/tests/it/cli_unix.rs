@@ -370,6 +370,11 @@ fn the_thermal_limit_is_reported_once() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("thermal load"), "{err}");
     assert_eq!(err.matches("thermal load").count(), 1, "{err}");
+    // The command line, not the library, names the flag that puts it right.
+    assert!(
+        err.trim_end().ends_with("(use --fit to scale it down)"),
+        "{err}"
+    );
     assert!(!dir.path().join("hold.touch").exists());
 }
 

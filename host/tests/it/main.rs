@@ -47,6 +47,7 @@ mod extremes;
 mod flow;
 mod knobs;
 mod layout_guess;
+mod library_words;
 mod placement_oracle;
 mod pictures;
 mod playback;

@@ -132,7 +132,7 @@ pub(crate) struct ReferenceDevice {
 
 /// An integer vector (each component -128..=127).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
-pub struct Vector {
+pub(crate) struct Vector {
     /// First component.
     #[serde(rename = "X")]
     pub x: i32,
@@ -146,7 +146,7 @@ pub struct Vector {
 
 /// One channel: one actuator's signal.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Channel {
+pub(crate) struct Channel {
     /// Unique in the perception; the sleeve's channel here.
     pub id: i32,
     /// Free text: row, column and position in mm.
@@ -175,7 +175,7 @@ pub struct Channel {
 
 /// A frequency band of a channel.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Band {
+pub(crate) struct Band {
     /// `Curve`, `VectorialWave`, `WaveletWave` or `Transient`.
     pub band_type: String,
     /// For curve bands: how keyframes are joined.
@@ -191,7 +191,7 @@ pub struct Band {
 
 /// An effect: keyframes from a position.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Effect {
+pub(crate) struct Effect {
     /// `Basis`, `Reference` or `Composite`.
     pub effect_type: String,
     /// Start, in timescale ticks.
@@ -203,7 +203,7 @@ pub struct Effect {
 
 /// A point of a curve.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
-pub struct Keyframe {
+pub(crate) struct Keyframe {
     /// From the effect's position, in timescale ticks.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub relative_position: Option<i64>,
@@ -214,7 +214,7 @@ pub struct Keyframe {
 
 /// Writes `playback` as one HJIF document, dated `date`, its reference device resonating
 /// at `resonance_hz` when that is known.
-pub fn export(
+pub(crate) fn export(
     playback: &Playback,
     date: &str,
     resonance_hz: Option<f64>,

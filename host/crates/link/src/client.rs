@@ -263,11 +263,6 @@ impl<T: Transport> Client<T> {
         &mut self.transport
     }
 
-    /// Frames from the device that did not decode so far.
-    pub fn damaged_frames(&self) -> u64 {
-        self.damaged
-    }
-
     /// Opens the session: checks that the device speaks this link version and
     /// returns its firmware version.
     pub fn hello(&mut self) -> Result<String, ClientError> {

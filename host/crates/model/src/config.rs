@@ -19,11 +19,13 @@ use serde::{Deserialize, Serialize};
 
 mod bounds;
 mod sampling;
+mod knob;
 mod validate;
 
 pub use bounds::{grid_size, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE, RATE_HZ_RANGE};
+pub use knob::{Knob, Unit};
 pub use sampling::{FileMetadata, Metadata, MetadataOverrides, Sampling, Source, Sourced};
-pub use validate::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
+pub use validate::{ConfigError, DerivedLimit, SamplingKnob};
 
 /// All stage parameters. `Config::default()` is the `touch` preset;
 /// `Config::preset(Preset::Paper)` reproduces the paper.

@@ -90,8 +90,9 @@ pub enum CompileError {
     /// Conditioning failed.
     #[error("conditioning: {0}")]
     Condition(#[from] ConditionError),
-    /// The signal breaks the actuator profile's limits (and `fit` was not asked for).
-    #[error("the signal breaks the safety limits: {0} (use --fit to scale it down)")]
+    /// The signal breaks the actuator profile's limits (and `fit` was not asked for:
+    /// [`CompileOptions::fit`] would scale it down).
+    #[error("the signal breaks the safety limits: {0}")]
     Limits(#[from] LimitViolation),
     /// No encoding met the fidelity bounds, or the protocol refused the header.
     #[error("encoding: {0}")]

@@ -170,7 +170,7 @@ pub(crate) fn measure_classified(tared: ArrayView3<f64>, cells: &Array3<Cell>) -
 }
 
 /// What tracking settings a recording would need, for the warning that explains low
-/// coverage: the figures [`explain`] derives from the tared recording and the config.
+/// coverage: the figures `explain` derives from the tared recording and the config.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tracking {
     /// Frame rate, Hz.
@@ -258,7 +258,7 @@ pub enum UntrackedBy {
 
 impl MissCause {
     /// The share of the missed touch this cause holds, 0 to 1.
-    pub fn share(&self) -> f64 {
+    pub(crate) fn share(&self) -> f64 {
         match *self {
             MissCause::Brief { share, .. }
             | MissCause::Untracked { share, .. }
@@ -319,7 +319,7 @@ struct FrameTouch {
 
 /// Sorts the unexplained touch of `cells` (from [`classify`] on `tared`) by likely cause
 /// (see [`Misses`]); `points` are the contact points `cells` was classified against.
-pub fn explain(
+pub(crate) fn explain(
     tared: ArrayView3<f64>,
     cells: &Array3<Cell>,
     points: &[ContactPoint],

@@ -32,7 +32,7 @@ pub const SHORTFALL_SHARE: f64 = 0.2;
 /// apart, cell `(r, c)` centred at `((c + 0.5), (r + 0.5)) * pitch_mm`) by the actuators
 /// whose workspaces are `circles` and whose frames are `signals` (see the module docs).
 /// In the result, `explained_psi` is the played pressure.
-pub fn measure(
+pub(crate) fn measure(
     tared: ArrayView3<f64>,
     threshold_psi: f64,
     pitch_mm: f64,

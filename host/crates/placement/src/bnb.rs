@@ -101,7 +101,7 @@ pub(crate) fn transform_budget(transforms: usize) -> u64 {
 
 /// What `SubsetProblem::solve_within` found.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Solution {
+pub(crate) struct Solution {
     /// Chosen vertices, ascending.
     pub chosen: Vec<usize>,
     /// True when the search proved `chosen` optimal within its node budget.

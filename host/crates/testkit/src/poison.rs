@@ -48,7 +48,7 @@ pub fn scalar_npy(descr: &str, body: &[u8]) -> Vec<u8> {
 }
 
 /// CRC-32 (IEEE), bit by bit: the zip writer below must not share code with the reader.
-pub fn crc32(bytes: &[u8]) -> u32 {
+pub(crate) fn crc32(bytes: &[u8]) -> u32 {
     let mut crc = !0u32;
     for &b in bytes {
         crc ^= u32::from(b);
@@ -148,7 +148,7 @@ pub fn zip(entries: &[Entry<'_>]) -> Vec<u8> {
 
 /// `[6, 2, 3]` ones as a `pressure` entry whose 1 MiB of extra zeros deflate to about 1
 /// kB, declaring the size the header needs: a zip bomb that only reading finds.
-pub fn zip_bomb() -> Vec<u8> {
+pub(crate) fn zip_bomb() -> Vec<u8> {
     let mut data = small_npy(6, 1.0);
     let honest = data.len() as u32;
     data.resize(data.len() + (1 << 20), 0);

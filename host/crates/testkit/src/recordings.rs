@@ -82,7 +82,7 @@ pub fn cpu_seconds() -> f64 {
 
 /// A case of [`touch_cases`]: `gestures` with `tuning` on `sensor`, 1.5 s of quiet on
 /// each side.
-pub fn touch_spec(sensor: Sensor, gestures: &[Gesture], tuning: Tuning) -> SynthSpec {
+pub(crate) fn touch_spec(sensor: Sensor, gestures: &[Gesture], tuning: Tuning) -> SynthSpec {
     SynthSpec {
         gestures: gestures.to_vec(),
         seed: 1,

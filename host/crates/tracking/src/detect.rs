@@ -284,7 +284,7 @@ fn lattice_points(
 /// [`Split::extent`] reaches). Such a point is part of a contact whose peak shows it is
 /// there; scored by its own value, a point on a broad, weaker region (a hand's heel)
 /// would cost more than leaving it out, and the region would go untracked.
-pub fn lattice_points_of_contacts(
+pub(crate) fn lattice_points_of_contacts(
     frame: ArrayView2<f64>,
     upsample: usize,
     split: &Split,
@@ -385,7 +385,7 @@ pub fn frame_points(
 /// [`frame_points`], each with the value its detection cost is computed from: its own
 /// for a local maximum, its contact's peak for a lattice point (see
 /// [`lattice_points_of_contacts`]). A pixel that is both is a local maximum.
-pub fn frame_candidates(
+pub(crate) fn frame_candidates(
     frame: ArrayView2<f64>,
     cfg: &DetectConfig,
     split: Option<&Split>,

@@ -37,10 +37,11 @@ pub enum TrackError {
     /// A knob is out of its range (names the knob, the value and the range).
     #[error("config: {0}")]
     Config(#[from] touchc_model::config::ConfigError),
-    /// The detections link into a flow graph above `MAX_FLOW_EDGES`.
+    /// The detections link into a flow graph above `MAX_FLOW_EDGES` (a tare that left
+    /// noise, or a link gate wider than the touch needs).
     #[error(
         "the scene is too dense to track: {detections} detections would link into more \
-         than {limit} edges; check the tare, or narrow the link gate with --max-speed-mm-s"
+         than {limit} edges"
     )]
     TooDense {
         /// Detections in the graph.

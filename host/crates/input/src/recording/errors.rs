@@ -103,7 +103,7 @@ pub enum RecordingError {
     },
     /// An archive entry needs more memory, decompressed, than an entry may take
     /// ([`MEMBER_BUDGET_BYTES`](super::MEMBER_BUDGET_BYTES)); refused before it is inflated.
-    #[error("{name}: entry {entry:?} needs {needed} bytes decompressed, more than the {budget} bytes an archive entry may take (an archive's sizes can claim far more than its file holds); save the array as a .npy file instead")]
+    #[error("{name}: entry {entry:?} needs {needed} bytes decompressed, more than the {budget} bytes an archive entry may take (an archive's sizes can claim far more than its file holds)")]
     MemberTooLarge {
         /// The file the recording came from.
         name: String,
@@ -205,7 +205,7 @@ pub enum RecordingError {
     /// Too few frames to tare and still keep one frame.
     #[error(
         "{name}: {frames} frame(s) is too short: the tare window ({tare} frames) and the \
-         trim at each end need at least {min} frames (input.tare_s, input.trim_s)"
+         trim at each end need at least {min} frames"
     )]
     TooShort {
         /// The file the recording came from.

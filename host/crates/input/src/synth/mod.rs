@@ -27,9 +27,9 @@ use contacts::*;
 use gestures::gesture;
 
 /// Rows of the published sensor frame.
-pub const ROWS: usize = 8;
+pub(crate) const ROWS: usize = 8;
 /// Columns of the published sensor frame.
-pub const COLS: usize = 21;
+pub(crate) const COLS: usize = 21;
 
 /// A gesture the generator can produce.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

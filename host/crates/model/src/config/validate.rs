@@ -1,4 +1,4 @@
-//! Every knob's range, checked before any stage runs.
+//! Every knob held to its range (the knob table's), checked before any stage runs.
 //!
 //! A range says what makes physical sense (positive, finite, below a cap that a real
 //! sleeve or sensor never needs) and, with [`Config::validate_for`], bounds the work the
@@ -9,120 +9,10 @@
 
 use std::fmt;
 
-mod sections;
-
-use super::{Config, Sampling, PITCH_MM_RANGE, RATE_HZ_RANGE};
-
-/// Declares [`Knob`] from one table of `Variant => "section", "key"` rows: the
-/// variant, its doc (the key's path) and its serde names come from the same row.
-macro_rules! knobs {
-    ($($variant:ident => $section:literal, $key:literal;)*) => {
-        /// A knob of [`Config`], by its section and key.
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-        #[non_exhaustive]
-        pub enum Knob {
-            $(
-                #[doc = concat!("`", $section, ".", $key, "`")]
-                $variant,
-            )*
-        }
-
-        impl Knob {
-            /// Every knob, in the config's order.
-            pub const ALL: &'static [Knob] = &[$(Knob::$variant),*];
-
-            /// The section of the config the knob is in (its TOML table).
-            pub const fn section(self) -> &'static str {
-                match self {
-                    $(Knob::$variant => $section,)*
-                }
-            }
-
-            /// The knob's key in its section (dotted below an optional table).
-            pub const fn key(self) -> &'static str {
-                match self {
-                    $(Knob::$variant => $key,)*
-                }
-            }
-        }
-    };
-}
-
-knobs! {
-    InputRateHz => "input", "rate_hz";
-    InputPitchMm => "input", "pitch_mm";
-    InputTareS => "input", "tare_s";
-    InputTrimS => "input", "trim_s";
-    InputBaselineQuantile => "input", "baseline_quantile";
-    InputTouchThresholdPsi => "input", "touch_threshold_psi";
-    PreprocessUpsample => "preprocess", "upsample";
-    PreprocessBlurSigmaMm => "preprocess", "blur_sigma_mm";
-    PreprocessBlurTruncate => "preprocess", "blur_truncate";
-    DetectMinValuePsi => "detect", "min_value_psi";
-    DetectSigmaK => "detect", "sigma_k";
-    DetectMaxProbability => "detect", "max_probability";
-    DetectSplitLevel => "detect", "split.level";
-    DetectSplitExtent => "detect", "split.extent";
-    TrackEntryCost => "track", "entry_cost";
-    TrackExitCost => "track", "exit_cost";
-    TrackMaxSpeedMmS => "track", "max_speed_mm_s";
-    TrackMaxTrajectories => "track", "max_trajectories";
-    PlacementGridX => "placement", "grid_x";
-    PlacementGridY => "placement", "grid_y";
-    PlacementCentreBonus => "placement", "centre_bonus";
-    PlacementCoarseToFineStride => "placement", "coarse_to_fine.stride";
-    PlacementCoarseToFineKeep => "placement", "coarse_to_fine.keep";
-    CropTimeMarginS => "crop", "time_margin_s";
-    CropSpaceMarginMm => "crop", "space_margin_mm";
-    SignalSpikeFraction => "signal", "spike_fraction";
-    SignalLowpassOrder => "signal", "lowpass_order";
-    SignalLowpassHz => "signal", "lowpass_hz";
-    SignalPreDentA => "signal", "pre_dent_a";
-    SignalPeakA => "signal", "peak_a";
-    SignalRampS => "signal", "ramp_s";
-    SignalFitThermalShare => "signal", "fit_thermal_share";
-    KeyframesMaxRmsErrorFs => "keyframes", "max_rms_error_fs";
-    KeyframesMaxAbsErrorFs => "keyframes", "max_abs_error_fs";
-    KeyframesRampMs => "keyframes", "ramp_ms";
-    KeyframesAllocateAboveBytesPerS => "keyframes", "allocate_above_bytes_per_s";
-    KeyframesPeriodsMs => "keyframes", "periods_ms";
-    KeyframesMaxQuantShift => "keyframes", "max_quant_shift";
-}
-
-impl fmt::Display for Knob {
-    /// `section.key`, as in a config file's tables or `--set`.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}.{}", self.section(), self.key())
-    }
-}
-
-/// The unit of a range.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum Unit {
-    /// A plain number.
-    None,
-    /// Hertz.
-    Hz,
-    /// Millimetres.
-    Mm,
-    /// Seconds.
-    S,
-    /// Pounds per square inch.
-    Psi,
-    /// Standard deviations of the blur.
-    Sigmas,
-    /// Standard deviations of the detection score.
-    StandardDeviations,
-    /// Millimetres per second.
-    MmPerS,
-    /// Amperes.
-    A,
-    /// A fraction of the player's full scale.
-    FullScale,
-    /// Bytes per second.
-    BytesPerS,
-}
+use super::knob::{Range, Value};
+use super::{
+    grid_size, Config, Knob, Sampling, Unit, MAX_TRANSFORMS, PITCH_MM_RANGE, RATE_HZ_RANGE,
+};
 
 /// The recording's sampling, as resolved (from the caller, the file or the config).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -275,6 +165,29 @@ pub(crate) const MAX_FRAME_PX: usize = 4096;
 /// everything anyway).
 pub(crate) const MAX_GATE_PX: f64 = 4096.0;
 
+/// `value` must lie in `range`.
+fn check(knob: Knob, value: Value<'_>, range: Range) -> Result<(), ConfigError> {
+    match (value, range) {
+        (Value::Real(v), Range::Real { min, max, unit }) => within(knob, v, min, max, unit),
+        (Value::Count(n), Range::Count { min, max }) => count(knob, n, min, max),
+        (Value::Counts(list), Range::Counts { len, each }) => {
+            if !(len.0..=len.1).contains(&list.len()) {
+                return Err(ConfigError::LengthOutOfRange {
+                    knob,
+                    len: list.len(),
+                    min: len.0,
+                    max: len.1,
+                });
+            }
+            list.iter()
+                .try_for_each(|&n| count(knob, usize::from(n), each.0, each.1))
+        }
+        // A value of another kind than its range is a row of the table in error (its
+        // tests catch it); the knob's type alone checks a free one.
+        _ => Ok(()),
+    }
+}
+
 /// `knob` must be finite and within `[min, max]` (in `unit`).
 fn within(knob: Knob, v: f64, min: f64, max: f64, unit: Unit) -> Result<(), ConfigError> {
     if v.is_finite() && (min..=max).contains(&v) {
@@ -320,18 +233,40 @@ fn sampled(
 }
 
 impl Config {
-    /// Checks every knob against its range (see the module docs); the first one out of
-    /// range is the error.
+    /// Checks every knob against its range (see the module docs), in the config's
+    /// order; the first one out of range is the error.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        self.validate_input()?;
-        self.validate_preprocess()?;
-        self.validate_detect()?;
-        self.validate_track()?;
-        self.validate_placement()?;
-        self.validate_crop()?;
-        self.validate_signal()?;
-        self.validate_keyframes()?;
+        for &knob in Knob::ALL {
+            if let Some(value) = knob.value(self) {
+                check(knob, value, self.range_of(knob))?;
+            }
+            // The grid's size bounds the search's work and memory, whatever its sides.
+            if knob == Knob::PlacementGridY
+                && grid_size(&self.placement).is_none_or(|n| n > MAX_TRANSFORMS)
+            {
+                return Err(ConfigError::TooManyTransforms {
+                    grid_x: self.placement.grid_x,
+                    grid_y: self.placement.grid_y,
+                    max: MAX_TRANSFORMS,
+                });
+            }
+        }
         Ok(())
+    }
+
+    /// The values `knob` accepts in this config: its table's range, narrowed where
+    /// another knob bounds it.
+    pub(crate) fn range_of(&self, knob: Knob) -> Range {
+        match (knob, knob.range(), self.detect.split) {
+            // The lattice reaches down from the top: an extent above the level would
+            // shrink it below the top it is meant to cover.
+            (Knob::DetectSplitExtent, Range::Real { min, max, unit }, Some(split)) => Range::Real {
+                min,
+                max: max.min(split.level),
+                unit,
+            },
+            (_, range, _) => range,
+        }
     }
 
     /// [`Config::validate`], then the values derived at `sampling` for a recording of
@@ -430,6 +365,28 @@ mod tests {
         }
     }
 
+    /// The split's extent reaches down from its level: the level is its largest value,
+    /// whatever the table's own bound.
+    #[test]
+    fn the_extent_is_held_below_the_level() {
+        for extent in [0.75, 2.0] {
+            let mut c = Config::default();
+            let split = c.detect.split.as_mut().expect("the touch preset splits");
+            split.level = 0.5;
+            split.extent = Some(extent);
+            assert_eq!(
+                c.validate(),
+                Err(ConfigError::OutOfRange {
+                    knob: Knob::DetectSplitExtent,
+                    value: extent,
+                    min: 1e-6,
+                    max: 0.5,
+                    unit: Unit::None,
+                })
+            );
+        }
+    }
+
     #[test]
     fn the_error_holds_knob_value_and_range() {
         let mut c = Config::default();
@@ -455,34 +412,5 @@ mod tests {
                 limit: DerivedLimit::AboveNyquist { nyquist_hz: 10.0 },
             })
         );
-    }
-
-    /// Every knob's section and key name a value of the config as it is written (in
-    /// some preset: the coarse-to-fine search is absent from the others, the split's
-    /// extent from all of them), so an error
-    /// names a key a config file or `--set` can give.
-    #[test]
-    fn every_knob_is_a_key_of_the_config() {
-        // `detect.split.extent` is a knob beside the presets, set in none of them.
-        let mut extended = Config::preset(crate::config::Preset::Touch);
-        if let Some(split) = extended.detect.split.as_mut() {
-            split.extent = Some(0.25);
-        }
-        let tables: Vec<toml::Table> = crate::config::Preset::ALL
-            .iter()
-            .map(|&p| Config::preset(p))
-            .chain([extended])
-            .map(|c| toml::Table::try_from(c).unwrap())
-            .collect();
-        for &knob in Knob::ALL {
-            let found = tables.iter().any(|t| {
-                let mut v = t.get(knob.section());
-                for part in knob.key().split('.') {
-                    v = v.and_then(|v| v.as_table()).and_then(|t| t.get(part));
-                }
-                v.is_some_and(|v| !v.is_table())
-            });
-            assert!(found, "{knob} is not a key of the config");
-        }
     }
 }

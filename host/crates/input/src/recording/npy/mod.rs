@@ -64,7 +64,7 @@ pub(super) struct Header {
 impl Header {
     /// Data bytes the shape needs, or `None` if that overflows `u64` or the element
     /// type is one this reader does not know. A zero-length axis needs zero bytes whatever the others say.
-    pub fn data_len(&self) -> Option<u64> {
+    pub(crate) fn data_len(&self) -> Option<u64> {
         let size = self.dtype.as_ref().ok()?.size as u64;
         if self.shape.contains(&0) {
             return Some(0);
