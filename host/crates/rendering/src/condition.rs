@@ -583,8 +583,28 @@ impl Span {
             RingOut::Seconds => {
                 // At 1 kHz the bilinear design is the analog filter to within its
                 // warping of 4 Hz at 1 kHz (0.05 %): a time that is the filter's own.
-                let at_output = design_lowpass(cfg.lowpass_order, cfg.lowpass_hz, OUTPUT_RATE_HZ)?;
-                let settle_ticks = settle_frames(&at_output);
+                // The settling time is the filter's alone, and at 1 kHz finding it walks
+                // tens of thousands of ticks (most of a short compile's conditioning):
+                // found once per filter in a process.
+                static SETTLE_TICKS: std::sync::Mutex<Vec<((usize, u64), usize)>> =
+                    std::sync::Mutex::new(Vec::new());
+                let key = (cfg.lowpass_order, cfg.lowpass_hz.to_bits());
+                let known = SETTLE_TICKS
+                    .lock()
+                    .ok()
+                    .and_then(|k| k.iter().find(|(f, _)| *f == key).map(|&(_, t)| t));
+                let settle_ticks = match known {
+                    Some(t) => t,
+                    None => {
+                        let at_output =
+                            design_lowpass(cfg.lowpass_order, cfg.lowpass_hz, OUTPUT_RATE_HZ)?;
+                        let t = settle_frames(&at_output);
+                        if let Ok(mut k) = SETTLE_TICKS.lock() {
+                            k.push((key, t));
+                        }
+                        t
+                    }
+                };
                 let settle_s = settle_ticks as f64 / OUTPUT_RATE_HZ;
                 let lead_s = if cfg.zero_phase { settle_s } else { LEAD_S };
                 // Frames that cover a time; the tolerance keeps 1 s at 20 Hz 20 frames.
