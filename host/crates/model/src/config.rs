@@ -537,6 +537,7 @@ pub struct Split {
     /// Share of a flat contact's peak down to which the lattice covers it (absent: its
     /// top, `level`). Below `level` it reaches the broad, weaker regions a flat hand
     /// presses beside its top (the heel), which are touch the actuators there should play.
+    /// Such a point is scored by its contact's peak, weighted by its share of the top.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub extent: Option<f64>,
 }
