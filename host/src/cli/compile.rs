@@ -294,20 +294,22 @@ fn write_summary(
 ) -> std::io::Result<()> {
     writeln!(
         w,
-        "{:<32} {:>6} {:>8} {:>7} {:>9} {:>9} {:>9}",
-        "recording", "status", "seconds", "bytes", "rms % fs", "tracks", "ms"
+        "{:<32} {:>6} {:>8} {:>7} {:>9} {:>9} {:>8} {:>6} {:>9}",
+        "recording", "status", "seconds", "bytes", "rms % fs", "tracks", "coverage", "played", "ms"
     )?;
     for (input, r) in recordings.iter().zip(results) {
         let name = super::escaped(&input.display().to_string());
         match r {
             Ok(r) => writeln!(
                 w,
-                "{name:<32} {:>6} {:>8.2} {:>7} {:>9.3} {:>9} {:>9.1}",
+                "{name:<32} {:>6} {:>8.2} {:>7} {:>9.3} {:>9} {:>8.2} {:>6.2} {:>9.1}",
                 "ok",
                 r.duration_s,
                 r.bytes,
                 100.0 * r.rms_error_fs,
                 format!("{}/{}", r.selected.len(), r.trajectories),
+                r.coverage,
+                r.rendered_coverage,
                 1e3 * r.seconds.total()
             )?,
             Err(_) => writeln!(w, "{name:<32} {:>6}", "FAILED")?,

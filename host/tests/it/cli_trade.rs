@@ -112,6 +112,53 @@ fn batch_compiles_the_good_files_and_reports_the_bad() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("would both compile"));
 }
 
+/// The batch table shows, per recording, what the single compile line does about the
+/// touch: the tracking coverage and the rendered coverage (`played`), each as its
+/// report holds it.
+#[test]
+fn batch_table_shows_coverage_and_played_per_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = synth(dir.path(), "a", "stroke");
+    let b = synth(dir.path(), "b", "pat");
+    let out_dir = dir.path().join("out");
+    let out = touchc(&[
+        "compile",
+        s(&a),
+        s(&b),
+        "--out-dir",
+        s(&out_dir),
+        "--report",
+        "r.json",
+    ]);
+    ok(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let mut lines = stdout.lines();
+    let header: Vec<&str> = lines.next().unwrap().split_whitespace().collect();
+    let column = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("no {name} column: {stdout}"))
+    };
+    // "rms % fs" is three words of the header and one cell of a row.
+    let shift = 2;
+    let (coverage, played) = (column("coverage") - shift, column("played") - shift);
+    for (stem, rec) in [("a", &a), ("b", &b)] {
+        let row: Vec<&str> = stdout
+            .lines()
+            .find(|l| l.starts_with(s(rec)))
+            .unwrap_or_else(|| panic!("no row for {stem}: {stdout}"))
+            .split_whitespace()
+            .collect();
+        let r = report(&out_dir.join(format!("{stem}.json")));
+        let cell = |i: usize| row[i].parse::<f64>().unwrap();
+        let rendered = r["rendered_coverage"].as_f64().unwrap();
+        assert!(rendered > 0.0, "{stem}: nothing played");
+        assert!((cell(coverage) - r["coverage"].as_f64().unwrap()).abs() <= 0.005);
+        assert!((cell(played) - rendered).abs() <= 0.005, "{stem}: {stdout}");
+    }
+}
+
 #[test]
 fn trade_prints_every_preset_against_exact() {
     let dir = tempfile::tempdir().unwrap();

@@ -70,9 +70,10 @@ pub enum Preset {
     /// real recordings hold. Contacts up to 2 m/s link (strokes to 1.5 m/s, 4 Hz shakes
     /// of +-40 mm); entry and exit cost 1.5 each, so one strong frame is a trajectory (a
     /// 50 ms tap at 20 Hz); links bridge up to 60 ms unseen (sensor flicker); a flat
-    /// contact is also tracked on a 2-cell lattice of its top (a palm renders on the
-    /// actuators it covers); each cell's zero is a low quantile of the whole recording
-    /// and nothing is trimmed (a recording may begin or end mid-touch).
+    /// contact is also tracked on a 2-cell lattice down to a quarter of its peak (a palm
+    /// and a hand's weaker heel render on the actuators they cover); each cell's zero is
+    /// a low quantile of the whole recording and nothing is trimmed (a recording may
+    /// begin or end mid-touch).
     ///
     /// Gives up: the published results (more, shorter trajectories; a palm is several
     /// contacts), and some time in tracking and placement (`docs/trade.md`, measured).
@@ -155,7 +156,7 @@ impl Config {
                         min_cells: 8,
                         level: 0.5,
                         spacing_cells: 2,
-                        extent: None,
+                        extent: Some(0.25),
                     }),
                     ..paper.detect
                 },
@@ -538,6 +539,7 @@ pub struct Split {
     /// Share of a flat contact's peak down to which the lattice covers it (absent: its
     /// top, `level`). Below `level` it reaches the broad, weaker regions a flat hand
     /// presses beside its top (the heel), which are touch the actuators there should play.
+    /// Such a point is scored by its contact's peak, weighted by its share of the top.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub extent: Option<f64>,
 }

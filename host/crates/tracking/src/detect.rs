@@ -64,6 +64,23 @@ impl Detections {
     }
 }
 
+/// What a candidate's detection cost is computed from: a blurred value, whose z-score
+/// gives the cost, and a weight the cost is multiplied by.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Evidence {
+    /// The value the z-score is taken of, psi.
+    pub value: f64,
+    /// Multiplies the cost: 1, or less for a lattice point below its contact's top.
+    pub weight: f64,
+}
+
+impl Evidence {
+    /// A point's own value, at full weight (a local maximum, a point of a top).
+    pub fn own(value: f64) -> Self {
+        Evidence { value, weight: 1.0 }
+    }
+}
+
 /// Two blurred values that differ by at most this share of the larger one are level:
 /// the same height, as far as the data can tell.
 ///
@@ -280,16 +297,24 @@ fn lattice_points(
 }
 
 /// `lattice_points`, each with the evidence its detection cost is computed from: its
-/// own value on the contact's top, the contact's peak below it (where
-/// [`Split::extent`] reaches). Such a point is part of a contact whose peak shows it is
-/// there; scored by its own value, a point on a broad, weaker region (a hand's heel)
-/// would cost more than leaving it out, and the region would go untracked.
+/// own value on the contact's top; below it (where [`Split::extent`] reaches), the
+/// contact's peak, weighted by the point's share of the top's level (`value / top`,
+/// between `extent / level` and 1).
+///
+/// Such a point is part of a contact whose peak shows it is there; scored by its own
+/// value, a point on a broad, weaker region (a hand's heel) would cost more than
+/// leaving it out, and the region would go untracked. Scored by the peak alone, it
+/// would weigh as much as the top in the placement, which picks the transform whose
+/// circles hold the most negative cost: the circles would follow a contact's broad rim
+/// rather than where it presses. The weight keeps it tracked (half the peak's cost at
+/// the extent's floor still pays entry and exit within a few frames) and ranks it below
+/// the top, by the pressure it carries.
 pub(crate) fn lattice_points_of_contacts(
     frame: ArrayView2<f64>,
     upsample: usize,
     split: &Split,
     min_value: f64,
-) -> Vec<((usize, usize, f64), f64)> {
+) -> Vec<((usize, usize, f64), Evidence)> {
     let k = upsample.max(1);
     let (h, w) = frame.dim();
     let (rows, cols) = (h / k, w / k);
@@ -340,10 +365,17 @@ pub(crate) fn lattice_points_of_contacts(
                 .filter(|&&(i, v)| {
                     v >= floor && (i / cols) % spacing == 0 && (i % cols) % spacing == 0
                 })
-                // A point of the top is scored by its own value (as it always was); a
-                // point the extent adds, by its contact's peak.
+                // A point of the top is scored by its own value; a point the extent
+                // adds, by its contact's peak, weighted by its share of the top.
                 .map(|&(i, v)| {
-                    let evidence = if v >= top { v } else { peak };
+                    let evidence = if v >= top {
+                        Evidence::own(v)
+                    } else {
+                        Evidence {
+                            value: peak,
+                            weight: v / top,
+                        }
+                    };
                     ((centre(i / cols), centre(i % cols), v), evidence)
                 }),
         );
@@ -382,25 +414,26 @@ pub fn frame_points(
         .collect()
 }
 
-/// [`frame_points`], each with the value its detection cost is computed from: its own
-/// for a local maximum, its contact's peak for a lattice point (see
-/// [`lattice_points_of_contacts`]). A pixel that is both is a local maximum.
+/// [`frame_points`], each with the evidence its detection cost is computed from: its
+/// own value for a local maximum, as [`lattice_points_of_contacts`] says for a lattice
+/// point. A pixel that is both is a local maximum.
 pub(crate) fn frame_candidates(
     frame: ArrayView2<f64>,
     cfg: &DetectConfig,
     split: Option<&Split>,
     upsample: usize,
-) -> Vec<((usize, usize, f64), f64)> {
+) -> Vec<((usize, usize, f64), Evidence)> {
     let maxima = local_maxima(frame, cfg.min_value_psi);
+    let own = |p: (usize, usize, f64)| (p, Evidence::own(p.2));
     let Some(s) = split else {
-        return maxima.into_iter().map(|p| (p, p.2)).collect();
+        return maxima.into_iter().map(own).collect();
     };
     let lattice = lattice_points_of_contacts(frame, upsample, s, cfg.min_value_psi);
     if lattice.is_empty() {
-        return maxima.into_iter().map(|p| (p, p.2)).collect();
+        return maxima.into_iter().map(own).collect();
     }
     // Maxima first, so that the stable sort and dedup keep a maximum's own evidence.
-    let mut all: Vec<((usize, usize, f64), f64)> = maxima.into_iter().map(|p| (p, p.2)).collect();
+    let mut all: Vec<((usize, usize, f64), Evidence)> = maxima.into_iter().map(own).collect();
     all.extend(lattice);
     all.sort_by_key(|&((r, c, _), _)| (r, c));
     all.dedup_by_key(|p| (p.0 .0, p.0 .1));
@@ -442,8 +475,8 @@ pub fn score(
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Candidates {
     points: Vec<(usize, usize, f64)>,
-    /// Per point, the value its detection cost is computed from (see [`frame_candidates`]).
-    evidence: Vec<f64>,
+    /// Per point, what its detection cost is computed from (see [`frame_candidates`]).
+    evidence: Vec<Evidence>,
     /// `starts[t]..starts[t + 1]` indexes frame `t`'s points.
     starts: Vec<usize>,
 }
@@ -464,15 +497,15 @@ impl Candidates {
     pub(crate) fn push_frame(&mut self, found: impl IntoIterator<Item = (usize, usize, f64)>) {
         for p in found {
             self.points.push(p);
-            self.evidence.push(p.2);
+            self.evidence.push(Evidence::own(p.2));
         }
         self.starts.push(self.points.len());
     }
 
-    /// Appends the next frame's points, each with the value its cost is computed from.
+    /// Appends the next frame's points, each with what its cost is computed from.
     pub(crate) fn push_frame_with(
         &mut self,
-        found: impl IntoIterator<Item = ((usize, usize, f64), f64)>,
+        found: impl IntoIterator<Item = ((usize, usize, f64), Evidence)>,
     ) {
         for (p, e) in found {
             self.points.push(p);
@@ -538,7 +571,7 @@ pub(crate) fn score_candidates(
         candidates
             .evidence
             .par_iter()
-            .map(|&value| detection_cost((value - mean) / std, cfg))
+            .map(|e| e.weight * detection_cost((e.value - mean) / std, cfg))
             .collect()
     } else {
         Vec::new()
@@ -722,6 +755,43 @@ mod tests {
         // Below the extent, nothing.
         split.extent = Some(0.35);
         assert_eq!(cols(&split), vec![0, 2]);
+    }
+
+    /// A point the extent adds is tracked on its contact's evidence, but weighs less
+    /// than the top by the pressure it carries: its cost is negative, and above the
+    /// top's (so the placement prefers circles where the contact presses).
+    #[test]
+    fn a_shoulder_point_costs_less_than_the_top_but_is_still_a_detection() {
+        // 4 x 10 cells: a flat 4 x 4 top at 1 psi, beside it a 4 x 4 shoulder at 0.3.
+        let mut f = ndarray::Array2::<f64>::zeros((4, 10));
+        for r in 0..4 {
+            for c in 0..8 {
+                f[[r, c]] = if c < 4 { 1.0 } else { 0.3 };
+            }
+        }
+        let split = Split {
+            min_cells: 8,
+            level: 0.5,
+            spacing_cells: 2,
+            extent: Some(0.25),
+        };
+        let cfg = DetectConfig::default();
+        let mut c = Candidates::with_frames(1);
+        c.push_frame_with(frame_candidates(f.view(), &cfg, Some(&split), 1));
+        // A strong contact against a quiet recording: the top's cost saturates.
+        let d = score_candidates(&c, 0.01, 0.05, &cfg);
+        let cost_at = |col: usize| {
+            d.all
+                .iter()
+                .find(|p| p.row == 2 && p.col == col)
+                .map(|p| p.cost)
+                .unwrap_or_else(|| panic!("no detection at column {col}: {d:?}"))
+        };
+        let (top, shoulder) = (cost_at(2), cost_at(6));
+        assert!(shoulder < 0.0, "{shoulder}");
+        assert!(top < shoulder, "top {top}, shoulder {shoulder}");
+        // Weighted by its share of the top: 0.3 / 0.5.
+        assert!((shoulder - 0.6 * top).abs() < 1e-12, "{top} {shoulder}");
     }
 
     #[test]

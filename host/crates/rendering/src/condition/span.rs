@@ -43,8 +43,7 @@ impl Span {
             RingOut::Seconds => {
                 // At 1 kHz the bilinear design is the analog filter to within its
                 // warping of 4 Hz at 1 kHz (0.05 %): a time that is the filter's own.
-                let at_output = design_lowpass(cfg.lowpass_order, cfg.lowpass_hz, OUTPUT_RATE_HZ)?;
-                let settle_ticks = settle_frames(&at_output);
+                let settle_ticks = settle_ticks_at_output(cfg)?;
                 let settle_s = settle_ticks as f64 / OUTPUT_RATE_HZ;
                 let lead_s = if cfg.zero_phase { settle_s } else { LEAD_S };
                 // Frames that cover a time; the tolerance keeps 1 s at 20 Hz 20 frames.
@@ -67,4 +66,25 @@ impl Span {
             }
         }
     }
+}
+
+/// The low-pass's settling time at the 1 kHz output rate, in ticks. It is the filter's
+/// alone, and finding it walks tens of thousands of ticks (most of a short compile's
+/// conditioning), so it is found once per filter in a process.
+fn settle_ticks_at_output(cfg: &SignalConfig) -> Result<usize, ConditionError> {
+    static KNOWN: std::sync::Mutex<Vec<((usize, u64), usize)>> = std::sync::Mutex::new(Vec::new());
+    let key = (cfg.lowpass_order, cfg.lowpass_hz.to_bits());
+    let known = KNOWN
+        .lock()
+        .ok()
+        .and_then(|k| k.iter().find(|(f, _)| *f == key).map(|&(_, t)| t));
+    if let Some(ticks) = known {
+        return Ok(ticks);
+    }
+    let at_output = design_lowpass(cfg.lowpass_order, cfg.lowpass_hz, OUTPUT_RATE_HZ)?;
+    let ticks = settle_frames(&at_output);
+    if let Ok(mut k) = KNOWN.lock() {
+        k.push((key, ticks));
+    }
+    Ok(ticks)
 }
