@@ -11,7 +11,8 @@
 #    flash/RAM use of each against the budgets
 # 4. QEMU: the player on the F405 checked against the host, instructions per tick
 # 5. twin: the release ELF (with a linked bank) booted on emulated peripherals
-#    (unicorn from PyPI in a venv under target/, see twin/README.md)
+#    (unicorn from PyPI in a venv under target/, see twin/README.md); then the usb
+#    build's playback and link tests
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -171,6 +172,13 @@ echo "default bank: $((16#$size)) bytes at 0x$addr"
 
 step "twin: the release ELF on emulated STM32F405 peripherals"
 TWIN_ELF="$elf" TWIN_LINKED_BANK="$bank" bash "$here/twin/run.sh"
+
+step "twin: the usb build's playback and its link on USART2"
+# The twin has no OTG FS model (its VBUS stays low, so the USB task only waits): this
+# holds the usb build's playback, link, latency and tick to the default build's tests.
+cargo build --profile "$profile" --locked --features usb
+TWIN_ELF="$elf" bash "$here/twin/run.sh" test_twin.BootAndPlay test_twin.LinkTwin \
+    test_twin.PlayLatency test_twin.LinkStream
 # Leave the plain build in place for `cargo run --profile firmware`.
 cargo build --profile "$profile" --locked
 echo "firmware checks passed"
