@@ -23,16 +23,27 @@
 //! races a `play`) waits for it a tick or two, as a queued start. Without the link
 //! (the host tests of the controller alone), the tick builds the player itself.
 
+//!
+//! The parts, by what they do: `announce` tells the host and the log (and keeps
+//! what a start leaves to the next tick), `stream` runs the host's stream, and
+//! `commands` answers the link's commands; this module holds the state, the
+//! button's rules and the tick that steps the player.
+
+mod announce;
+mod commands;
+mod stream;
+
 use touch_protocol::bank::MAX_SLOTS;
-use touch_protocol::link::{self as wire, LinkError, Source, StreamStop};
+use touch_protocol::link::{self as wire, Source, StreamStop};
 use touch_protocol::player::{Fault, Status};
 use touch_protocol::thermal::TooHot;
-use touch_protocol::{Bank, DeviceConfig, Error, Limits, LiveParams, Player, Stimulus, Thermal};
+use touch_protocol::{Bank, DeviceConfig, Error, Limits, Player, Stimulus, Thermal};
 
 use crate::button::Event;
-use crate::link::port::{STAGED_STREAM, STAGED_STREAM_ONE};
-use crate::link::{Answer, Control, TickPort, TickReply};
+use crate::link::{Answer, TickPort};
 use crate::output::{Frame, IDLE_FRAME, LAYOUT_HASH};
+use announce::{gesture, Later};
+use stream::{StreamClock, StreamState};
 
 /// What happened, for the log (the tick interrupt never logs itself).
 // A word-sized tag puts the fields on word boundaries: the tick copies a report in
@@ -76,53 +87,11 @@ pub enum StreamReport {
     TooHot(TooHot),
 }
 
-/// What the tick that starts a slot leaves to the next tick to tell the host (it
-/// has no room left for it): the same messages, with the same ticks, a
-/// millisecond later.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-struct Later {
-    /// A `Play` that started its slot: its sequence number, the slot and the tick
-    /// of the first frame.
-    play: Option<(u16, u8, u32)>,
-    /// A button gesture and its tick.
-    gesture: Option<(wire::Gesture, u32)>,
-    /// A report, the tick of the frames it describes, and whether the log has it
-    /// yet.
-    report: Option<(Report, u32, bool)>,
-}
-
-impl Later {
-    fn is_empty(&self) -> bool {
-        self.play.is_none() && self.gesture.is_none() && self.report.is_none()
-    }
-}
-
 /// What plays: a bank slot or the host's stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Playing {
     Slot(usize),
     Stream,
-}
-
-/// The host's stream, as the tick sees it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum StreamState {
-    Off,
-    /// Begun: waiting for its first two keyframes.
-    Armed(LiveParams),
-    /// Playing.
-    On,
-}
-
-/// Per-stream bookkeeping: the deadline and whether the host ended it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct StreamClock {
-    /// The host's data counter when last seen.
-    fed: u32,
-    /// The tick it last changed.
-    fed_at: u32,
-    /// The host sent `StreamEnd`: play out what is buffered, then stop.
-    ended: bool,
 }
 
 /// The playback state machine, stepped once per 1 kHz tick.
@@ -461,45 +430,6 @@ impl<'a> Controller<'a> {
         frame
     }
 
-    /// Sends what the last tick left for this one ([`Later`]), before anything
-    /// else this tick tells the host (the engine calls it before the buttons'). The
-    /// tick that does takes no link command.
-    #[inline(always)]
-    pub fn send_later(&mut self, log: &mut impl FnMut(Report)) {
-        if !self.later.is_empty() {
-            self.send_later_now(log);
-        }
-    }
-
-    #[inline(never)]
-    fn send_later_now(&mut self, log: &mut dyn FnMut(Report)) {
-        let later = core::mem::take(&mut self.later);
-        if let Some((seq, slot, tick)) = later.play {
-            let reply = TickReply::Play {
-                slot,
-                tick,
-                now: true,
-            };
-            self.send(Answer::Reply(seq, reply));
-        }
-        if let Some((gesture, tick)) = later.gesture {
-            self.send(Answer::Event(tick, wire::Event::Button(gesture)));
-        }
-        if let Some((r, tick, logged)) = later.report {
-            self.announce_at(r, tick);
-            if !logged {
-                log(r);
-            }
-        }
-        self.sent_later = true;
-    }
-
-    /// Tells the host and the log what a report of this tick says.
-    fn emit(&mut self, report: Report, log: &mut (impl FnMut(Report) + ?Sized)) {
-        self.announce(report);
-        log(report);
-    }
-
     fn step(&mut self, log: &mut impl FnMut(Report)) -> Frame {
         if self.playing.is_none() {
             if let Some(slot) = self.queued.take() {
@@ -585,377 +515,12 @@ impl<'a> Controller<'a> {
         }
         tick.codes
     }
-
-    /// The stream's part of a tick: the deadline, the start once two keyframes are
-    /// in, and the next keyframe for the player.
-    #[inline(never)]
-    fn stream_tick(&mut self) -> Option<Report> {
-        if self.stream == StreamState::Off {
-            // What a stopped stream left, a few a tick: all of them at once (up to
-            // 32) would cost the tick that stops it some 390 instructions. A new
-            // stream drains the rest before it is armed.
-            if let Some(port) = self.link.as_mut() {
-                for _ in 0..4 {
-                    if port.next_keyframe().is_none() {
-                        break;
-                    }
-                }
-            }
-            return None;
-        }
-        let port = self.link.as_mut()?;
-        let fed = port.fed();
-        if fed != self.clock.fed {
-            self.clock.fed = fed;
-            self.clock.fed_at = self.now;
-        }
-        let quiet = self.now.wrapping_sub(self.clock.fed_at);
-        if !self.clock.ended && quiet >= wire::STREAM_DEADLINE_MS {
-            return self.stop_stream(StreamStop::Deadline);
-        }
-        match self.stream {
-            StreamState::Armed(params) => {
-                let ready = port.keyframes_ready();
-                if ready < 2 && !(self.clock.ended && ready == 1) {
-                    if self.clock.ended && ready == 0 {
-                        self.stream = StreamState::Off;
-                        return Some(Report::Stream(StreamReport::Stopping(StreamStop::Ended)));
-                    }
-                    return None;
-                }
-                if self.playing.is_some() {
-                    // A slot still ramps down (it was playing at the stream's begin).
-                    return None;
-                }
-                let limits = params.limits.min(self.device.limits);
-                if let Err(hot) = self.thermal.check_start(&limits) {
-                    self.stream = StreamState::Off;
-                    return Some(Report::Stream(StreamReport::TooHot(hot)));
-                }
-                // The link's task built the player from these keyframes (both, or
-                // the only one of a stream that ended after it); if not (the
-                // selection moved meanwhile), the tick builds it.
-                let tag = if ready >= 2 {
-                    STAGED_STREAM
-                } else {
-                    STAGED_STREAM_ONE
-                };
-                if port.take_player(tag, &self.thermal) {
-                    port.next_keyframe();
-                    if tag == STAGED_STREAM {
-                        port.next_keyframe();
-                    }
-                } else {
-                    let first = port.next_keyframe().unwrap_or([0; 8]);
-                    let second = port.next_keyframe().unwrap_or(first);
-                    let player = Player::live(&params, first, second, &self.device, self.thermal);
-                    port.put_player(player);
-                }
-                self.playing = Some(Playing::Stream);
-                self.keyframes = (self.now, u32::from(params.keyframe_period_ms));
-                self.stopping = false;
-                self.stream = StreamState::On;
-                Some(Report::Stream(StreamReport::Started))
-            }
-            StreamState::On => {
-                if self.playing == Some(Playing::Stream) && port.player().wants_keyframe() {
-                    if let Some(k) = port.next_keyframe() {
-                        let _ = port.player().push_keyframe(k);
-                    }
-                }
-                None
-            }
-            StreamState::Off => None,
-        }
-    }
-
-    /// Ramps the stream down (or forgets an armed one) for `why`.
-    fn stop_stream(&mut self, why: StreamStop) -> Option<Report> {
-        let was = self.stream;
-        // Its keyframes left in the queue drain while it is off (`stream_tick`).
-        self.stream = StreamState::Off;
-        match self.playing {
-            Some(Playing::Stream) if !self.stopping => {
-                if let Some(player) = self.player_mut() {
-                    player.stop();
-                }
-                self.stopping = true;
-                Some(Report::Stream(StreamReport::Stopping(why)))
-            }
-            _ if matches!(was, StreamState::Armed(_)) => {
-                Some(Report::Stream(StreamReport::Stopping(why)))
-            }
-            _ => None,
-        }
-    }
-
-    fn drain_keyframes(&mut self) {
-        if let Some(port) = self.link.as_mut() {
-            while port.next_keyframe().is_some() {}
-        }
-    }
-
-    /// Takes at most one link command per tick and answers it; what it did goes to
-    /// `log` (and to the host) as it happens, as the tick's own reports do.
-    #[inline(never)]
-    fn serve_link(&mut self, log: &mut dyn FnMut(Report)) {
-        // Left in the queue until it is done with: a `Play` may wait for its player.
-        let Some(&control) = self.link.as_ref().and_then(|p| p.peek_control()) else {
-            return;
-        };
-        let first = self.now.wrapping_add(1);
-        match control {
-            Control::Play { seq, slot } => {
-                if !self.link_play(seq, usize::from(slot), log) {
-                    return;
-                }
-            }
-            Control::Stop { seq } => {
-                self.queued = None;
-                let source = self.playing.map(source);
-                let report = match self.stream {
-                    StreamState::Armed(_) => self.stop_stream(StreamStop::Ended),
-                    _ => self.stop(),
-                };
-                let reply = TickReply::Stop {
-                    source,
-                    tick: if source.is_some() { first } else { self.now },
-                };
-                self.send(Answer::Reply(seq, reply));
-                if let Some(r) = report {
-                    self.emit(r, log);
-                }
-            }
-            // A player that takes its next keyframe decodes it in that tick: the
-            // snapshot waits a tick rather than add to it.
-            Control::Status { .. } if self.keyframe_tick() => return,
-            Control::Status { seq } => {
-                self.publish();
-                self.send(Answer::Status(seq));
-            }
-            Control::StreamBegin { seq, params } => {
-                if let Some(e) = self.refuse_start() {
-                    self.send(Answer::Refused(seq, e));
-                } else {
-                    self.drain_keyframes();
-                    self.stream = StreamState::Armed(params);
-                    let fed = self.link.as_ref().map_or(0, |p| p.fed());
-                    self.clock = StreamClock {
-                        fed,
-                        fed_at: self.now,
-                        ended: false,
-                    };
-                    let capacity = self.link.as_ref().map_or(0, |p| p.keyframe_capacity());
-                    self.send(Answer::Reply(seq, TickReply::StreamBegin { capacity }));
-                }
-            }
-            Control::StreamEnd { seq } => {
-                if self.stream == StreamState::Off {
-                    self.send(Answer::Refused(seq, LinkError::NoStream));
-                } else {
-                    self.clock.ended = true;
-                    self.send(Answer::Reply(seq, TickReply::StreamEnd));
-                }
-            }
-            Control::Lock { seq } => {
-                if self.playing.is_some() || self.stream != StreamState::Off {
-                    self.send(Answer::Refused(seq, LinkError::Busy(wire::Busy::Playing)));
-                } else {
-                    self.locked = true;
-                    self.queued = None;
-                    self.send(Answer::Locked(seq));
-                }
-            }
-        }
-        if let Some(port) = &mut self.link {
-            port.next_control();
-        }
-    }
-
-    /// True if this tick's player takes its next keyframe (a player's `k`-th tick
-    /// from its start does when `k + 1` is a multiple of the period), while it plays
-    /// its keyframes. Never with a period under 2 ms, where every tick does.
-    fn keyframe_tick(&self) -> bool {
-        let (start, period) = self.keyframes;
-        self.playing.is_some()
-            && !self.stopping
-            && period >= 2
-            && self.now.wrapping_sub(start) % period == period - 1
-    }
-
-    /// Why nothing may start now, if so: an upload owns the bank, a stream is on.
-    fn refuse_start(&self) -> Option<LinkError> {
-        if self.locked {
-            Some(LinkError::Busy(wire::Busy::Uploading))
-        } else if self.stream != StreamState::Off || self.streaming() {
-            Some(LinkError::Busy(wire::Busy::Streaming))
-        } else if self.playing.is_some() {
-            Some(LinkError::Busy(wire::Busy::Playing))
-        } else {
-            None
-        }
-    }
-
-    /// A `Play`: answers it (and hands on what it did), or returns false while it
-    /// waits for its player (it stays in the queue, the link's task builds it).
-    fn link_play(&mut self, seq: u16, slot: usize, log: &mut dyn FnMut(Report)) -> bool {
-        let slots = self.slots() as u8;
-        let first = self.now.wrapping_add(1);
-        let limits = match self.start_limits(slot) {
-            _ if self.locked => Err(LinkError::Busy(wire::Busy::Uploading)),
-            _ if self.stream != StreamState::Off || self.streaming() => {
-                Err(LinkError::Busy(wire::Busy::Streaming))
-            }
-            Err(Error::NoSuchSlot(_)) => Err(LinkError::NoSuchSlot {
-                slot: slot.min(255) as u8,
-                slots,
-            }),
-            Err(_) => Err(LinkError::BadSlot { slot: slot as u8 }),
-            Ok(limits) => Ok(limits),
-        };
-        let limits = match limits {
-            Ok(limits) => limits,
-            Err(e) => {
-                self.send(Answer::Refused(seq, e));
-                return true;
-            }
-        };
-        let wire_slot = slot as u8;
-        if self.playing.is_some() {
-            // As a press on another slot: the one playing ramps down first.
-            let report = self.stop();
-            self.queue(slot);
-            let reply = TickReply::Play {
-                slot: wire_slot,
-                tick: first,
-                now: false,
-            };
-            self.send(Answer::Reply(seq, reply));
-            if let Some(r) = report {
-                self.emit(r, log);
-            }
-            return true;
-        }
-        // A press's start still waiting for its player gives way to the host's.
-        self.queued = None;
-        let Some(port) = self.link.as_mut() else {
-            return true;
-        };
-        if !port.staged(wire_slot) {
-            // The server stages the player before it forwards the `Play`; a press
-            // took it or asked for another meanwhile.
-            port.want(wire_slot);
-            return false;
-        }
-        let selected = self.selected;
-        self.selected = slot;
-        // The thermal check is the start's own, as for a press.
-        match self.start_with(slot, &limits) {
-            Some(Report::TooHot(_, hot)) => {
-                self.selected = selected;
-                let e = LinkError::TooHot {
-                    channel: hot.channel,
-                    permille: hot.permille,
-                    cooldown_ms: hot.cooldown_ms,
-                };
-                self.send(Answer::Refused(seq, e));
-            }
-            report => {
-                // Answered by the next tick (`send_later`).
-                self.later.play = Some((seq, wire_slot, first));
-                match report {
-                    Some(r) if self.later.report.is_none() => {
-                        self.later.report = Some((r, first, false));
-                    }
-                    Some(r) => self.emit(r, log),
-                    None => {}
-                }
-            }
-        }
-        true
-    }
-
-    /// Publishes the state the link's `Status` reports (the per-mille arithmetic is
-    /// the link server's, outside the tick; the faults were published as they came).
-    fn publish(&mut self) {
-        let (tick, playing, stopping) = (self.now, self.playing.map(source), self.stopping);
-        let selected = self.selected as u8;
-        let limits = &self.limits[self.selected % self.limits.len()];
-        if let Some(port) = &mut self.link {
-            // While something plays its player holds the heat (in the port).
-            let idle = playing.is_none().then_some(&self.thermal);
-            port.publish_status(tick, playing, stopping, selected, limits, idle);
-        }
-    }
-
-    /// Tells the host what a report says (the frames it describes go out at the next
-    /// tick).
-    fn announce(&mut self, report: Report) {
-        self.announce_at(report, self.now.wrapping_add(1));
-    }
-
-    /// Tells the host what a report says, with the tick of the frames it describes.
-    #[inline(never)]
-    fn announce_at(&mut self, report: Report, tick: u32) {
-        if self.link.is_none() {
-            return;
-        }
-        let slot = |s: usize| Source::Slot(s as u8);
-        let event = match report {
-            Report::Started(s) => wire::Event::Started(slot(s)),
-            Report::Stopping(s) => wire::Event::Stopping(slot(s)),
-            Report::Finished(s) => wire::Event::Finished(slot(s)),
-            Report::Fault(s, f) => wire::Event::LimitHit {
-                source: slot(s),
-                kind: f.kind.into(),
-                channel: f.channel,
-            },
-            Report::Selected(s) => wire::Event::Selected(s as u8),
-            Report::BadSlot(s, _) => wire::Event::BadSlot(s as u8),
-            Report::TooHot(s, hot) => too_hot(slot(s), hot),
-            Report::Stream(StreamReport::Started) => wire::Event::Started(Source::Stream),
-            Report::Stream(StreamReport::Stopping(why)) => wire::Event::StreamStopped(why),
-            Report::Stream(StreamReport::Finished) => wire::Event::Finished(Source::Stream),
-            Report::Stream(StreamReport::Fault(f)) => wire::Event::LimitHit {
-                source: Source::Stream,
-                kind: f.kind.into(),
-                channel: f.channel,
-            },
-            Report::Stream(StreamReport::TooHot(hot)) => too_hot(Source::Stream, hot),
-        };
-        self.send(Answer::Event(tick, event));
-    }
-
-    /// Queues an answer for the link (dropped if its queue is full: the link drains
-    /// it every millisecond or so).
-    fn send(&mut self, answer: Answer) {
-        if let Some(port) = self.link.as_mut() {
-            port.send(answer);
-        }
-    }
 }
 
 fn source(what: Playing) -> Source {
     match what {
         Playing::Slot(s) => Source::Slot(s as u8),
         Playing::Stream => Source::Stream,
-    }
-}
-
-fn too_hot(source: Source, hot: TooHot) -> wire::Event {
-    wire::Event::TooHot {
-        source,
-        channel: hot.channel,
-        permille: hot.permille,
-        cooldown_ms: hot.cooldown_ms,
-    }
-}
-
-fn gesture(event: Event) -> wire::Gesture {
-    match event {
-        Event::Toggle => wire::Gesture::Toggle,
-        Event::Next => wire::Gesture::Next,
-        Event::Slot(s) => wire::Gesture::Slot(s as u8),
     }
 }
 

@@ -22,9 +22,18 @@
 //! from their last value to 0 A over `ramp_ms` (still slew-limited), then the player
 //! reports [`Status::Finished`] and emits [`IDLE_CODE`] forever.
 
+//!
+//! Steps 1 to 4 and the ramp down are in the `tick` module; the peak, slew and
+//! heat bounds they enforce in `bounds`.
+
+mod bounds;
+mod tick;
+
 use crate::stimulus::Keyframes;
 use crate::thermal::{budget_ma2ms, continuous_ma2, Thermal};
 use crate::{Limits, Stimulus, CHANNELS, IDLE_CODE};
+pub use bounds::{peak_bound_ua, slew_bound_ua};
+use bounds::{ramp_down_ma2ms, trip_ma2ms};
 
 /// Largest output code (12-bit converters).
 pub const MAX_CODE: u16 = 4095;
@@ -374,164 +383,9 @@ impl<'a> Player<'a> {
         }
     }
 
-    fn signal_tick(&mut self) -> Status {
-        if let Some(channel) = self.hot {
-            // Too hot for another tick: one more at any current, then a ramp down,
-            // could pass the budget; a ramp down from the last tick's outputs cannot.
-            let f = Fault {
-                kind: LimitKind::Thermal,
-                channel,
-            };
-            self.fault.get_or_insert(f);
-            if self.out == [0; CHANNELS] {
-                // Nothing to ramp down from (a start on a hot coil): every output is
-                // at 0 A already, so this tick is idle and the player is done.
-                self.cool();
-                self.mode = Mode::Done;
-            } else {
-                self.ramp_tick(self.out, 0);
-            }
-            return Status::Fault(f);
-        }
-        // Ramp-in envelope, Q16: (t + 1) / ramp, reaching 1 after `ramp_ms` ticks.
-        let t1 = self.t.saturating_add(1);
-        let env = if t1 < self.ramp_ms {
-            (t1 << 16) / self.ramp_ms
-        } else {
-            1 << 16
-        };
-        let mut fault = None;
-        // The period is a u16 of at least 1 already; saying so here lets the compiler
-        // drop the division's zero and overflow checks from every channel.
-        let period = self.period.clamp(1, u32::from(u16::MAX)) as i32;
-        let phase = self.phase as i32;
-        for c in 0..CHANNELS {
-            let (a, b) = (self.a[c], self.b[c]);
-            // |b - a| < 2^16 and phase < period <= 1000: the product fits in i32.
-            let q = a + (b - a) * phase / period;
-            let ua = ((i64::from(q) * i64::from(self.full_scale_ua)) >> 15) as i32;
-            let target = ((i64::from(ua) * i64::from(env)) >> 16) as i32;
-            let (value, hit) = self.clamp(c, target);
-            self.out[c] = value;
-            self.heat(c, value);
-            if fault.is_none() {
-                fault = hit.map(|kind| Fault {
-                    kind,
-                    channel: c as u8,
-                });
-            }
-        }
-        self.advance();
-        if let Some(f) = fault {
-            self.fault.get_or_insert(f);
-            self.mode = Mode::RampDown {
-                from: self.out,
-                step: 0,
-            };
-            return Status::Fault(f);
-        }
-        Status::Playing
-    }
-
-    /// Moves to the next tick's keyframe position; at the end, starts the ramp down.
-    fn advance(&mut self) {
-        if self.t >= self.duration_ms {
-            self.mode = Mode::RampDown {
-                from: self.out,
-                step: 0,
-            };
-            return;
-        }
-        self.t = self.t.saturating_add(1);
-        self.phase += 1;
-        if self.phase == self.period {
-            self.phase = 0;
-            self.a = self.b;
-            let next = match &mut self.source {
-                Source::Stored(keyframes) => keyframes.next(),
-                Source::Live(next) => {
-                    let k = next.take();
-                    self.underrun |= k.is_none();
-                    k
-                }
-            };
-            match next {
-                Some(k) => self.b = widen(k),
-                None => self.b = self.a,
-            }
-        }
-    }
-
-    fn ramp_tick(&mut self, from: [i32; CHANNELS], step: u32) -> Status {
-        let step = step.saturating_add(1);
-        let left = self.ramp_ms.saturating_sub(step);
-        let env = (left << 16) / self.ramp_ms;
-        let mut all_zero = true;
-        for (c, &from) in from.iter().enumerate() {
-            let target = ((i64::from(from) * i64::from(env)) >> 16) as i32;
-            // Limits still bound every output; hits while ramping down are not faults.
-            let (value, _) = self.clamp(c, target);
-            self.out[c] = value;
-            self.heat(c, value);
-            all_zero &= value == 0;
-        }
-        if left == 0 && all_zero {
-            self.mode = Mode::Done;
-            Status::Finished
-        } else {
-            self.mode = Mode::RampDown { from, step };
-            Status::RampingDown
-        }
-    }
-
-    /// Applies the peak and slew limits to channel `c`'s target.
-    // Inlined: as a call it costs the signal tick some fifty instructions.
-    #[inline(always)]
-    fn clamp(&self, c: usize, target: i32) -> (i32, Option<LimitKind>) {
-        let mut hit = None;
-        let mut v = target;
-        if v > self.peak_ua || v < -self.peak_ua {
-            v = v.clamp(-self.peak_ua, self.peak_ua);
-            hit = Some(LimitKind::Peak);
-        }
-        let prev = self.out[c];
-        if v - prev > self.slew_ua || prev - v > self.slew_ua {
-            v = v.clamp(prev - self.slew_ua, prev + self.slew_ua);
-            hit = hit.or(Some(LimitKind::Slew));
-        }
-        (v, hit)
-    }
-
-    /// Accounts one tick at `ua` on channel `c`: the current the code stands for,
-    /// rounded up to a whole mA, squared; notes the first channel too hot to play on.
-    #[inline(always)]
-    fn heat(&mut self, c: usize, ua: i32) {
-        let ma = accounted_ma(ua.unsigned_abs(), self.half_step_ua);
-        let h = self.thermal.add(c, ma * ma, self.cool_ma2);
-        if h > self.trip_ma2ms && self.hot.is_none() {
-            self.hot = Some(c as u8);
-        }
-    }
-
     /// The most one more tick and a ramp down can add, mA^2 ms (see [`trip_ma2ms`]).
     fn reserve_ma2ms(&self) -> u64 {
         ramp_down_ma2ms(self.peak_ua, self.slew_ua, self.ramp_ms, self.half_step_ua)
-    }
-
-    /// One tick at 0 A.
-    fn cool(&mut self) {
-        for h in &mut self.thermal.heat {
-            *h = h.saturating_sub(self.cool_ma2);
-        }
-    }
-
-    fn codes(&self) -> [u16; CHANNELS] {
-        let mut codes = [IDLE_CODE; CHANNELS];
-        for (code, &ua) in codes.iter_mut().zip(&self.out) {
-            let offset = (i64::from(ua) * self.code_mul + (1 << 31)) >> 32;
-            *code = (i64::from(IDLE_CODE) + offset).clamp(0, i64::from(MAX_CODE)) as u16;
-        }
-        codes
     }
 }
 
@@ -545,59 +399,6 @@ impl Iterator for Player<'_> {
         }
         Some(self.tick())
     }
-}
-
-/// The current the code for `ua_abs` stands for, rounded up to a whole mA.
-// `(x + 999) / 1000` is one multiply and shift on the Cortex-M4; `div_ceil` adds a
-// remainder test that cost 50 instructions in the worst tick.
-#[allow(clippy::manual_div_ceil)]
-#[inline(always)]
-fn accounted_ma(ua_abs: u32, half_step_ua: u32) -> u64 {
-    u64::from((ua_abs + half_step_ua + 999) / 1000)
-}
-
-/// The slew bound the player enforces, uA per tick: the limit less one output step.
-///
-/// Two values `d` apart round to codes at most `d / step + 1` apart, so values kept
-/// `slew - step` apart give code steps below `slew / step`: the limit holds on the
-/// codes, not only on the values they were rounded from (a full-scale step of
-/// 50 mA/ms would otherwise round to 103 codes, 50.3 mA).
-pub fn slew_bound_ua(slew_ma_per_ms: u16, step_ua: u32) -> i32 {
-    (i32::from(slew_ma_per_ms) * 1000 - step_ua as i32).max(0)
-}
-
-/// The peak bound the player enforces, uA: the limit rounded down to the current of
-/// a whole output code, so the code a value at the bound rounds to stands for no more
-/// than the limit (at 1 A full scale the sleeve's 1 A is a whole code already; a
-/// 10 mA peak on a 0.1 A scale would otherwise round to 8 codes, 0.39 mA over).
-pub fn peak_bound_ua(peak_ma: u16, device_full_scale_ua: i64) -> i32 {
-    let fs = device_full_scale_ua.max(1);
-    let codes = i64::from(peak_ma) * 1000 * 2048 / fs;
-    (codes * fs / 2048).min(i64::from(peak_ma) * 1000) as i32
-}
-
-/// Heat above which the player plays no further signal tick, mA^2 ms: the budget
-/// less the most that one more tick and then a ramp down can add.
-///
-/// A ramp down from `|f| <= peak` never leaves `[-|f|, |f|]` and ends within
-/// `ramp_ms + ceil(peak / slew)` ticks, so with the tick before it, it adds at most
-/// `ramp_ms + ceil(peak / slew) + 1` times `acc(peak)^2`, where `acc` is the
-/// accounted (rounded-up) current; the threshold keeps one tick more as margin. A
-/// tick is played only when the heat before it is at most this, so a ramp down from
-/// any played tick stays within the budget.
-///
-/// A budget below that reserve cannot carry a single tick: the player does not start
-/// (see [`Player::with_thermal`]).
-fn trip_ma2ms(limits: &Limits, peak_ua: i32, slew_ua: i32, ramp_ms: u32, half_step_ua: u32) -> u64 {
-    budget_ma2ms(limits).saturating_sub(ramp_down_ma2ms(peak_ua, slew_ua, ramp_ms, half_step_ua))
-}
-
-/// The most one more tick, a ramp down and a tick of margin add, mA^2 ms.
-fn ramp_down_ma2ms(peak_ua: i32, slew_ua: i32, ramp_ms: u32, half_step_ua: u32) -> u64 {
-    let peak = peak_ua.unsigned_abs();
-    let acc = accounted_ma(peak, half_step_ua);
-    let descent = u64::from(peak.div_ceil(slew_ua.unsigned_abs().max(1)));
-    acc * acc * (u64::from(ramp_ms) + descent + 2)
 }
 
 fn widen(k: [i16; CHANNELS]) -> [i32; CHANNELS] {

@@ -225,8 +225,35 @@ fn main() -> ! {
     if BANK.as_ptr() as usize != REGION_ADDR || bank.len() != EXPECTED.len() {
         fail("bank not at 0x080C0000 or wrong slot count");
     }
-    // The firmware's boot check, on the target: refuses an erased region and a
-    // corrupted copy of the bank.
+    let boot_ok = check_boot();
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(RELOAD);
+    cp.SYST.clear_current();
+    // Every check runs (and prints its figures) whatever the ones before it found.
+    let ok = boot_ok
+        & calibrate(&mut cp.SYST)
+        & check_boot_bound(&mut cp.SYST)
+        & check_player(&mut cp.SYST, bank)
+        & check_engine(&mut cp.SYST, bank)
+        & check_link_busy(&mut cp.SYST, bank);
+    hprintln!(
+        "{} passed, {} failed",
+        if ok { 1 } else { 0 },
+        if ok { 0 } else { 1 }
+    );
+    debug::exit(if ok {
+        debug::EXIT_SUCCESS
+    } else {
+        debug::EXIT_FAILURE
+    });
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// The firmware's boot check, on the target: accepts the linked bank, refuses an
+/// erased region and a corrupted copy of the bank.
+fn check_boot() -> bool {
     let mut copy = [0u8; BANK.len()];
     copy.copy_from_slice(&BANK);
     copy[BANK.len() / 2] ^= 0x10;
@@ -238,28 +265,27 @@ fn main() -> ! {
         "boot check: good bank accepted, erased and corrupted refused: {}",
         if boot_ok { "ok" } else { "FAILED" }
     );
+    boot_ok
+}
 
-    let device = DeviceConfig::default();
-    cp.SYST.set_clock_source(SystClkSource::Core);
-    cp.SYST.set_reload(RELOAD);
-    cp.SYST.clear_current();
-
-    // Calibration: 1000 NOPs (plus the two SysTick reads) must count ~1000
-    // instructions, else the -icount shift and COUNTS_PER_INSN_X1000 disagree.
-    cp.SYST.enable_counter();
+/// Calibration: 1000 NOPs (plus the two SysTick reads) must count ~1000
+/// instructions, else the -icount shift and COUNTS_PER_INSN_X1000 disagree.
+fn calibrate(syst: &mut SYST) -> bool {
+    syst.enable_counter();
     let start = SYST::get_current();
     // SAFETY: NOPs only.
     unsafe { core::arch::asm!(".rept 1000", "nop", ".endr", options(nomem, nostack)) };
     let end = SYST::get_current();
-    cp.SYST.disable_counter();
+    syst.disable_counter();
     let nop_insns = elapsed(start, end) * 1000 / COUNTS_PER_INSN_X1000;
     hprintln!("calibration: 1000 nops measure {} instructions", nop_insns);
-    let mut ok = boot_ok && (1000..1010).contains(&nop_insns);
+    (1000..1010).contains(&nop_insns)
+}
 
-    // The boot check's bound: a full region of the densest records.
-    let (dense_ok, dense_insns) = span_insns(&mut cp.SYST, || check_bank(&DENSE).is_ok());
+/// The boot check's bound: a full region of the densest records.
+fn check_boot_bound(syst: &mut SYST) -> bool {
+    let (dense_ok, dense_insns) = span_insns(syst, || check_bank(&DENSE).is_ok());
     let bound_ok = dense_ok && dense_insns < BOOT_CHECK_BOUND_INSNS;
-    ok &= bound_ok;
     hprintln!(
         "boot check of a full {}-byte region of dense records: {} instructions (bound {}): {}",
         DENSE.len(),
@@ -267,11 +293,19 @@ fn main() -> ! {
         BOOT_CHECK_BOUND_INSNS,
         if bound_ok { "ok" } else { "FAILED" }
     );
+    bound_ok
+}
+
+/// The protocol player alone on every slot: the codes' hash, tick count and fault
+/// against the host's, and the instructions per tick.
+fn check_player(syst: &mut SYST, bank: Bank<'static>) -> bool {
+    let device = DeviceConfig::default();
+    let mut ok = true;
     let mut worst_insns = 0;
     for (slot, &(ticks, crc, faulted)) in EXPECTED.iter().enumerate() {
         let stim = bank.slot(slot).unwrap_or_else(|_| fail("slot refused"));
         let state = State::new(Job::Player(Player::new(&stim, &device)));
-        let s = run(&mut cp.SYST, state);
+        let s = run(syst, state);
         let got_crc = !s.crc;
         let (max_insns, mean_insns) = s.insns();
         worst_insns = worst_insns.max(max_insns);
@@ -296,8 +330,11 @@ fn main() -> ! {
         "player: instructions per 1 kHz tick (8 channels), worst: {}",
         worst_insns
     );
+    ok
+}
 
-    // The firmware's engine through the button scenario, codes to TIM3/TIM4.
+/// The firmware's engine through the button scenario, codes to TIM3/TIM4.
+fn check_engine(syst: &mut SYST, bank: Bank<'static>) -> bool {
     let controller = Controller::new(bank, device_config());
     let engine = Engine::new(
         Ccr([0; CHANNELS]),
@@ -306,11 +343,10 @@ fn main() -> ! {
         controller,
     );
     let state = State::new(Job::Engine(engine));
-    let s = run(&mut cp.SYST, state);
+    let s = run(syst, state);
     let got = !s.crc;
     let (max_insns, mean_insns) = s.insns();
     let pass = got == ENGINE_CRC && s.ticks == scenario::TICKS;
-    ok &= pass;
     hprintln!(
         "engine scenario: {} ticks, crc {:#010x} (host {:#010x}), insns/tick max {} mean {}: {}",
         s.ticks,
@@ -324,10 +360,15 @@ fn main() -> ! {
         "firmware tick (buttons + controller + player + CCR writes), worst: {}",
         max_insns
     );
+    pass
+}
 
-    // The same tick with the link attached and a command queued every tick.
+/// The same tick with the link attached and a command queued every tick: the
+/// stream plays, and its ticks stay within [`LINK_BUSY_BUDGET_INSNS`].
+fn check_link_busy(syst: &mut SYST, bank: Bank<'static>) -> bool {
     static mut LINK_QUEUES: Channels = Channels::new();
-    // SAFETY: split once, here; each end has one owner from now on.
+    // SAFETY: split once, here (this check runs once); each end has one owner from
+    // now on.
     let (link_port, tick_port) = unsafe { (*core::ptr::addr_of_mut!(LINK_QUEUES)).split() };
     let mut controller = Controller::new(bank, device_config());
     controller.attach(tick_port);
@@ -337,14 +378,10 @@ fn main() -> ! {
         Buttons::<1>::new(Mode::PlayNext),
         controller,
     );
-    let s = run(
-        &mut cp.SYST,
-        State::new(Job::Linked(engine, link_port, bank)),
-    );
+    let s = run(syst, State::new(Job::Linked(engine, link_port, bank)));
     let (max_insns, mean_insns) = s.insns();
     let streamed = s.faulted;
     let steady = s.steady_counts * 1000 / COUNTS_PER_INSN_X1000;
-    ok &= streamed && steady < LINK_BUSY_BUDGET_INSNS;
     hprintln!(
         "firmware tick with the link busy (a command every tick, a stream, play, stop): {} ticks, insns/tick max {} mean {}, while the stream plays max {} (budget {}), stream played: {}",
         s.ticks,
@@ -354,19 +391,7 @@ fn main() -> ! {
         LINK_BUSY_BUDGET_INSNS,
         if streamed { "ok" } else { "FAILED" }
     );
-    hprintln!(
-        "{} passed, {} failed",
-        if ok { 1 } else { 0 },
-        if ok { 0 } else { 1 }
-    );
-    debug::exit(if ok {
-        debug::EXIT_SUCCESS
-    } else {
-        debug::EXIT_FAILURE
-    });
-    loop {
-        cortex_m::asm::wfi();
-    }
+    streamed && steady < LINK_BUSY_BUDGET_INSNS
 }
 
 #[exception]

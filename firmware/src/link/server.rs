@@ -143,48 +143,25 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         }
     }
 
-    /// Answers one request.
+    /// Answers one request: what touches playback goes to the tick, the rest is
+    /// answered here.
     #[inline(never)]
     pub fn handle(&mut self, r: Request<'_>, out: &mut dyn FnMut(&[u8])) {
         let seq = r.seq;
-        let refuse = |s: &mut Self, e, out: &mut dyn FnMut(&[u8])| {
-            s.emit(&Message::Refused { seq, error: e }, out)
-        };
-        let reply = |s: &mut Self, reply, out: &mut dyn FnMut(&[u8])| {
-            s.emit(&Message::Reply { seq, reply }, out)
-        };
         match r.command {
-            Command::Hello { version } if version == link::VERSION => reply(
-                self,
-                Reply::Hello {
+            Command::Hello { version } if version == link::VERSION => {
+                let firmware = self.id.firmware;
+                let reply = Reply::Hello {
                     version: link::VERSION,
-                    firmware: self.id.firmware,
-                },
-                out,
-            ),
-            Command::Hello { .. } => refuse(
-                self,
-                LinkError::UnsupportedVersion {
-                    device: link::VERSION,
-                },
-                out,
-            ),
-            Command::Info => {
-                let d = device_config();
-                let info = Info {
-                    link_version: link::VERSION,
-                    firmware: self.id.firmware,
-                    layout: self.id.layout,
-                    layout_hash: self.id.layout_hash,
-                    full_scale_ma: d.full_scale_ma,
-                    limits: d.limits,
-                    max_message: MAX_MESSAGE as u16,
-                    max_chunk: MAX_CHUNK as u16,
-                    bank_capacity: touch_protocol::bank::REGION_LEN as u32,
-                    bank: self.id.bank,
+                    firmware,
                 };
-                reply(self, Reply::Info(info), out)
+                self.reply(seq, reply, out)
             }
+            Command::Hello { .. } => {
+                let device = link::VERSION;
+                self.refuse(seq, LinkError::UnsupportedVersion { device }, out)
+            }
+            Command::Info => self.reply(seq, Reply::Info(self.info()), out),
             Command::Slot { slot } => match self.slot_info(slot) {
                 Ok(info) => {
                     let m = Message::Reply {
@@ -193,66 +170,33 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                     };
                     encode_into(&m, &mut self.tx, out);
                 }
-                Err(e) => refuse(self, e, out),
+                Err(e) => self.refuse(seq, e, out),
             },
-            Command::BankRead { offset, len } => {
-                let region = self.flash.region();
-                let (offset_us, len_us) = (offset as usize, usize::from(len));
-                if len_us > MAX_CHUNK || offset_us > region.len() {
-                    return refuse(self, LinkError::OutOfRange, out);
-                }
-                let end = (offset_us + len_us).min(region.len());
-                let m = Message::Reply {
-                    seq,
-                    reply: Reply::BankData {
-                        offset,
-                        bytes: &region[offset_us..end],
-                    },
-                };
-                encode_into(&m, &mut self.tx, out);
-            }
-            Command::BankBegin { len, crc } => {
-                if self.locked {
-                    // The bank is already the upload's: start over at once.
-                    self.begin = Some((seq, len, crc));
-                    self.erase_and_reply(out);
-                } else if self.begin.is_some() {
-                    refuse(self, LinkError::Busy(Busy::Uploading), out)
-                } else if self.port.send(Control::Lock { seq }).is_ok() {
-                    self.begin = Some((seq, len, crc));
-                } else {
-                    refuse(self, LinkError::Busy(Busy::Playing), out)
-                }
-            }
+            Command::BankRead { offset, len } => self.bank_read(seq, offset, len, out),
+            Command::BankBegin { len, crc } => self.bank_begin(seq, len, crc, out),
             Command::BankChunk { offset, bytes } => {
                 if bytes.len() > MAX_CHUNK {
-                    return refuse(self, LinkError::Malformed, out);
+                    return self.refuse(seq, LinkError::Malformed, out);
                 }
                 match self.writer.chunk(&mut self.flash, offset, bytes) {
-                    Ok(next) => reply(self, Reply::BankChunk { next }, out),
-                    Err(e) => refuse(self, e, out),
+                    Ok(next) => self.reply(seq, Reply::BankChunk { next }, out),
+                    Err(e) => self.refuse(seq, e, out),
                 }
             }
             Command::BankCommit => match self.writer.commit(&mut self.flash) {
                 Ok(c) => {
                     self.restart = true;
-                    reply(
-                        self,
-                        Reply::BankCommit {
-                            crc: c.crc,
-                            slots: c.slots,
-                        },
-                        out,
-                    )
+                    let (crc, slots) = (c.crc, c.slots);
+                    self.reply(seq, Reply::BankCommit { crc, slots }, out)
                 }
-                Err(e) => refuse(self, e, out),
+                Err(e) => self.refuse(seq, e, out),
             },
             Command::BankAbort => match self.writer.abort() {
                 Ok(()) => {
                     self.restart = true;
-                    reply(self, Reply::BankAbort, out)
+                    self.reply(seq, Reply::BankAbort, out)
                 }
-                Err(e) => refuse(self, e, out),
+                Err(e) => self.refuse(seq, e, out),
             },
             Command::Play { slot } => {
                 // Its player first, so that the tick that starts it only takes it.
@@ -266,26 +210,93 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             Command::Status => self.forward(seq, Control::Status { seq }, out),
             Command::StreamBegin(params) => {
                 if let Err(e) = params.validate() {
-                    return refuse(self, e, out);
+                    return self.refuse(seq, e, out);
                 }
                 self.stream = Some((params, None));
                 self.forward(seq, Control::StreamBegin { seq, params }, out)
             }
             Command::StreamData { index, keyframes } => match self.stream_data(index, keyframes) {
-                Ok((next, room)) => reply(self, Reply::StreamData { next, room }, out),
-                Err(e) => refuse(self, e, out),
+                Ok((next, room)) => self.reply(seq, Reply::StreamData { next, room }, out),
+                Err(e) => self.refuse(seq, e, out),
             },
-            Command::StreamEnd => {
-                if self.stream_next == Some(1) {
-                    // A stream of one keyframe: its player starts from it alone.
-                    if let Some((params, Some(first))) = self.stream {
-                        self.stage_stream(STAGED_STREAM_ONE, &params, first, first);
-                    }
-                }
-                self.stream_next = None;
-                self.forward(seq, Control::StreamEnd { seq }, out)
+            Command::StreamEnd => self.stream_end(seq, out),
+        }
+    }
+
+    /// Replies to the request `seq`.
+    fn reply(&mut self, seq: u16, reply: Reply<'_>, out: &mut dyn FnMut(&[u8])) {
+        self.emit(&Message::Reply { seq, reply }, out)
+    }
+
+    /// Refuses the request `seq`.
+    fn refuse(&mut self, seq: u16, error: LinkError, out: &mut dyn FnMut(&[u8])) {
+        self.emit(&Message::Refused { seq, error }, out)
+    }
+
+    /// What the device says about itself.
+    fn info(&self) -> Info<'a> {
+        let d = device_config();
+        Info {
+            link_version: link::VERSION,
+            firmware: self.id.firmware,
+            layout: self.id.layout,
+            layout_hash: self.id.layout_hash,
+            full_scale_ma: d.full_scale_ma,
+            limits: d.limits,
+            max_message: MAX_MESSAGE as u16,
+            max_chunk: MAX_CHUNK as u16,
+            bank_capacity: touch_protocol::bank::REGION_LEN as u32,
+            bank: self.id.bank,
+        }
+    }
+
+    /// A `BankRead`: up to [`MAX_CHUNK`] bytes of the bank region from `offset`.
+    fn bank_read(&mut self, seq: u16, offset: u32, len: u16, out: &mut dyn FnMut(&[u8])) {
+        let region = self.flash.region();
+        let (offset_us, len_us) = (offset as usize, usize::from(len));
+        if len_us > MAX_CHUNK || offset_us > region.len() {
+            return self.refuse(seq, LinkError::OutOfRange, out);
+        }
+        let end = (offset_us + len_us).min(region.len());
+        let m = Message::Reply {
+            seq,
+            reply: Reply::BankData {
+                offset,
+                bytes: &region[offset_us..end],
+            },
+        };
+        // The reply borrows the flash: encoded apart from `emit`'s borrow of all of
+        // the server.
+        encode_into(&m, &mut self.tx, out);
+    }
+
+    /// A `BankBegin`: the tick locks the bank first (nothing from it may play while
+    /// the upload erases and writes it), then [`LinkServer::poll`] erases and replies.
+    fn bank_begin(&mut self, seq: u16, len: u32, crc: u32, out: &mut dyn FnMut(&[u8])) {
+        if self.locked {
+            // The bank is already the upload's: start over at once.
+            self.begin = Some((seq, len, crc));
+            self.erase_and_reply(out);
+        } else if self.begin.is_some() {
+            self.refuse(seq, LinkError::Busy(Busy::Uploading), out)
+        } else if self.port.send(Control::Lock { seq }).is_ok() {
+            self.begin = Some((seq, len, crc));
+        } else {
+            self.refuse(seq, LinkError::Busy(Busy::Playing), out)
+        }
+    }
+
+    /// A `StreamEnd`, forwarded to the tick; a stream of one keyframe gets its
+    /// player here first, as a stream's second keyframe does.
+    fn stream_end(&mut self, seq: u16, out: &mut dyn FnMut(&[u8])) {
+        if self.stream_next == Some(1) {
+            // A stream of one keyframe: its player starts from it alone.
+            if let Some((params, Some(first))) = self.stream {
+                self.stage_stream(STAGED_STREAM_ONE, &params, first, first);
             }
         }
+        self.stream_next = None;
+        self.forward(seq, Control::StreamEnd { seq }, out)
     }
 
     /// Forwards a command to the tick (refused while an upload owns the bank).

@@ -73,6 +73,43 @@ const MAX_RESONANCE_HZ: f64 = 20_000.0;
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let format = args.to.format();
+    let pick = checked_pick(args, format)?;
+    let outputs = output_paths(args, format, pick.is_none())?;
+    {
+        let mut inputs = vec![named("the stimulus", &args.file)];
+        inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
+        let outs: Vec<_> = outputs.iter().map(|p| named("-o", p)).collect();
+        refuse_overwrites(&inputs, &outs)?;
+    }
+    let layout = super::layout(args.layout.as_deref())?;
+    let bytes = super::read_input(&args.file)?;
+    let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    let name = super::input_name(&args.file);
+    let playback = export::play(&stimulus, &layout).with_context(|| name.clone())?;
+    if let Some(f) = playback.fault {
+        super::warn(&args.file, &touchc::viz::describe_fault(f));
+    }
+    let exported = export::export(
+        &playback,
+        format,
+        &ExportOptions {
+            pick,
+            date: today(),
+            resonance_hz: args.resonance_hz,
+        },
+    )
+    .with_context(|| format!("{name}: cannot export"))?;
+    for (file, path) in exported.files.iter().zip(&outputs) {
+        write_atomic(path, &file.bytes)?;
+    }
+    let line = summary(&name, &outputs, &playback, &exported, format);
+    eprintln!("{}", super::escaped(&line));
+    Ok(())
+}
+
+/// The signal `--channel` or `--mix` picks (none: every channel), once the flags that
+/// only some formats take are checked against `format`.
+fn checked_pick(args: &Args, format: Format) -> anyhow::Result<Option<Pick>> {
     let pick = match (args.channel, args.mix) {
         (Some(c), _) => Some(Pick::Channel(c)),
         (None, true) => Some(Pick::Mix),
@@ -107,7 +144,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             )));
         }
     }
-    let suffixes: Vec<String> = if format.single_signal() && pick.is_none() {
+    Ok(pick)
+}
+
+/// The files to write: `-o` (or FILE's name with the format's extension), once, or
+/// once per actuator for a single-signal format with no `--channel` or `--mix`
+/// (`every_channel`).
+fn output_paths(args: &Args, format: Format, every_channel: bool) -> anyhow::Result<Vec<PathBuf>> {
+    let suffixes: Vec<String> = if format.single_signal() && every_channel {
         (0..touch_protocol::CHANNELS)
             .map(|c| format!(".ch{c}"))
             .collect()
@@ -130,39 +174,23 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             format.extension()
         )));
     }
-    let outputs: Vec<PathBuf> = suffixes
+    Ok(suffixes
         .iter()
         .map(|s| with_suffix(&base, s, format))
-        .collect();
-    {
-        let mut inputs = vec![named("the stimulus", &args.file)];
-        inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
-        let outs: Vec<_> = outputs.iter().map(|p| named("-o", p)).collect();
-        refuse_overwrites(&inputs, &outs)?;
-    }
-    let layout = super::layout(args.layout.as_deref())?;
-    let bytes = super::read_input(&args.file)?;
-    let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
-    let name = super::input_name(&args.file);
-    let playback = export::play(&stimulus, &layout).with_context(|| name.clone())?;
-    if let Some(f) = playback.fault {
-        super::warn(&args.file, &touchc::viz::describe_fault(f));
-    }
-    let exported = export::export(
-        &playback,
-        format,
-        &ExportOptions {
-            pick,
-            date: today(),
-            resonance_hz: args.resonance_hz,
-        },
-    )
-    .with_context(|| format!("{name}: cannot export"))?;
-    for (file, path) in exported.files.iter().zip(&outputs) {
-        write_atomic(path, &file.bytes)?;
-    }
+        .collect())
+}
+
+/// The line that says what was written: where, how long, how large and how close to
+/// the player's output.
+fn summary(
+    name: &str,
+    outputs: &[PathBuf],
+    playback: &export::Playback,
+    exported: &export::Exported,
+    format: Format,
+) -> String {
     let f = exported.fidelity;
-    let shown_out = match outputs.as_slice() {
+    let shown_out = match outputs {
         [one] => shown(one),
         many => format!(
             "{} ... {} ({} files)",
@@ -187,8 +215,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             100.0 * f.fit_max_fs
         ));
     }
-    eprintln!("{}", super::escaped(&line));
-    Ok(())
+    line
 }
 
 /// FILE with the format's extension (and the slot, for a bank), beside it.

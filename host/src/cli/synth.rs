@@ -77,7 +77,35 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         outputs.extend(args.truth.as_deref().map(|p| named("--truth", p)));
         refuse_overwrites(&[], &outputs)?;
     }
-    // Every check is on a flag, so every refusal is a usage error (exit status 2).
+    check(args)?;
+    let spec = spec(args);
+    let (recording, truth) = synth::generate_with_truth(&spec);
+    let (rate_hz, pitch_mm) = (spec.sensor.rate_hz(), spec.sensor.pitch_mm());
+    // A `.npz` carries the sensor's rate and pitch; a `.npy` holds the array alone.
+    let npz = args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npz"));
+    let bytes = if npz {
+        synth::to_npz(&recording, rate_hz, pitch_mm).map_err(anyhow::Error::from)
+    } else {
+        synth::to_npy(&recording).map_err(anyhow::Error::from)
+    }
+    .with_context(|| format!("{}: cannot encode the recording", args.output.display()))?;
+    // The truth first: if it cannot be written, no recording appears either.
+    if let Some(path) = &args.truth {
+        let json = serde_json::to_vec_pretty(&truth)
+            .with_context(|| format!("{}: cannot encode the truth", path.display()))?;
+        write_atomic(path, &json)?;
+    }
+    write_atomic(&args.output, &bytes)?;
+    report(args, &recording, truth.contacts.len(), npz);
+    Ok(())
+}
+
+/// Refuses flags out of their range. Every check is on a flag, so every refusal is a
+/// usage error (exit status 2).
+fn check(args: &Args) -> anyhow::Result<()> {
     let ensure = |ok: bool, message: String| -> anyhow::Result<()> {
         if ok {
             Ok(())
@@ -131,7 +159,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ),
         )?;
     }
-    let spec = SynthSpec {
+    Ok(())
+}
+
+/// What the flags ask of the generator.
+fn spec(args: &Args) -> SynthSpec {
+    SynthSpec {
         gestures: args.gestures.clone(),
         seed: args.seed,
         mask: args.mask,
@@ -150,32 +183,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         begin_mid_touch: args.begin_mid_touch,
         end_mid_touch: args.end_mid_touch,
         rate_hz: None,
-    };
-    let (recording, truth) = synth::generate_with_truth(&spec);
-    let (rate_hz, pitch_mm) = (spec.sensor.rate_hz(), spec.sensor.pitch_mm());
-    // A `.npz` carries the sensor's rate and pitch; a `.npy` holds the array alone.
-    let npz = args
-        .output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("npz"));
-    let bytes = if npz {
-        synth::to_npz(&recording, rate_hz, pitch_mm).map_err(anyhow::Error::from)
-    } else {
-        synth::to_npy(&recording).map_err(anyhow::Error::from)
     }
-    .with_context(|| format!("{}: cannot encode the recording", args.output.display()))?;
-    // The truth first: if it cannot be written, no recording appears either.
-    if let Some(path) = &args.truth {
-        let json = serde_json::to_vec_pretty(&truth)
-            .with_context(|| format!("{}: cannot encode the truth", path.display()))?;
-        write_atomic(path, &json)?;
-    }
-    write_atomic(&args.output, &bytes)?;
+}
+
+/// Says what was written to `args.output`, and the flags a `.npy` of a sensor other than
+/// the published sleeve needs to compile as it was made.
+fn report(args: &Args, recording: &ndarray::Array3<f64>, contacts: usize, npz: bool) {
+    let (rate_hz, pitch_mm) = (args.sensor.rate_hz(), args.sensor.pitch_mm());
     let (frames, rows, cols) = recording.dim();
     eprintln!(
         "touchc: wrote {} ({frames} frames of {rows}x{cols} at {rate_hz} Hz, {} contacts)",
         super::escaped(&crate::cli::output::shown(&args.output)),
-        truth.contacts.len()
+        contacts
     );
     // What `compile` assumes of a file that does not say (the published sleeve's).
     let assumed = touchc::config::InputConfig::default();
@@ -185,5 +204,4 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
              --pitch-mm {pitch_mm} (or write a .npz, which carries both)"
         );
     }
-    Ok(())
 }

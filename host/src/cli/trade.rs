@@ -74,21 +74,7 @@ const STAGES: [Stage; 8] = [
 ];
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    {
-        use crate::cli::output::{named, refuse_overwrites};
-        let mut inputs: Vec<_> = args
-            .recordings
-            .iter()
-            .map(|p| named("the recording", p))
-            .collect();
-        inputs.extend(args.truth.iter().map(|p| named("--truth", p)));
-        inputs.extend(args.config.config.as_deref().map(|p| named("--config", p)));
-        let mut outputs = vec![named("the table", Path::new("-"))];
-        outputs.extend(args.csv.as_deref().map(|p| named("--csv", p)));
-        outputs.extend(args.json.as_deref().map(|p| named("--json", p)));
-        outputs.extend(args.svg.as_deref().map(|p| named("--svg", p)));
-        refuse_overwrites(&inputs, &outputs)?;
-    }
+    refuse_outputs_over_inputs(args)?;
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
         if n == 0 {
@@ -107,36 +93,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             "--seeds draws the synthetic cases: use it with --cases",
         ));
     }
-    if !args.truth.is_empty() && args.truth.len() != args.recordings.len() {
-        return Err(super::Usage(format!(
-            "--truth needs one file per recording: {} recordings, {} truth files",
-            args.recordings.len(),
-            args.truth.len()
-        ))
-        .into());
-    }
-    let truths = args
-        .truth
-        .iter()
-        .map(|p| {
-            let text = std::fs::read(p).with_context(|| format!("{}: cannot read", p.display()))?;
-            serde_json::from_slice::<Truth>(&text).with_context(|| {
-                format!(
-                    "{}: not a truth file of `touchc synth --truth`",
-                    p.display()
-                )
-            })
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let presets: Vec<Preset> = match args.config.preset {
-        Some(p) if p != Preset::Exact => vec![p, Preset::Exact],
-        Some(p) => vec![p],
-        None => Preset::ALL.to_vec(),
-    };
-    let configs = presets
-        .into_iter()
-        .map(|p| Ok((p, args.config.resolve_on(p)?)))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let truths = truths(args)?;
+    let configs = configs(args)?;
     let mut rows = Vec::new();
     let mut failed = 0;
     for (i, path) in args.recordings.iter().enumerate() {
@@ -156,23 +114,83 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
         }
     }
+    write_outputs(args, &rows)?;
+    anyhow::ensure!(failed == 0, "{failed} recordings failed to compile");
+    Ok(())
+}
+
+/// Refuses an output over an input (or over another output).
+fn refuse_outputs_over_inputs(args: &Args) -> anyhow::Result<()> {
+    use crate::cli::output::{named, refuse_overwrites};
+    let mut inputs: Vec<_> = args
+        .recordings
+        .iter()
+        .map(|p| named("the recording", p))
+        .collect();
+    inputs.extend(args.truth.iter().map(|p| named("--truth", p)));
+    inputs.extend(args.config.config.as_deref().map(|p| named("--config", p)));
+    let mut outputs = vec![named("the table", Path::new("-"))];
+    outputs.extend(args.csv.as_deref().map(|p| named("--csv", p)));
+    outputs.extend(args.json.as_deref().map(|p| named("--json", p)));
+    outputs.extend(args.svg.as_deref().map(|p| named("--svg", p)));
+    refuse_overwrites(&inputs, &outputs)
+}
+
+/// The truth files of `--truth`, one per recording (none without the flag).
+fn truths(args: &Args) -> anyhow::Result<Vec<Truth>> {
+    if !args.truth.is_empty() && args.truth.len() != args.recordings.len() {
+        return Err(super::Usage(format!(
+            "--truth needs one file per recording: {} recordings, {} truth files",
+            args.recordings.len(),
+            args.truth.len()
+        ))
+        .into());
+    }
+    args.truth
+        .iter()
+        .map(|p| {
+            let text = std::fs::read(p).with_context(|| format!("{}: cannot read", p.display()))?;
+            serde_json::from_slice::<Truth>(&text).with_context(|| {
+                format!(
+                    "{}: not a truth file of `touchc synth --truth`",
+                    p.display()
+                )
+            })
+        })
+        .collect::<anyhow::Result<Vec<_>>>()
+}
+
+/// Each preset compared, with its config: `--preset` and `exact`, or every preset.
+fn configs(args: &Args) -> anyhow::Result<Vec<(Preset, touchc::config::Config)>> {
+    let presets: Vec<Preset> = match args.config.preset {
+        Some(p) if p != Preset::Exact => vec![p, Preset::Exact],
+        Some(p) => vec![p],
+        None => Preset::ALL.to_vec(),
+    };
+    presets
+        .into_iter()
+        .map(|p| Ok((p, args.config.resolve_on(p)?)))
+        .collect::<anyhow::Result<Vec<_>>>()
+}
+
+/// The table on standard output, and the CSV, JSON and SVG files asked for.
+fn write_outputs(args: &Args, rows: &[TradeRow]) -> anyhow::Result<()> {
     let table = if args.markdown {
-        markdown(&rows)
+        markdown(rows)
     } else {
-        text(&rows)
+        text(rows)
     };
     write_atomic(std::path::Path::new("-"), table.as_bytes())?;
     if let Some(path) = &args.csv {
-        write_atomic(path, csv(&rows).as_bytes())?;
+        write_atomic(path, csv(rows).as_bytes())?;
     }
     if let Some(path) = &args.json {
-        write_atomic(path, &serde_json::to_vec_pretty(&rows)?)?;
+        write_atomic(path, &serde_json::to_vec_pretty(rows)?)?;
     }
     if let Some(path) = &args.svg {
-        let svg = plot_svg(&rows).with_context(|| format!("{}: cannot draw", path.display()))?;
+        let svg = plot_svg(rows).with_context(|| format!("{}: cannot draw", path.display()))?;
         write_atomic(path, svg.as_bytes())?;
     }
-    anyhow::ensure!(failed == 0, "{failed} recordings failed to compile");
     Ok(())
 }
 

@@ -63,7 +63,7 @@ fn compile(rec: &Path, extra: &[&str]) -> (Output, String, bool, Option<serde_js
 /// Exit 0, the stimulus written, and a warning on stderr containing every one of `want`.
 fn warns(rec: &Path, extra: &[&str], want: &[&str]) {
     let (out, err, written, _) = compile(rec, extra);
-    assert!(out.status.success(), "{err}");
+    assert!(out.status.success(), "{}: {err}", out.status);
     assert!(written, "{err}");
     let line = err
         .lines()
@@ -79,7 +79,11 @@ fn shipped_examples_get_no_sanity_warning() {
         let rec = dir.path().join(format!("{name}.npy"));
         std::fs::copy(examples.join(format!("{name}.npy")), &rec).unwrap();
         let (out, err, written, _) = compile(&rec, &[]);
-        assert!(out.status.success() && written, "{name}: {err}");
+        assert!(
+            out.status.success() && written,
+            "{name}: {}: {err}",
+            out.status
+        );
         assert!(!err.contains("warning"), "{name}: {err}");
     }
 }
@@ -157,7 +161,7 @@ fn a_recording_that_starts_mid_press_keeps_it_with_the_robust_baseline() {
     // start, no warning.
     let robust = write(dir.path(), "robust.npy", &mid_press());
     let (out, err, written, _) = compile(&robust, &[]);
-    assert!(out.status.success() && written, "{err}");
+    assert!(out.status.success() && written, "{}: {err}", out.status);
     assert!(!err.contains("tare window"), "{err}");
     let kept = first_second_peak(&render(&robust.with_extension("touch")));
     // The pre-dent is -0.9 A and the strongest pressure 1 A: the press lifts a channel
@@ -169,8 +173,9 @@ fn a_recording_that_starts_mid_press_keeps_it_with_the_robust_baseline() {
 
 #[test]
 fn a_rate_too_high_for_the_touch_warns() {
-    // A contact sweeping one cell per frame: 0.5 m/s at 20 Hz, 5.1 m/s at 200 Hz.
-    let dir = tempfile::tempdir().unwrap();
+    // A contact sweeping one cell per frame: 0.5 m/s at 20 Hz, 5.1 m/s at 200 Hz. The
+    // folder's name ends in "m", so every path the compile line names holds "m/s".
+    let dir = tempfile::Builder::new().suffix("m").tempdir().unwrap();
     let mut a = quiet(100, 0.0, 4);
     for t in 30..70 {
         press(&mut a, t, 3.5, 2.0 + ((t - 30) % 17) as f64, 2.0);
@@ -178,7 +183,14 @@ fn a_rate_too_high_for_the_touch_warns() {
     let rec = write(dir.path(), "sweep.npy", &a);
     let short = ["--set", "input.tare_s=0.1", "--set", "input.trim_s=0.1"];
     let (out, err, _, _) = compile(&rec, &short);
-    assert!(out.status.success() && !err.contains("m/s"), "{err}");
+    let speed_warning = err
+        .lines()
+        .any(|l| l.contains("warning") && l.contains("m/s"));
+    assert!(
+        out.status.success() && !speed_warning,
+        "{}: {err}",
+        out.status
+    );
     let mut at_200 = short.to_vec();
     at_200.extend(["--rate", "200"]);
     warns(&rec, &at_200, &["median 5.1 m/s at 200 Hz", "--rate"]);
@@ -290,7 +302,12 @@ fn one_touch_at_20_and_54_hz_lasts_as_long() {
     let fast = write(dir.path(), "at54.npy", &touch_at(54.0));
     let (o20, e20, _, r20) = compile(&slow, &[]);
     let (o54, e54, _, r54) = compile(&fast, &["--rate", "54"]);
-    assert!(o20.status.success() && o54.status.success(), "{e20}\n{e54}");
+    assert!(
+        o20.status.success() && o54.status.success(),
+        "{}: {e20}\n{}: {e54}",
+        o20.status,
+        o54.status
+    );
     assert!(
         !e20.contains("warning") && !e54.contains("warning"),
         "{e20}\n{e54}"

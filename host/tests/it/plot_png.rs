@@ -1,7 +1,7 @@
 //! `touchc plot` to PNG of a long stimulus: every trace stays inside its own panel,
 //! between its peak-limit lines, as in the SVG and in `render --csv`.
 
-use crate::bin::{ok, s, touchc};
+use crate::bin::{command, ok, s, touchc};
 use crate::stimuli::stimulus;
 use touchc::viz::plot::{LIMIT, TRACE};
 
@@ -101,4 +101,54 @@ fn a_long_stimulus_plots_to_png_within_its_panels() {
             .count();
         assert!(traced > 500, "panel at x {x0}..{x1}: {traced} trace pixels");
     }
+}
+
+/// The PNG's text is set in the bundled font, not found through the system's
+/// fontconfig: with fontconfig pointed at an empty directory (a machine without fonts)
+/// the picture is the same, byte for byte, and its title strip holds text.
+#[test]
+fn a_png_plot_draws_its_text_without_system_fonts() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("short.touch");
+    std::fs::write(&file, spiky(3)).unwrap();
+    let usual = dir.path().join("usual.png");
+    ok(&touchc(&["plot", s(&file), "-o", s(&usual)]));
+
+    let empty = dir.path().join("no-fonts");
+    std::fs::create_dir(&empty).unwrap();
+    let conf = empty.join("fonts.conf");
+    std::fs::write(
+        &conf,
+        format!(
+            "<?xml version=\"1.0\"?>\n<fontconfig><dir>{}</dir><cachedir>{}</cachedir></fontconfig>\n",
+            empty.display(),
+            empty.join("cache").display()
+        ),
+    )
+    .unwrap();
+    let bare = dir.path().join("bare.png");
+    ok(&command()
+        .args(["plot", s(&file), "-o", s(&bare)])
+        .env("FONTCONFIG_FILE", &conf)
+        .env("FONTCONFIG_PATH", &empty)
+        .env("XDG_DATA_HOME", &empty)
+        .output()
+        .unwrap());
+    assert_eq!(
+        std::fs::read(&usual).unwrap(),
+        std::fs::read(&bare).unwrap(),
+        "the PNG differs without system fonts"
+    );
+
+    // The title sits above the panels' top limit lines: dark ink there is its text.
+    let (w, h, px) = decode(&bare);
+    let top = limit_boxes(w, h, &px).iter().map(|b| b.2).min().unwrap();
+    let ink = px[..top * w]
+        .iter()
+        .filter(|p| p.iter().all(|&c| c < 96))
+        .count();
+    assert!(
+        ink > 200,
+        "{ink} dark pixels above the panels: no title text"
+    );
 }

@@ -23,6 +23,7 @@
 
 use serde::{Deserialize, Serialize};
 use touch_protocol::CHANNELS;
+use touchc_model::layout::Workspace;
 
 use super::{
     fidelity, fit_polyline, polyline_at, round_to, ErrorSum, ExportError, ExportFile, Exported,
@@ -219,59 +220,95 @@ pub fn export(
     resonance_hz: Option<f64>,
 ) -> Result<Exported, ExportError> {
     let fs = playback.full_scale_a;
+    let mut err = ErrorSum::default();
+    let channels = playback
+        .layout
+        .workspaces()
+        .iter()
+        .enumerate()
+        .map(|(c, w)| channel(c, w, keyframes(&playback.amps[c], fs, &mut err)))
+        .collect();
+    let doc = document(playback, date, resonance_hz, channels);
+    let bytes = serde_json::to_vec(&doc)?;
+    let e = err;
+    Ok(Exported {
+        files: vec![ExportFile {
+            suffix: String::new(),
+            bytes,
+        }],
+        fidelity: fidelity(&e, &e),
+    })
+}
+
+/// One channel's current (`amps`, amperes at 1 kHz) as the keyframes of a linear curve
+/// in fractions of the full scale `fs`, within [`CURVE_TOLERANCE_FS`]; adds the curve's
+/// error at every tick to `err`.
+fn keyframes(amps: &[f64], fs: f64, err: &mut ErrorSum) -> Vec<Keyframe> {
+    let normalised: Vec<f64> = amps.iter().map(|a| a / fs).collect();
+    let points: Vec<(usize, f64)> = fit_polyline(&normalised, CURVE_TOLERANCE_FS)
+        .into_iter()
+        .map(|(t, v)| (t, round_to(v.clamp(-1.0, 1.0), 6)))
+        .collect();
+    let mut hint = 0;
+    for (t, v) in normalised.iter().enumerate() {
+        err.add(polyline_at(&points, t, &mut hint) - v);
+    }
+    points
+        .iter()
+        .map(|&(t, v)| Keyframe {
+            relative_position: Some(t as i64),
+            amplitude_modulation: Some(v),
+        })
+        .collect()
+}
+
+/// Channel `c`, the actuator of workspace `w`, on the left forearm at its grid place,
+/// with its `keyframes` as one curve band.
+fn channel(c: usize, w: &Workspace, keyframes: Vec<Keyframe>) -> Channel {
+    Channel {
+        id: c as i32,
+        description: format!(
+            "actuator {c}: row {}, column {}, x {} mm along the arm from the elbow end, \
+             y {} mm, radius {} mm",
+            w.row, w.column, w.x_mm, w.y_mm, w.radius_mm
+        ),
+        gain: 1.0,
+        mixing_coefficient: 1.0,
+        body_part_mask: LEFT_FOREARM_MASK,
+        reference_device_id: Some(0),
+        body_part_target: Some(vec!["Forearm".into()]),
+        actuator_resolution: Some(Vector { x: 4, y: 2, z: 1 }),
+        actuator_target: Some(vec![Vector {
+            x: w.column as i32,
+            y: w.row as i32,
+            z: 0,
+        }]),
+        bands: vec![Band {
+            band_type: "Curve".into(),
+            curve_type: Some("Linear".into()),
+            lower_frequency_limit: 0,
+            upper_frequency_limit: CURVE_BAND_UPPER_HZ,
+            effects: vec![Effect {
+                effect_type: "Basis".into(),
+                position: 0,
+                keyframes,
+            }],
+        }],
+    }
+}
+
+/// The document around `channels`: the stimulus and its layout in the description, one
+/// pressure perception on the sleeve's voice coils (resonance `resonance_hz` if given).
+fn document(
+    playback: &Playback,
+    date: &str,
+    resonance_hz: Option<f64>,
+    channels: Vec<Channel>,
+) -> Document {
+    let fs = playback.full_scale_a;
     let layout = &playback.layout;
     let hash = layout.geometry_hash();
-    let mut err = ErrorSum::default();
-    let mut channels = Vec::with_capacity(CHANNELS);
-    for (c, w) in layout.workspaces().iter().enumerate() {
-        let normalised: Vec<f64> = playback.amps[c].iter().map(|a| a / fs).collect();
-        let points: Vec<(usize, f64)> = fit_polyline(&normalised, CURVE_TOLERANCE_FS)
-            .into_iter()
-            .map(|(t, v)| (t, round_to(v.clamp(-1.0, 1.0), 6)))
-            .collect();
-        let mut hint = 0;
-        for (t, v) in normalised.iter().enumerate() {
-            err.add(polyline_at(&points, t, &mut hint) - v);
-        }
-        let keyframes = points
-            .iter()
-            .map(|&(t, v)| Keyframe {
-                relative_position: Some(t as i64),
-                amplitude_modulation: Some(v),
-            })
-            .collect();
-        channels.push(Channel {
-            id: c as i32,
-            description: format!(
-                "actuator {c}: row {}, column {}, x {} mm along the arm from the elbow end, \
-                 y {} mm, radius {} mm",
-                w.row, w.column, w.x_mm, w.y_mm, w.radius_mm
-            ),
-            gain: 1.0,
-            mixing_coefficient: 1.0,
-            body_part_mask: LEFT_FOREARM_MASK,
-            reference_device_id: Some(0),
-            body_part_target: Some(vec!["Forearm".into()]),
-            actuator_resolution: Some(Vector { x: 4, y: 2, z: 1 }),
-            actuator_target: Some(vec![Vector {
-                x: w.column as i32,
-                y: w.row as i32,
-                z: 0,
-            }]),
-            bands: vec![Band {
-                band_type: "Curve".into(),
-                curve_type: Some("Linear".into()),
-                lower_frequency_limit: 0,
-                upper_frequency_limit: CURVE_BAND_UPPER_HZ,
-                effects: vec![Effect {
-                    effect_type: "Basis".into(),
-                    position: 0,
-                    keyframes,
-                }],
-            }],
-        });
-    }
-    let doc = Document {
+    Document {
         version: VERSION.into(),
         date: date.into(),
         description: format!(
@@ -310,16 +347,7 @@ pub fn export(
             kind: "Pressure".into(),
         }],
         syncs: Vec::new(),
-    };
-    let bytes = serde_json::to_vec(&doc)?;
-    let e = err;
-    Ok(Exported {
-        files: vec![ExportFile {
-            suffix: String::new(),
-            bytes,
-        }],
-        fidelity: fidelity(&e, &e),
-    })
+    }
 }
 
 /// An HJIF document read back: the eight channels' currents at 1 kHz.

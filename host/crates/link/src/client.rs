@@ -146,6 +146,37 @@ pub struct DeviceInfo {
     pub bank: BankState,
 }
 
+impl From<link::Info<'_>> for DeviceInfo {
+    fn from(info: link::Info<'_>) -> Self {
+        // Every field named, without `..`: a field added to the wire's `Info` fails
+        // to build here until `DeviceInfo` holds it too.
+        let link::Info {
+            link_version,
+            firmware,
+            layout,
+            layout_hash,
+            full_scale_ma,
+            limits,
+            max_message,
+            max_chunk,
+            bank_capacity,
+            bank,
+        } = info;
+        DeviceInfo {
+            link_version,
+            firmware: firmware.to_owned(),
+            layout: layout.to_owned(),
+            layout_hash,
+            full_scale_ma,
+            limits,
+            max_message,
+            max_chunk,
+            bank_capacity,
+            bank,
+        }
+    }
+}
+
 /// One slot of the sleeve's bank ([`link::SlotInfo`], owned).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SlotEntry {
@@ -273,18 +304,7 @@ impl<T: Transport> Client<T> {
     pub fn info(&mut self) -> Result<DeviceInfo, ClientError> {
         let timeout = self.timeouts.reply;
         self.call(Command::Info, timeout, RETRIES, |r| match r {
-            Reply::Info(i) => Some(DeviceInfo {
-                link_version: i.link_version,
-                firmware: i.firmware.to_owned(),
-                layout: i.layout.to_owned(),
-                layout_hash: i.layout_hash,
-                full_scale_ma: i.full_scale_ma,
-                limits: i.limits,
-                max_message: i.max_message,
-                max_chunk: i.max_chunk,
-                bank_capacity: i.bank_capacity,
-                bank: i.bank,
-            }),
+            Reply::Info(i) => Some(DeviceInfo::from(i)),
             _ => None,
         })
     }
@@ -359,3 +379,6 @@ impl<T: Transport> Client<T> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -51,13 +51,18 @@ pub fn stderr(out: &Output) -> String {
 
 /// Fails the test with `touchc`'s standard error unless the run succeeded.
 pub fn ok(out: &Output) {
-    assert!(out.status.success(), "{}", stderr(out));
+    assert!(out.status.success(), "{}: {}", out.status, stderr(out));
 }
 
 /// Fails the test unless the run failed, and returns its standard error (which names
 /// the problem) for the caller's assertions.
 pub fn refused(out: &Output) -> String {
-    assert!(!out.status.success(), "expected a refusal: {}", stderr(out));
+    assert!(
+        !out.status.success(),
+        "expected a refusal, got {}: {}",
+        out.status,
+        stderr(out)
+    );
     stderr(out)
 }
 

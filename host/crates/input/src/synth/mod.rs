@@ -21,8 +21,10 @@ use serde::{Deserialize, Serialize};
 
 pub mod cases;
 mod contacts;
+mod gestures;
 
 use contacts::*;
+use gestures::gesture;
 
 /// Rows of the published sensor frame.
 pub const ROWS: usize = 8;

@@ -2,7 +2,11 @@
 //! numpy 2.x in a throw-away venv (`pip install scipy`), by the one-liners quoted beside
 //! them; nothing here needs Python to run.
 
+use super::filter::{settle_frames, SETTLE_TOLERANCE};
+use super::pchip::resampled_len;
 use super::*;
+use sci_rs::signal::filter::design::Sos;
+use touchc_model::config::RingOut;
 
 const PRE: f64 = -0.9;
 const PEAK: f64 = 1.0;
