@@ -437,18 +437,69 @@ fn layered(
     for assignment in &knobs.0 {
         assignment.apply(&mut table);
     }
-    let config: Config = table.try_into().with_context(|| {
+    let off = off_tables(preset, &toml::Table::try_from(&base)?, sets);
+    let config: anyhow::Result<Config> = table.try_into().with_context(|| {
         if sets.is_empty() {
             "invalid parameter".to_string()
         } else {
             let sets: Vec<String> = sets.iter().map(|s| super::clip(s)).collect();
             format!("--set {}: invalid parameter", sets.join(" --set "))
         }
-    })?;
+    });
+    let config = match (config, off.is_empty()) {
+        (Ok(config), _) => config,
+        (Err(e), true) => return Err(e),
+        (Err(e), false) => {
+            anyhow::bail!("{}; {}", super::message(&e), off.join("; "))
+        }
+    };
     config
         .validate()
         .map_err(|e| anyhow::anyhow!("config: {}", super::config_error::describe(&e)))?;
     Ok(config)
+}
+
+/// For each `--set` into a table `preset` leaves out (its table `base`) and the default
+/// preset has: that the table is off, and the keys that turn it on. A lone key cannot:
+/// the table's other keys have no value to keep.
+fn off_tables(preset: Preset, base: &toml::Table, sets: &[String]) -> Vec<String> {
+    let default = Preset::default();
+    let Ok(full) = toml::Table::try_from(Config::preset(default)) else {
+        return Vec::new();
+    };
+    let mut off = Vec::new();
+    for set in sets {
+        let Some((key, _)) = set.split_once('=') else {
+            continue;
+        };
+        let path: Vec<&str> = key.trim().split('.').collect();
+        let (mut here, mut there) = (Some(base), Some(&full));
+        for depth in 1..path.len() {
+            let name = path[depth - 1];
+            here = here
+                .and_then(|t| t.get(name))
+                .and_then(toml::Value::as_table);
+            there = there
+                .and_then(|t| t.get(name))
+                .and_then(toml::Value::as_table);
+            if let (None, Some(table)) = (here, there) {
+                let table_name = path[..depth].join(".");
+                let keys: Vec<&str> = table.keys().map(String::as_str).collect();
+                let line = format!(
+                    "`{table_name}` is off under --preset {}: set its keys ({}) or start \
+                     from --preset {}",
+                    preset.name(),
+                    keys.join(", "),
+                    default.name()
+                );
+                if !off.contains(&line) {
+                    off.push(line);
+                }
+                break;
+            }
+        }
+    }
+    off
 }
 
 /// Lays `over` onto `base`, table by table.
@@ -594,5 +645,35 @@ mod tests {
             .resolve()
             .unwrap();
         assert_eq!(fast.placement.coarse_to_fine, None);
+    }
+
+    /// A key of a table the preset leaves out (`paper` has no contact splitting) names
+    /// the table as off and what would turn it on, beside serde's missing field.
+    #[test]
+    fn a_key_of_a_table_the_preset_leaves_out_says_the_table_is_off() {
+        let args = ConfigArgs::augment_args(Command::new("t"))
+            .try_get_matches_from(["t", "--preset", "paper", "--set", "detect.split.extent=0.3"])
+            .unwrap();
+        let err = ConfigArgs::from_arg_matches(&args)
+            .unwrap()
+            .resolve()
+            .unwrap_err();
+        let text = super::super::message(&err);
+        assert!(text.contains("missing field `min_cells`"), "{text}");
+        assert!(
+            text.contains("`detect.split` is off under --preset paper")
+                && text.contains("level, min_cells, spacing_cells")
+                && text.contains("--preset touch"),
+            "{text}"
+        );
+        // A table the preset has takes a single key.
+        let args = ConfigArgs::augment_args(Command::new("t"))
+            .try_get_matches_from(["t", "--set", "detect.split.extent=0.3"])
+            .unwrap();
+        let touch = ConfigArgs::from_arg_matches(&args)
+            .unwrap()
+            .resolve()
+            .unwrap();
+        assert_eq!(touch.detect.split.and_then(|s| s.extent), Some(0.3));
     }
 }
