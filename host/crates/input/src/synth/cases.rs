@@ -1,7 +1,7 @@
 //! The synthetic cases of real touch that tracking is measured on (`touchc trade
 //! --cases`, `docs/trade.md`): what captures of other sensors hold and the paper's
-//! scenes do not (a flat hand with a weaker heel, rubs, many strokes in quick
-//! succession), each on both sensors and at both rates.
+//! scenes do not (a flat hand with a weaker heel, rubs up to a vigorous 1 m/s, many
+//! strokes in quick succession, fast swipes), each on both sensors and at both rates.
 
 use super::{Gesture, Sensor, SynthSpec, Tuning};
 
