@@ -6,7 +6,8 @@
 //! an exit node `2k + 2` joined by its detection cost; sink = `2n + 1`. Per detection the
 //! edges are added as: detection edge, source -> entry (`entry_cost`), exit -> sink
 //! (`exit_cost`), then one link from each detection of the previous frame (in that
-//! frame's order) closer than the gate, cost `-ln(1 - d^2 / gate)`.
+//! frame's order) closer than the gate, cost `-ln(1 - d^2 / gate)`; a lattice point of
+//! a flat contact links only from the same cell (see `hops`).
 //!
 //! Trajectories are reported in the order the published solver reports them: by the
 //! augmentation that first routed flow into the trajectory's last detection's exit edge
