@@ -265,3 +265,39 @@ fn a_broad_contacts_rim_does_not_pull_the_placement_off_its_pressure() {
         top.rendered_coverage
     );
 }
+
+/// Fast touch under the default, measured by `touchc trade --cases`'s runner: three
+/// swipes at 2.5 m/s stay three trajectories on both sensors and rates, and a rub at
+/// 1 m/s is followed by one trajectory. A flat hand's reported point moves faster than
+/// the hand (a maximum pinned at the sensor's edge, then a cell at once), so a gate at
+/// the hand's own speed cuts it into pieces; and its lattice points, cells fixed on the
+/// sensor, must not hop from cell to cell, or the flow trades the hand's own trajectory
+/// for theirs at every turn of the rub.
+#[test]
+fn fast_swipes_and_a_vigorous_rub_stay_whole_under_the_default() {
+    use touchc::measure::cases::run_case;
+    let configs = [(Preset::Touch, Config::preset(Preset::Touch))];
+    let mut failures = Vec::new();
+    for sensor in [Sensor::Sleeve, Sensor::Grid10] {
+        for rate in synth::cases::RATES_HZ {
+            for case in synth::cases::cases_on(sensor, rate) {
+                let swipes = case.name.starts_with("3 swipes");
+                let rub = case.name == "rub 1 m/s";
+                if !(swipes || rub) {
+                    continue;
+                }
+                let rows = run_case(&case, 1, &CompileOptions::default(), &configs).unwrap();
+                let row = &rows[0];
+                let ok = row.passes() && (!swipes || row.trajectories == 3);
+                if !ok {
+                    failures.push(format!(
+                        "{} {rate} Hz {}: {row:?}",
+                        sensor.name(),
+                        case.name
+                    ));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}

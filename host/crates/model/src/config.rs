@@ -67,8 +67,9 @@ impl Default for Config {
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
     /// Real touch, the default: the paper's algorithm, with tracking that keeps what
-    /// real recordings hold. Contacts up to 2 m/s link (strokes to 1.5 m/s, 4 Hz shakes
-    /// of +-40 mm); entry and exit cost 1.5 each, so one strong frame is a trajectory (a
+    /// real recordings hold. Detections up to 3 m/s link (swipes to 2.5 m/s, 4 Hz shakes
+    /// of +-40 mm, and a flat hand rubbing at 1 m/s, whose reported point jumps ahead
+    /// of the hand); entry and exit cost 1.5 each, so one strong frame is a trajectory (a
     /// 50 ms tap at 20 Hz); links bridge up to 60 ms unseen (sensor flicker); a flat
     /// contact is also tracked on a 2-cell lattice down to a quarter of its peak (a palm
     /// and a hand's weaker heel render on the actuators they cover); each cell's zero is
@@ -163,7 +164,7 @@ impl Config {
                 track: TrackConfig {
                     entry_cost: 1.5,
                     exit_cost: 1.5,
-                    max_speed_mm_s: 2000.0,
+                    max_speed_mm_s: 3000.0,
                     max_trajectories: MAX_TRAJECTORIES,
                     bridge: Some(Bridge {
                         max_missing_s: 0.06,

@@ -30,6 +30,10 @@ pub struct Detection {
     pub value: f64,
     /// `ln((1 - P) / P)`, negative for strong detections.
     pub cost: f64,
+    /// A lattice point of a flat contact ([`Split`]): a cell fixed on the sensor, which
+    /// stands for the pressure there and does not move with its contact (the contact's
+    /// local maximum does). Tracking links it only to the same cell.
+    pub fixed: bool,
 }
 
 /// All detections of a movie, frame-major.
@@ -72,12 +76,18 @@ pub struct Evidence {
     pub value: f64,
     /// Multiplies the cost: 1, or less for a lattice point below its contact's top.
     pub weight: f64,
+    /// The point is a lattice cell ([`Detection::fixed`]).
+    pub fixed: bool,
 }
 
 impl Evidence {
-    /// A point's own value, at full weight (a local maximum, a point of a top).
+    /// A local maximum's own value, at full weight.
     pub fn own(value: f64) -> Self {
-        Evidence { value, weight: 1.0 }
+        Evidence {
+            value,
+            weight: 1.0,
+            fixed: false,
+        }
     }
 }
 
@@ -369,11 +379,15 @@ pub(crate) fn lattice_points_of_contacts(
                 // adds, by its contact's peak, weighted by its share of the top.
                 .map(|&(i, v)| {
                     let evidence = if v >= top {
-                        Evidence::own(v)
+                        Evidence {
+                            fixed: true,
+                            ..Evidence::own(v)
+                        }
                     } else {
                         Evidence {
                             value: peak,
                             weight: v / top,
+                            fixed: true,
                         }
                     };
                     ((centre(i / cols), centre(i % cols), v), evidence)
@@ -582,15 +596,20 @@ pub(crate) fn score_candidates(
     for frame in 0..candidates.frames() {
         if usable {
             let (a, b) = (candidates.starts[frame], candidates.starts[frame + 1]);
-            all.extend(candidates.points[a..b].iter().zip(&costs[a..b]).map(
-                |(&(row, col, value), &cost)| Detection {
-                    frame,
-                    row,
-                    col,
-                    value,
-                    cost,
-                },
-            ));
+            all.extend(
+                candidates.points[a..b]
+                    .iter()
+                    .zip(&costs[a..b])
+                    .zip(&candidates.evidence[a..b])
+                    .map(|((&(row, col, value), &cost), e)| Detection {
+                        frame,
+                        row,
+                        col,
+                        value,
+                        cost,
+                        fixed: e.fixed,
+                    }),
+            );
         }
         frame_start.push(all.len());
     }

@@ -6,7 +6,8 @@
 //! an exit node `2k + 2` joined by its detection cost; sink = `2n + 1`. Per detection the
 //! edges are added as: detection edge, source -> entry (`entry_cost`), exit -> sink
 //! (`exit_cost`), then one link from each detection of the previous frame (in that
-//! frame's order) closer than the gate, cost `-ln(1 - d^2 / gate)`.
+//! frame's order) closer than the gate, cost `-ln(1 - d^2 / gate)`; a lattice point of
+//! a flat contact links only from the same cell (see `hops`).
 //!
 //! Trajectories are reported in the order the published solver reports them: by the
 //! augmentation that first routed flow into the trajectory's last detection's exit edge
@@ -14,7 +15,7 @@
 
 use ndarray::Array3;
 
-use crate::detect::Detections;
+use crate::detect::{Detection, Detections};
 use crate::flow::{min_cost_flow_by_parts, FlowError, FlowGraph};
 use crate::preprocess::{Blurred, PreprocessError};
 use touchc_input::recording::RecordingError;
@@ -136,6 +137,18 @@ impl TrackOutput {
     }
 }
 
+/// Whether a link from `a` to `b` would hop between cells of a flat contact's lattice:
+/// a lattice point is a fixed cell and links only to the same cell; the contact's
+/// motion is its local maximum's.
+///
+/// A hop follows no motion, and it lets the flow trade paths: the link cost is convex
+/// in the squared step, so two medium steps (the maximum onto a lattice cell, a lattice
+/// cell onto the maximum) cost less than the maximum's own short step plus a long one,
+/// and a sliding hand's trajectory is handed to another at every turn of a rub.
+fn hops(a: &Detection, b: &Detection) -> bool {
+    (a.fixed || b.fixed) && (a.row, a.col) != (b.row, b.col)
+}
+
 /// Builds the flow graph of `detections`, solves it and extracts the trajectories. The
 /// link gate is `cfg.max_speed_mm_s` in squared pixels per frame at `sampling`; with
 /// `cfg.bridge` links also skip missing frames (see `Bridge`), without it the graph is
@@ -204,7 +217,7 @@ pub fn link_within(
                 }
                 let dc = p.col as f64 - d.col as f64;
                 let d2 = dr * dr + dc * dc;
-                if d2 < gate {
+                if d2 < gate && !hops(p, d) {
                     let mut cost = -(-d2 / gate).ln_1p();
                     if gap > 1 {
                         cost += cost_per_missing * (gap - 1) as f64;
@@ -248,4 +261,65 @@ pub fn link_within(
         work: solution.work,
         budget_reached: solution.budget_reached,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use touchc_model::config::{Config, Preset};
+
+    /// Strong detections, one per frame, at `(row, col, fixed)`.
+    fn one_per_frame(points: &[(usize, usize, bool)]) -> Detections {
+        let all: Vec<Detection> = points
+            .iter()
+            .enumerate()
+            .map(|(frame, &(row, col, fixed))| Detection {
+                frame,
+                row,
+                col,
+                value: 1.0,
+                cost: -3.9,
+                fixed,
+            })
+            .collect();
+        Detections {
+            frame_start: (0..=all.len()).collect(),
+            all,
+        }
+    }
+
+    fn trajectories(points: &[(usize, usize, bool)]) -> usize {
+        let cfg = Config::preset(Preset::Touch).track;
+        // 7 pixels per cell at 20 Hz: the gate is far wider than the steps below.
+        let sampling = Sampling {
+            rate_hz: 20.0,
+            pitch_mm: 25.4,
+            upsample: 7,
+        };
+        link(&one_per_frame(points), &cfg, &sampling)
+            .unwrap()
+            .trajectories
+            .len()
+    }
+
+    #[test]
+    fn a_lattice_point_links_only_to_its_own_cell() {
+        // A maximum moving 7 pixels a frame is one trajectory.
+        assert_eq!(
+            trajectories(&[(3, 3, false), (3, 10, false), (3, 17, false)]),
+            1
+        );
+        // A lattice cell held is one trajectory.
+        assert_eq!(trajectories(&[(3, 3, true), (3, 3, true), (3, 3, true)]), 1);
+        // Lattice cells in turn are a cell each.
+        assert_eq!(
+            trajectories(&[(3, 3, true), (3, 17, true), (3, 31, true)]),
+            3
+        );
+        // A maximum does not pass through one: it bridges the frame, the cell is its own.
+        assert_eq!(
+            trajectories(&[(3, 3, false), (3, 17, true), (3, 24, false)]),
+            2
+        );
+    }
 }

@@ -1,7 +1,7 @@
 //! The synthetic cases of real touch that tracking is measured on (`touchc trade
 //! --cases`, `docs/trade.md`): what captures of other sensors hold and the paper's
-//! scenes do not (a flat hand with a weaker heel, rubs, many strokes in quick
-//! succession), each on both sensors and at both rates.
+//! scenes do not (a flat hand with a weaker heel, rubs up to a vigorous 1 m/s, many
+//! strokes in quick succession, fast swipes), each on both sensors and at both rates.
 
 use super::{Gesture, Sensor, SynthSpec, Tuning};
 
@@ -39,9 +39,10 @@ pub fn spec(sensor: Sensor, rate_hz: f64, gestures: &[Gesture], tuning: Tuning) 
 }
 
 /// The touches of one sensor at one rate: a flat hand with a weaker heel, rubs whose
-/// speed peaks at 0.3, 0.45 and 0.6 m/s, and 15 strokes back and forth with gaps of
+/// speed peaks at 0.3, 0.45, 0.6 and 1 m/s (real rubs reach 0.6 m/s at their 90th
+/// percentile; 1 m/s is a vigorous one), 15 strokes back and forth with gaps of
 /// 150-400 ms, each light, changing speed and wavering in pressure along its way, with
-/// a dropout now and then.
+/// a dropout now and then, and 3 fast swipes at 2.5 m/s.
 pub fn cases_on(sensor: Sensor, rate_hz: f64) -> Vec<Case> {
     let mut out = Vec::new();
     let mut add = |name: String, spec: SynthSpec| {
@@ -56,7 +57,7 @@ pub fn cases_on(sensor: Sensor, rate_hz: f64) -> Vec<Case> {
         "hand with heel".into(),
         spec(sensor, rate_hz, &[Gesture::Hand], Tuning::default()),
     );
-    for v in [0.3, 0.45, 0.6] {
+    for v in [0.3, 0.45, 0.6, 1.0] {
         let t = Tuning {
             stroke_speed_mps: Some(v),
             ..Tuning::default()
@@ -79,6 +80,14 @@ pub fn cases_on(sensor: Sensor, rate_hz: f64) -> Vec<Case> {
             flicker: 2.0,
             ..spec(sensor, rate_hz, &[Gesture::Strokes], t)
         },
+    );
+    let t = Tuning {
+        stroke_speed_mps: Some(2.5),
+        ..Tuning::default()
+    };
+    add(
+        "3 swipes 2.5 m/s".into(),
+        spec(sensor, rate_hz, &[Gesture::Strokes], t),
     );
     out
 }
