@@ -25,7 +25,8 @@ pub struct Args {
     #[arg(required_unless_present = "cases")]
     recordings: Vec<PathBuf>,
     /// Instead of recordings: the synthetic cases of real touch (a flat hand with a
-    /// weaker heel, rubs, 15 strokes) on both sensors at 20 and 54 Hz, each measured
+    /// weaker heel, rubs up to 1 m/s, 15 strokes, 2.5 m/s swipes) on both sensors at 20
+    /// and 54 Hz, each measured
     /// against its truth (recall, merges, splits, false contacts, coverage) under every
     /// preset (`--preset P`: only P).
     #[arg(long, conflicts_with_all = ["recordings", "truth", "svg"])]
