@@ -41,9 +41,10 @@ pub(super) fn allocate<'a>(
     period: usize,
     shift: u8,
     tol: f64,
-    (rms_model, max_model): (f64, f64),
+    model: (f64, f64),
     builder: &impl Fn(u8) -> stimulus::Builder<'a>,
 ) -> Result<Option<Vec<u8>>, KeyframeError> {
+    let (rms_model, max_model) = model;
     let unit = (ALLOCATE_UNIT_MS / period).max(1);
     let factors: Vec<f64> = ALLOCATE_FACTORS
         .iter()
@@ -58,22 +59,36 @@ pub(super) fn allocate<'a>(
         let costs = per_window(&runs, per);
         let (mut passed, mut missed): (Option<f64>, Option<f64>) = (None, None);
         let mut target = 0.98 * budget;
+        // The choices tried at this window length and whether they passed: a nearby
+        // target often makes the same choice, whose tube need not run again (its file,
+        // if it passed, is already in `best`).
+        let mut tried: Vec<(Vec<[usize; CHANNELS]>, bool)> = Vec::new();
         for _ in 0..ALLOCATE_TRIES {
-            let schedule = Schedule {
-                keyframes: unit * per,
-                tols: choose(&costs, smallest_lambda(&costs, target))
-                    .1
-                    .iter()
-                    .map(|p| p.map(|f| factors[f] * 32768.0))
-                    .collect(),
-            };
-            let (keyframes, rms, max, _) =
-                tube_scheduled(signal, fs_a, period, shift, &schedule, false);
-            if rms / 32768.0 <= rms_model && max / 32768.0 <= max_model {
-                let bytes = builder(shift).encode(&keyframes)?;
-                if best.as_ref().is_none_or(|b| bytes.len() < b.len()) {
-                    best = Some(bytes);
+            let pick = choose(&costs, smallest_lambda(&costs, target)).1;
+            let passes = match tried.iter().find(|(p, _)| *p == pick) {
+                Some(&(_, passes)) => passes,
+                None => {
+                    let schedule = Schedule {
+                        keyframes: unit * per,
+                        tols: pick
+                            .iter()
+                            .map(|p| p.map(|f| factors[f] * 32768.0))
+                            .collect(),
+                    };
+                    let (keyframes, rms, max, _) =
+                        tube_scheduled(signal, fs_a, period, shift, &schedule, false, Some(model));
+                    let passes = rms / 32768.0 <= rms_model && max / 32768.0 <= max_model;
+                    if passes {
+                        let bytes = builder(shift).encode(&keyframes)?;
+                        if best.as_ref().is_none_or(|b| bytes.len() < b.len()) {
+                            best = Some(bytes);
+                        }
+                    }
+                    tried.push((pick, passes));
+                    passes
                 }
+            };
+            if passes {
                 passed = Some(target);
             } else {
                 missed = Some(target);
@@ -106,7 +121,7 @@ fn uniform_costs(
                 keyframes: unit,
                 tols: vec![[t * 32768.0; CHANNELS]],
             };
-            tube_scheduled(signal, fs_a, period, shift, &uniform, true).3
+            tube_scheduled(signal, fs_a, period, shift, &uniform, true, None).3
         })
         .collect()
 }

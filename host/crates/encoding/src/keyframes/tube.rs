@@ -126,7 +126,8 @@ pub(super) fn tube_keyframes(
         keyframes: usize::MAX,
         tols: vec![[tol; CHANNELS]],
     };
-    let (keyframes, rms, max, _) = tube_scheduled(signal, fs_a, period, shift, &uniform, false);
+    let (keyframes, rms, max, _) =
+        tube_scheduled(signal, fs_a, period, shift, &uniform, false, None);
     (keyframes, rms, max)
 }
 
@@ -154,6 +155,11 @@ pub(super) type WindowCosts = Vec<[(u32, f64); CHANNELS]>;
 
 /// [`tube_keyframes`] with a tolerance per window and channel. With `costs`, also what
 /// each window and channel cost in bends and squared error (else an empty list).
+///
+/// With `bounds = (rms, max)` (fractions of full scale), gives up as soon as the
+/// model's error is sure to miss them (the squared error only grows, and so does the
+/// largest) and reports no keyframes and `(INFINITY, INFINITY)`: a caller that only
+/// wants a passing tube is spared the rest of a failing one.
 pub(super) fn tube_scheduled(
     signal: &[[f64; CHANNELS]],
     fs_a: f64,
@@ -161,6 +167,7 @@ pub(super) fn tube_scheduled(
     shift: u8,
     schedule: &Schedule,
     costs: bool,
+    bounds: Option<(f64, f64)>,
 ) -> (Vec<[i16; CHANNELS]>, f64, f64, WindowCosts) {
     let n = signal.len();
     let unit = f64::from(1u32 << shift);
@@ -181,7 +188,7 @@ pub(super) fn tube_scheduled(
     };
     let mut error = ModelError {
         sum2: 0.0,
-        max: 0.0,
+        max: [0.0; CHANNELS],
         done: 0,
         cost: vec![[(0, 0.0); CHANNELS]; windows],
         window_keyframes: schedule.keyframes,
@@ -195,6 +202,9 @@ pub(super) fn tube_scheduled(
         tube.advance(&mut lines, extended, &mut stored, j, &tol);
         let upto = lines.iter().map(|l| l.start).min().unwrap_or(0);
         error.measure_to(&tube, &stored, upto);
+        if bounds.is_some_and(|b| error.misses(b, n)) {
+            return (Vec::new(), f64::INFINITY, f64::INFINITY, error.cost);
+        }
     }
     for (c, line) in lines.iter().enumerate() {
         if line.start + 1 < count {
@@ -209,7 +219,7 @@ pub(super) fn tube_scheduled(
         for c in 0..CHANNELS {
             let e = a[c] as f64 - x[c];
             error.sum2 += e * e;
-            error.max = error.max.max(e.abs());
+            error.max[c] = error.max[c].max(e.abs());
         }
     }
     // In range by construction (every slope and rounded value is clamped to it).
@@ -220,7 +230,7 @@ pub(super) fn tube_scheduled(
     (
         keyframes,
         unit * (error.sum2 / (n * CHANNELS) as f64).sqrt(),
-        unit * error.max,
+        unit * error.largest(),
         error.cost,
     )
 }
@@ -336,8 +346,9 @@ impl Tube<'_> {
 struct ModelError {
     /// Sum of squared errors, stored units squared.
     sum2: f64,
-    /// Largest error, stored units.
-    max: f64,
+    /// Largest error per channel, stored units (the same in any order; one running
+    /// maximum would be a chain through every tick and channel).
+    max: [f64; CHANNELS],
     /// Segments measured.
     done: usize,
     /// Per window and channel (none when the caller wants no costs).
@@ -349,6 +360,21 @@ struct ModelError {
 }
 
 impl ModelError {
+    /// Whether the figures [`tube_scheduled`] reports for a signal of `n` ticks, from
+    /// the error measured so far and computed as it computes them, already miss
+    /// `(rms, max)` (fractions of full scale): they only grow from here.
+    #[inline(always)]
+    fn misses(&self, (rms, max): (f64, f64), n: usize) -> bool {
+        let so_far = self.unit * (self.sum2 / (n * CHANNELS) as f64).sqrt();
+        so_far / 32768.0 > rms || self.unit * self.largest() / 32768.0 > max
+    }
+
+    /// Largest error over the channels, stored units.
+    #[inline(always)]
+    fn largest(&self) -> f64 {
+        self.max.iter().fold(0.0, |m, &e| larger(m, e))
+    }
+
     /// Adds the segments before keyframe `upto` not yet measured.
     #[inline(always)]
     fn measure_to(&mut self, tube: &Tube<'_>, stored: &[[i64; CHANNELS]], upto: usize) {
@@ -363,7 +389,7 @@ impl ModelError {
                 for c in 0..CHANNELS {
                     let e = a[c] + (b[c] - a[c]) * w - x[c];
                     segment[c] += e * e;
-                    self.max = larger(self.max, e.abs());
+                    self.max[c] = larger(self.max[c], e.abs());
                 }
             }
             self.sum2 += segment.iter().sum::<f64>();
