@@ -176,6 +176,7 @@ pub(super) fn tube_scheduled(
         to_stored: 32768.0 / fs_a / unit,
         period,
         pf: period as f64,
+        per_tick: per_tick(period as f64, n),
         min_s: i64::from(i16::MIN) >> shift,
         max_s: i64::from(i16::MAX) >> shift,
     };
@@ -244,6 +245,10 @@ struct Tube<'s> {
     period: usize,
     /// `period` as f64.
     pf: f64,
+    /// `pf / m` for the ticks `m` since a line's start, up to [`PER_TICK_TABLE`]: a
+    /// load where the tube's inner loop would divide (the same quotient, correctly
+    /// rounded either way).
+    per_tick: Vec<f64>,
     min_s: i64,
     max_s: i64,
 }
@@ -275,15 +280,19 @@ impl Tube<'_> {
     ) -> [Line; CHANNELS] {
         let (period, pf) = (self.period, self.pf);
         let mut extended = *lines;
-        let from = lines.map(|l| (l.start * period) as f64);
+        let from = lines.map(|l| l.start * period);
         let base = lines.map(|l| l.base as f64);
         let (mut lo, mut hi) = (lines.map(|l| l.lo), lines.map(|l| l.hi));
         let mut mv = lines.map(|l| l.mv);
         for t in (j - 1) * period + 1..=j * period {
             let x = self.row(t);
             for c in 0..CHANNELS {
-                let m = t as f64 - from[c];
-                let per_tick = pf / m;
+                let m = t - from[c];
+                let per_tick = match self.per_tick.get(m) {
+                    Some(&q) => q,
+                    None => pf / m as f64,
+                };
+                let m = m as f64;
                 let v = x[c] - base[c];
                 lo[c] = larger(lo[c], (v - tol[c]) * per_tick);
                 hi[c] = smaller(hi[c], (v + tol[c]) * per_tick);
@@ -336,6 +345,16 @@ impl Tube<'_> {
             *line = Line::at(j, stored[j][c]);
         }
     }
+}
+
+/// Ticks since a line's start whose `pf / m` [`Tube`] looks up (512 KB): beyond, a line
+/// is over a minute long and its channel still, where the division is rare enough.
+const PER_TICK_TABLE: usize = 65_536;
+
+/// `pf / m` for `m` in `0..=min(n, PER_TICK_TABLE)` (`m = 0`, never a tick since a
+/// start, is infinite).
+fn per_tick(pf: f64, n: usize) -> Vec<f64> {
+    (0..=n.min(PER_TICK_TABLE)).map(|m| pf / m as f64).collect()
 }
 
 /// The model's error in [`tube_scheduled`], segment by segment, as soon as both ends
