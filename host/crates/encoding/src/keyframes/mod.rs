@@ -449,7 +449,7 @@ mod tests {
 
     /// Presses of 60-200 ms and 0.05-0.25 A at random on channels 0-5, busy on some
     /// channels and stretches, quiet on others; 6 and 7 still.
-    fn busy(seconds: f64) -> Vec<[f64; CHANNELS]> {
+    pub(super) fn busy(seconds: f64) -> Vec<[f64; CHANNELS]> {
         let mut rng = touchc_test_rng::Xorshift::new(0x2545_f491_4f6c_dd1d);
         let mut next = move || rng.uniform();
         // (channel, centre s, width s, amplitude A)
