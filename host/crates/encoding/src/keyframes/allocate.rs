@@ -1,6 +1,7 @@
 //! A tolerance per second and channel for a dense file: the RMS budget spent where it
 //! saves most bends ([`allocate`]).
 
+use rayon::prelude::*;
 use touch_protocol::{stimulus, CHANNELS};
 
 use super::tube::{tube_scheduled, Schedule, WindowCosts};
@@ -105,7 +106,9 @@ pub(super) fn allocate<'a>(
 
 /// The uniform tube at each tolerance of `factors` (fraction of full scale), costed
 /// per window of `unit` keyframes (a window of any of [`ALLOCATE_WINDOWS`] is a sum of
-/// them: the uniform tube does not depend on the windows).
+/// them: the uniform tube does not depend on the windows). The tubes are independent
+/// and most of an allocation's time, so they run on the rayon pool, listed in the
+/// order of `factors`: the same costs on any number of threads.
 fn uniform_costs(
     signal: &[[f64; CHANNELS]],
     fs_a: f64,
@@ -115,7 +118,7 @@ fn uniform_costs(
     factors: &[f64],
 ) -> Vec<WindowCosts> {
     factors
-        .iter()
+        .par_iter()
         .map(|&t| {
             let uniform = Schedule {
                 keyframes: unit,
@@ -285,6 +288,23 @@ mod tests {
             // The lambdas span many choices, not one.
             assert!(distinct.len() > 20, "{}", distinct.len());
         }
+        // The same costs on one thread as on several.
+        let on = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| uniform_costs(&signal, 1.0, 10, 6, 40, &factors))
+        };
+        let bits = |runs: &[WindowCosts]| -> Vec<(u32, u64)> {
+            runs.iter()
+                .flatten()
+                .flatten()
+                .map(|&(b, e)| (b, e.to_bits()))
+                .collect()
+        };
+        assert_eq!(bits(&on(1)), bits(&runs));
+        assert_eq!(bits(&on(3)), bits(&runs));
         // No factors: no choice.
         assert_eq!(choose(&Costs::new(&[]), 1.0), (0.0, Vec::new()));
     }
