@@ -449,7 +449,7 @@ mod tests {
 
     /// Presses of 60-200 ms and 0.05-0.25 A at random on channels 0-5, busy on some
     /// channels and stretches, quiet on others; 6 and 7 still.
-    fn busy(seconds: f64) -> Vec<[f64; CHANNELS]> {
+    pub(super) fn busy(seconds: f64) -> Vec<[f64; CHANNELS]> {
         let mut rng = touchc_test_rng::Xorshift::new(0x2545_f491_4f6c_dd1d);
         let mut next = move || rng.uniform();
         // (channel, centre s, width s, amplitude A)
@@ -486,7 +486,8 @@ mod tests {
                 .map(|w| std::array::from_fn(|c| if (w + c) % 2 == 0 { narrow } else { wide }))
                 .collect(),
         };
-        let (keyframes, rms, max, costs) = tube_scheduled(&signal, 1.0, 10, 5, &schedule, true);
+        let (keyframes, rms, max, costs) =
+            tube_scheduled(&signal, 1.0, 10, 5, &schedule, true, None);
         let mut worst = [0.0f64; 2];
         let mut sum2 = 0.0;
         for (t, s) in signal.iter().enumerate() {
@@ -528,6 +529,58 @@ mod tests {
             })
             .sum::<u32>();
         assert_eq!(counted, residuals);
+    }
+
+    /// Given bounds, the tube gives up only on a pass that misses them, and reports
+    /// infinities; a pass that meets them, even exactly, returns what it returns
+    /// without bounds, bit for bit: bounds only spare the rest of a failing pass.
+    #[test]
+    fn a_tube_given_bounds_gives_up_only_where_it_misses_them() {
+        let signal = busy(6.0);
+        let mut gave_up = 0;
+        for tol in [0.002, 0.005, 0.010, 0.016] {
+            let schedule = Schedule {
+                keyframes: 40,
+                tols: (0..15)
+                    .map(|w| {
+                        std::array::from_fn(|c| tol * 32768.0 * (1.0 + 0.1 * ((w + c) % 3) as f64))
+                    })
+                    .collect(),
+            };
+            let run = |b| tube_scheduled(&signal, 1.0, 10, 6, &schedule, false, b);
+            let (whole, rms, max, _) = run(None);
+            let (rms_fs, max_fs) = (rms / 32768.0, max / 32768.0);
+            let below = |x: f64| f64::from_bits(x.to_bits() - 1);
+            // Met exactly, and met with room: the same tube.
+            for bounds in [(rms_fs, max_fs), (2.0 * rms_fs, 2.0 * max_fs)] {
+                let (given, grms, gmax, _) = run(Some(bounds));
+                assert_eq!(given, whole, "{tol} {bounds:?}");
+                assert_eq!(
+                    (grms.to_bits(), gmax.to_bits()),
+                    (rms.to_bits(), max.to_bits())
+                );
+            }
+            // Missed: given up, or (missed only by the last segments) the same figures.
+            for bounds in [
+                (below(rms_fs), max_fs),
+                (rms_fs, below(max_fs)),
+                (0.5 * rms_fs, max_fs),
+            ] {
+                let (given, grms, gmax, _) = run(Some(bounds));
+                if grms.is_infinite() {
+                    assert!(given.is_empty() && gmax.is_infinite(), "{tol} {bounds:?}");
+                    gave_up += 1;
+                } else {
+                    assert_eq!(given, whole, "{tol} {bounds:?}");
+                    assert_eq!(
+                        (grms.to_bits(), gmax.to_bits()),
+                        (rms.to_bits(), max.to_bits())
+                    );
+                }
+            }
+        }
+        // A bound missed by half is seen early.
+        assert!(gave_up >= 4, "{gave_up}");
     }
 
     /// The encoding of `signal` under `opts`, and the same signal encoded with the

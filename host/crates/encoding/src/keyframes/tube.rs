@@ -126,7 +126,8 @@ pub(super) fn tube_keyframes(
         keyframes: usize::MAX,
         tols: vec![[tol; CHANNELS]],
     };
-    let (keyframes, rms, max, _) = tube_scheduled(signal, fs_a, period, shift, &uniform, false);
+    let (keyframes, rms, max, _) =
+        tube_scheduled(signal, fs_a, period, shift, &uniform, false, None);
     (keyframes, rms, max)
 }
 
@@ -152,77 +153,91 @@ impl Schedule {
 /// squared.
 pub(super) type WindowCosts = Vec<[(u32, f64); CHANNELS]>;
 
-/// [`tube_keyframes`] with a tolerance per window and channel. With `costs`, also what
-/// each window and channel cost in bends and squared error (else an empty list).
-pub(super) fn tube_scheduled(
-    signal: &[[f64; CHANNELS]],
-    fs_a: f64,
-    period: usize,
-    shift: u8,
-    schedule: &Schedule,
-    costs: bool,
-) -> (Vec<[i16; CHANNELS]>, f64, f64, WindowCosts) {
-    let n = signal.len();
-    let unit = f64::from(1u32 << shift);
-    let tube = Tube {
-        signal,
-        to_stored: 32768.0 / fs_a / unit,
-        period,
-        pf: period as f64,
-        min_s: i64::from(i16::MIN) >> shift,
-        max_s: i64::from(i16::MAX) >> shift,
-    };
-    let count = (n - 1).div_ceil(period) + 1;
-    let mut stored = vec![[0i64; CHANNELS]; count];
-    let windows = if costs {
-        (count - 1).div_ceil(schedule.keyframes).max(1)
-    } else {
-        0
-    };
-    let mut error = ModelError {
-        sum2: 0.0,
-        max: 0.0,
-        done: 0,
-        cost: vec![[(0, 0.0); CHANNELS]; windows],
-        window_keyframes: schedule.keyframes,
-        unit,
-    };
-    let mut lines: [Line; CHANNELS] = std::array::from_fn(|c| Line::at(0, tube.rounded(0, c)));
-    stored[0] = lines.map(|l| l.base);
-    for j in 1..count {
-        let tol = schedule.at(j - 1).map(|t| t / unit);
-        let extended = tube.extended(&lines, j, &tol);
-        tube.advance(&mut lines, extended, &mut stored, j, &tol);
-        let upto = lines.iter().map(|l| l.start).min().unwrap_or(0);
-        error.measure_to(&tube, &stored, upto);
-    }
-    for (c, line) in lines.iter().enumerate() {
-        if line.start + 1 < count {
-            line.commit(&mut stored, count - 1, c, tube.pf);
+touchc_wide::kernel! {
+    /// [`tube_keyframes`] with a tolerance per window and channel. With `costs`, also what
+    /// each window and channel cost in bends and squared error (else an empty list).
+    ///
+    /// With `bounds = (rms, max)` (fractions of full scale), gives up as soon as the
+    /// model's error is sure to miss them (the squared error only grows, and so does the
+    /// largest) and reports no keyframes and `(INFINITY, INFINITY)`: a caller that only
+    /// wants a passing tube is spared the rest of a failing one.
+    ///
+    /// Compiled for AVX2 too (`touchc_wide`): an allocation runs the tube some 25 times.
+    pub(super) fn tube_scheduled / tube_scheduled_baseline / tube_scheduled_avx2 (
+        signal: &[[f64; CHANNELS]],
+        fs_a: f64,
+        period: usize,
+        shift: u8,
+        schedule: &Schedule,
+        costs: bool,
+        bounds: Option<(f64, f64)>,
+    ) -> (Vec<[i16; CHANNELS]>, f64, f64, WindowCosts) {
+        let n = signal.len();
+        let unit = f64::from(1u32 << shift);
+        let tube = Tube {
+            signal,
+            to_stored: 32768.0 / fs_a / unit,
+            period,
+            pf: period as f64,
+            per_tick: per_tick(period as f64, n),
+            min_s: i64::from(i16::MIN) >> shift,
+            max_s: i64::from(i16::MAX) >> shift,
+        };
+        let count = (n - 1).div_ceil(period) + 1;
+        let mut stored = vec![[0i64; CHANNELS]; count];
+        let windows = if costs {
+            (count - 1).div_ceil(schedule.keyframes).max(1)
+        } else {
+            0
+        };
+        let mut error = ModelError {
+            sum2: 0.0,
+            max: [0.0; CHANNELS],
+            done: 0,
+            cost: vec![[(0, 0.0); CHANNELS]; windows],
+            window_keyframes: schedule.keyframes,
+            unit,
+        };
+        let mut lines: [Line; CHANNELS] = std::array::from_fn(|c| Line::at(0, tube.rounded(0, c)));
+        stored[0] = lines.map(|l| l.base);
+        for j in 1..count {
+            let tol = schedule.at(j - 1).map(|t| t / unit);
+            let extended = tube.extended(&lines, j, &tol);
+            tube.advance(&mut lines, extended, &mut stored, j, &tol);
+            let upto = lines.iter().map(|l| l.start).min().unwrap_or(0);
+            error.measure_to(&tube, &stored, upto);
+            if bounds.is_some_and(|b| error.misses(b, n)) {
+                return (Vec::new(), f64::INFINITY, f64::INFINITY, error.cost);
+            }
         }
-    }
-    // The rest of the model's error.
-    error.measure_to(&tube, &stored, count - 1);
-    if (count - 1) * period < n {
-        // A signal of one tick: its only keyframe.
-        let (a, x) = (stored[count - 1], tube.row((count - 1) * period));
-        for c in 0..CHANNELS {
-            let e = a[c] as f64 - x[c];
-            error.sum2 += e * e;
-            error.max = error.max.max(e.abs());
+        for (c, line) in lines.iter().enumerate() {
+            if line.start + 1 < count {
+                line.commit(&mut stored, count - 1, c, tube.pf);
+            }
         }
+        // The rest of the model's error.
+        error.measure_to(&tube, &stored, count - 1);
+        if (count - 1) * period < n {
+            // A signal of one tick: its only keyframe.
+            let (a, x) = (stored[count - 1], tube.row((count - 1) * period));
+            for c in 0..CHANNELS {
+                let e = a[c] as f64 - x[c];
+                error.sum2 += e * e;
+                error.max[c] = error.max[c].max(e.abs());
+            }
+        }
+        // In range by construction (every slope and rounded value is clamped to it).
+        let keyframes = stored
+            .iter()
+            .map(|s| s.map(|v| (v << shift).clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16))
+            .collect();
+        (
+            keyframes,
+            unit * (error.sum2 / (n * CHANNELS) as f64).sqrt(),
+            unit * error.largest(),
+            error.cost,
+        )
     }
-    // In range by construction (every slope and rounded value is clamped to it).
-    let keyframes = stored
-        .iter()
-        .map(|s| s.map(|v| (v << shift).clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16))
-        .collect();
-    (
-        keyframes,
-        unit * (error.sum2 / (n * CHANNELS) as f64).sqrt(),
-        unit * error.max,
-        error.cost,
-    )
 }
 
 /// What each step of [`tube_scheduled`] reads: the signal, converted to stored units,
@@ -234,6 +249,10 @@ struct Tube<'s> {
     period: usize,
     /// `period` as f64.
     pf: f64,
+    /// `pf / m` for the ticks `m` since a line's start, up to [`PER_TICK_TABLE`]: a
+    /// load where the tube's inner loop would divide (the same quotient, correctly
+    /// rounded either way).
+    per_tick: Vec<f64>,
     min_s: i64,
     max_s: i64,
 }
@@ -265,15 +284,19 @@ impl Tube<'_> {
     ) -> [Line; CHANNELS] {
         let (period, pf) = (self.period, self.pf);
         let mut extended = *lines;
-        let from = lines.map(|l| (l.start * period) as f64);
+        let from = lines.map(|l| l.start * period);
         let base = lines.map(|l| l.base as f64);
         let (mut lo, mut hi) = (lines.map(|l| l.lo), lines.map(|l| l.hi));
         let mut mv = lines.map(|l| l.mv);
         for t in (j - 1) * period + 1..=j * period {
             let x = self.row(t);
             for c in 0..CHANNELS {
-                let m = t as f64 - from[c];
-                let per_tick = pf / m;
+                let m = t - from[c];
+                let per_tick = match self.per_tick.get(m) {
+                    Some(&q) => q,
+                    None => pf / m as f64,
+                };
+                let m = m as f64;
                 let v = x[c] - base[c];
                 lo[c] = larger(lo[c], (v - tol[c]) * per_tick);
                 hi[c] = smaller(hi[c], (v + tol[c]) * per_tick);
@@ -328,6 +351,16 @@ impl Tube<'_> {
     }
 }
 
+/// Ticks since a line's start whose `pf / m` [`Tube`] looks up (512 KB): beyond, a line
+/// is over a minute long and its channel still, where the division is rare enough.
+const PER_TICK_TABLE: usize = 65_536;
+
+/// `pf / m` for `m` in `0..=min(n, PER_TICK_TABLE)` (`m = 0`, never a tick since a
+/// start, is infinite).
+fn per_tick(pf: f64, n: usize) -> Vec<f64> {
+    (0..=n.min(PER_TICK_TABLE)).map(|m| pf / m as f64).collect()
+}
+
 /// The model's error in [`tube_scheduled`], segment by segment, as soon as both ends
 /// of a segment are final on every channel (keyframes up to the earliest line start):
 /// those rows were read lately and are still in cache, where a pass after the tube
@@ -336,8 +369,9 @@ impl Tube<'_> {
 struct ModelError {
     /// Sum of squared errors, stored units squared.
     sum2: f64,
-    /// Largest error, stored units.
-    max: f64,
+    /// Largest error per channel, stored units (the same in any order; one running
+    /// maximum would be a chain through every tick and channel).
+    max: [f64; CHANNELS],
     /// Segments measured.
     done: usize,
     /// Per window and channel (none when the caller wants no costs).
@@ -349,6 +383,21 @@ struct ModelError {
 }
 
 impl ModelError {
+    /// Whether the figures [`tube_scheduled`] reports for a signal of `n` ticks, from
+    /// the error measured so far and computed as it computes them, already miss
+    /// `(rms, max)` (fractions of full scale): they only grow from here.
+    #[inline(always)]
+    fn misses(&self, (rms, max): (f64, f64), n: usize) -> bool {
+        let so_far = self.unit * (self.sum2 / (n * CHANNELS) as f64).sqrt();
+        so_far / 32768.0 > rms || self.unit * self.largest() / 32768.0 > max
+    }
+
+    /// Largest error over the channels, stored units.
+    #[inline(always)]
+    fn largest(&self) -> f64 {
+        self.max.iter().fold(0.0, |m, &e| larger(m, e))
+    }
+
     /// Adds the segments before keyframe `upto` not yet measured.
     #[inline(always)]
     fn measure_to(&mut self, tube: &Tube<'_>, stored: &[[i64; CHANNELS]], upto: usize) {
@@ -363,7 +412,7 @@ impl ModelError {
                 for c in 0..CHANNELS {
                     let e = a[c] + (b[c] - a[c]) * w - x[c];
                     segment[c] += e * e;
-                    self.max = larger(self.max, e.abs());
+                    self.max[c] = larger(self.max[c], e.abs());
                 }
             }
             self.sum2 += segment.iter().sum::<f64>();
@@ -426,5 +475,65 @@ pub(super) fn smaller(a: f64, b: f64) -> f64 {
         b
     } else {
         a
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::{busy, stroke};
+    use super::*;
+
+    /// The AVX2 build of the tube gives the baseline's keyframes, figures and costs to
+    /// the bit ([`touchc_wide`]), uniform and scheduled, with and without bounds.
+    #[test]
+    fn the_avx2_build_runs_the_baseline_tube() {
+        if !touchc_wide::avx2_or_skip(
+            "keyframes::tube::tests::the_avx2_build_runs_the_baseline_tube",
+        ) {
+            return;
+        }
+        let uniform = |tol: f64| Schedule {
+            keyframes: 40,
+            tols: vec![[tol * 32768.0; CHANNELS]],
+        };
+        let scheduled = Schedule {
+            keyframes: 80,
+            tols: (0..8)
+                .map(|w| std::array::from_fn(|c| (0.003 + 0.002 * ((w + c) % 4) as f64) * 32768.0))
+                .collect(),
+        };
+        let bits = |r: &(Vec<[i16; CHANNELS]>, f64, f64, WindowCosts)| {
+            let costs: Vec<(u32, u64)> =
+                r.3.iter()
+                    .flatten()
+                    .map(|&(b, e)| (b, e.to_bits()))
+                    .collect();
+            (r.0.clone(), r.1.to_bits(), r.2.to_bits(), costs)
+        };
+        let mut cases = 0;
+        for signal in [busy(6.0), stroke(4.0)] {
+            for schedule in [uniform(0.004), uniform(0.012), scheduled.clone()] {
+                for (shift, period) in [(5, 10), (6, 10), (6, 5)] {
+                    for bounds in [None, Some((0.004, 0.015)), Some((0.0005, 0.015))] {
+                        let a = tube_scheduled_baseline(
+                            &signal, 1.0, period, shift, &schedule, true, bounds,
+                        );
+                        // SAFETY: the CPU runs AVX2 (checked above).
+                        let b = unsafe {
+                            tube_scheduled_avx2(
+                                &signal, 1.0, period, shift, &schedule, true, bounds,
+                            )
+                        };
+                        assert_eq!(
+                            bits(&a),
+                            bits(&b),
+                            "shift {shift} period {period} {bounds:?}"
+                        );
+                        cases += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(cases, 54);
     }
 }
