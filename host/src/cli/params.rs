@@ -359,6 +359,39 @@ impl ConfigArgs {
         self.resolve_on(self.preset.unwrap_or_default())
     }
 
+    /// [`Self::resolve_on`] without the `--set`s into a table `preset` leaves out (a
+    /// reference preset in a comparison), and a sentence for each one left out.
+    pub fn resolve_where_it_applies(
+        &self,
+        preset: Preset,
+    ) -> anyhow::Result<(Config, Vec<String>)> {
+        let base =
+            toml::Table::try_from(Config::preset(preset)).context("cannot serialise the preset")?;
+        let off = off_tables(&base, &self.set);
+        if off.is_empty() {
+            return Ok((self.resolve_on(preset)?, Vec::new()));
+        }
+        let skipped: Vec<String> = off
+            .iter()
+            .map(|t| {
+                format!(
+                    "--set {} is not applied to --preset {}: `{}` is off there",
+                    super::clip(&self.set[t.set]),
+                    preset.name(),
+                    t.table
+                )
+            })
+            .collect();
+        let kept: Vec<String> = (0..self.set.len())
+            .filter(|&i| !off.iter().any(|t| t.set == i))
+            .map(|i| self.set[i].clone())
+            .collect();
+        let config = layered(preset, self.config.as_deref(), &kept, &self.knobs)
+            .map_err(|e| super::usage(super::message(&e)))?;
+        self.check_sampling()?;
+        Ok((config, skipped))
+    }
+
     /// The config these flags describe, laid over `preset` whatever `--preset` says.
     /// Every error is a usage error (exit status 2): the parameters are how the command
     /// was called, the `--config` file included. So are `--rate` and `--pitch-mm`
@@ -437,7 +470,11 @@ fn layered(
     for assignment in &knobs.0 {
         assignment.apply(&mut table);
     }
-    let off = off_tables(preset, &toml::Table::try_from(&base)?, sets);
+    let mut off: Vec<String> = off_tables(&toml::Table::try_from(&base)?, sets)
+        .iter()
+        .map(|t| t.explain(preset))
+        .collect();
+    off.dedup();
     let config: anyhow::Result<Config> = table.try_into().with_context(|| {
         if sets.is_empty() {
             "invalid parameter".to_string()
@@ -459,17 +496,39 @@ fn layered(
     Ok(config)
 }
 
+/// A `--set` into a table a preset leaves out and the default preset has.
+struct OffTable {
+    /// Which `--set`.
+    set: usize,
+    /// The table, dotted (`detect.split`).
+    table: String,
+    /// The table's keys under the default preset.
+    keys: Vec<String>,
+}
+
+impl OffTable {
+    /// Why the `--set` cannot be taken alone under `preset`, and what would do.
+    fn explain(&self, preset: Preset) -> String {
+        format!(
+            "`{}` is off under --preset {}: set its keys ({}) or start from --preset {}",
+            self.table,
+            preset.name(),
+            self.keys.join(", "),
+            Preset::default().name()
+        )
+    }
+}
+
 /// For each `--set` into a table `preset` leaves out (its table `base`) and the default
-/// preset has: that the table is off, and the keys that turn it on. A lone key cannot:
-/// the table's other keys have no value to keep.
-fn off_tables(preset: Preset, base: &toml::Table, sets: &[String]) -> Vec<String> {
-    let default = Preset::default();
-    let Ok(full) = toml::Table::try_from(Config::preset(default)) else {
+/// preset has: the table and the keys that turn it on. A lone key cannot: the table's
+/// other keys have no value to keep.
+fn off_tables(base: &toml::Table, sets: &[String]) -> Vec<OffTable> {
+    let Ok(full) = toml::Table::try_from(Config::preset(Preset::default())) else {
         return Vec::new();
     };
     let mut off = Vec::new();
-    for set in sets {
-        let Some((key, _)) = set.split_once('=') else {
+    for (set, text) in sets.iter().enumerate() {
+        let Some((key, _)) = text.split_once('=') else {
             continue;
         };
         let path: Vec<&str> = key.trim().split('.').collect();
@@ -483,18 +542,11 @@ fn off_tables(preset: Preset, base: &toml::Table, sets: &[String]) -> Vec<String
                 .and_then(|t| t.get(name))
                 .and_then(toml::Value::as_table);
             if let (None, Some(table)) = (here, there) {
-                let table_name = path[..depth].join(".");
-                let keys: Vec<&str> = table.keys().map(String::as_str).collect();
-                let line = format!(
-                    "`{table_name}` is off under --preset {}: set its keys ({}) or start \
-                     from --preset {}",
-                    preset.name(),
-                    keys.join(", "),
-                    default.name()
-                );
-                if !off.contains(&line) {
-                    off.push(line);
-                }
+                off.push(OffTable {
+                    set,
+                    table: path[..depth].join("."),
+                    keys: table.keys().cloned().collect(),
+                });
                 break;
             }
         }

@@ -168,10 +168,30 @@ fn configs(args: &Args) -> anyhow::Result<Vec<(Preset, touchc::config::Config)>>
         Some(p) => vec![p],
         None => Preset::ALL.to_vec(),
     };
-    presets
-        .into_iter()
-        .map(|p| Ok((p, args.config.resolve_on(p)?)))
-        .collect::<anyhow::Result<Vec<_>>>()
+    configs_of(args, presets)
+}
+
+/// `presets` with their configs. The preset asked for takes every knob; the others
+/// (the `exact` reference among them) take those their tables have, and a note says
+/// which they do not.
+fn configs_of(
+    args: &Args,
+    presets: Vec<Preset>,
+) -> anyhow::Result<Vec<(Preset, touchc::config::Config)>> {
+    let mut configs = Vec::new();
+    for p in presets {
+        let config = if args.config.preset == Some(p) {
+            args.config.resolve_on(p)?
+        } else {
+            let (config, skipped) = args.config.resolve_where_it_applies(p)?;
+            for line in skipped {
+                eprintln!("touchc: note: {line}");
+            }
+            config
+        };
+        configs.push((p, config));
+    }
+    Ok(configs)
 }
 
 /// The table on standard output, and the CSV, JSON and SVG files asked for.
@@ -206,10 +226,7 @@ fn run_cases(args: &Args) -> anyhow::Result<()> {
         Some(p) => vec![p],
         None => Preset::ALL.to_vec(),
     };
-    let configs = presets
-        .into_iter()
-        .map(|p| Ok((p, args.config.resolve_on(p)?)))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let configs = configs_of(args, presets)?;
     let base = CompileOptions::default();
     let mut rows: Vec<CaseRow> = Vec::new();
     for case in touchc::input::synth::cases::cases() {
