@@ -386,10 +386,7 @@ impl ConfigArgs {
             .filter(|&i| !off.iter().any(|t| t.set == i))
             .map(|i| self.set[i].clone())
             .collect();
-        let config = layered(preset, self.config.as_deref(), &kept, &self.knobs)
-            .map_err(|e| super::usage(super::message(&e)))?;
-        self.check_sampling()?;
-        Ok((config, skipped))
+        Ok((self.resolve_with(preset, &kept)?, skipped))
     }
 
     /// The config these flags describe, laid over `preset` whatever `--preset` says.
@@ -397,7 +394,12 @@ impl ConfigArgs {
     /// was called, the `--config` file included. So are `--rate` and `--pitch-mm`
     /// outside the ranges any recording may have.
     pub fn resolve_on(&self, preset: Preset) -> anyhow::Result<Config> {
-        let config = layered(preset, self.config.as_deref(), &self.set, &self.knobs)
+        self.resolve_with(preset, &self.set)
+    }
+
+    /// [`Self::resolve_on`] with `sets` in place of the `--set`s given.
+    fn resolve_with(&self, preset: Preset, sets: &[String]) -> anyhow::Result<Config> {
+        let config = layered(preset, self.config.as_deref(), sets, &self.knobs)
             .map_err(|e| super::usage(super::message(&e)))?;
         self.check_sampling()?;
         Ok(config)
@@ -445,6 +447,12 @@ fn layered(
         return Ok(base);
     }
     let mut table = toml::Table::try_from(&base).context("cannot serialise the preset")?;
+    let mut off: Vec<String> = off_tables(&table, sets)
+        .iter()
+        .map(|t| t.explain(preset))
+        .collect();
+    off.sort();
+    off.dedup();
     if let Some(p) = path {
         let text = std::fs::read_to_string(p)
             .with_context(|| format!("{}: cannot read config", p.display()))?;
@@ -470,11 +478,6 @@ fn layered(
     for assignment in &knobs.0 {
         assignment.apply(&mut table);
     }
-    let mut off: Vec<String> = off_tables(&toml::Table::try_from(&base)?, sets)
-        .iter()
-        .map(|t| t.explain(preset))
-        .collect();
-    off.dedup();
     let config: anyhow::Result<Config> = table.try_into().with_context(|| {
         if sets.is_empty() {
             "invalid parameter".to_string()
