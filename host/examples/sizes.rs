@@ -31,7 +31,7 @@ use touchc::compile::{compile, stimulus_name, CompileOptions};
 use touchc::config::{Config, MetadataOverrides, Preset};
 use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc::input::recording::Recording;
-use touchc::input::synth::{self, Gesture, Sensor, SynthSpec};
+use touchc_synth::{self as synth, Gesture, Sensor, SynthSpec};
 
 /// One recording: its name, its frames and the sensor's rate and pitch when they are
 /// not the paper's (a synthetic 10 x 10 grid).

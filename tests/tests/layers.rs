@@ -20,10 +20,13 @@ const LAYERS: &[(&str, u32)] = &[
     ("touchc-model", 1),
     // The stages, in pipeline order, and what reads a finished stimulus.
     ("touchc-input", 2),
+    // Synthetic recordings with their truth: for tests, evaluation and `touchc synth`,
+    // never for the pipeline's stages.
+    ("touchc-synth", 2),
     ("touchc-export", 2),
     ("touchc-tracking", 3),
-    // The fixtures of touchc's tests, benches and examples: recordings from the input
-    // stage's synthesiser, reference trajectories as the model's type.
+    // The fixtures of touchc's tests, benches and examples: recordings from the
+    // synthesiser, reference trajectories as the model's type.
     ("touchc-testkit", 3),
     ("touchc-placement", 4),
     ("touchc-rendering", 5),
@@ -125,4 +128,31 @@ fn the_model_imports_no_stage() {
         .filter(|(dep, _)| dep.starts_with("touchc-"))
         .collect();
     assert!(stages.is_empty(), "touchc-model depends on {stages:?}");
+}
+
+#[test]
+fn no_stage_of_the_pipeline_builds_the_synthesiser() {
+    // The stages and their driver compile real recordings only; synthetic ones are for
+    // tests (dev-dependencies), evaluation and `touchc synth`.
+    let graph = workspace_graph();
+    let stages = [
+        "touchc-input",
+        "touchc-tracking",
+        "touchc-placement",
+        "touchc-rendering",
+        "touchc-encoding",
+        "touchc-pipeline",
+    ];
+    let building: Vec<_> = stages
+        .iter()
+        .filter(|stage| {
+            graph[**stage]
+                .iter()
+                .any(|(dep, kind)| dep == "touchc-synth" && kind == "normal")
+        })
+        .collect();
+    assert!(
+        building.is_empty(),
+        "these stages depend on touchc-synth: {building:?}"
+    );
 }

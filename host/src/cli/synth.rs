@@ -7,7 +7,7 @@ use super::help::PlainEnum;
 use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::display::Shortest;
-use touchc::input::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
+use touchc_synth::{self as synth, Gesture, Mask, Sensor, SynthSpec, Tuning};
 
 /// Most noise-only frames before and after the gestures: about 1.4 h at 20 Hz, a
 /// recording of 130 MB. More would ask for memory no test recording needs.

@@ -8,11 +8,11 @@ use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::compile::CompileOptions;
 use touchc::config::Preset;
-use touchc::input::synth::Truth;
 use touchc::measure::cases::{run_case, CaseRow};
 use touchc::measure::trade::{trade, TradeRow};
 use touchc::stage::Stage;
 use touchc::viz::trade::plot_svg;
+use touchc_synth::Truth;
 
 /// Arguments of `touchc trade`.
 #[derive(Debug, clap::Args)]
@@ -229,7 +229,7 @@ fn run_cases(args: &Args) -> anyhow::Result<()> {
     let configs = configs_of(args, presets)?;
     let base = CompileOptions::default();
     let mut rows: Vec<CaseRow> = Vec::new();
-    for case in touchc::input::synth::cases::cases() {
+    for case in touchc_synth::cases::cases() {
         for seed in 1..=seeds {
             rows.extend(run_case(&case, seed, &base, &configs)?);
         }

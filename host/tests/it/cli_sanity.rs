@@ -12,7 +12,7 @@ use ndarray::Array3;
 
 fn write(dir: &Path, name: &str, rec: &Array3<f64>) -> PathBuf {
     let path = dir.join(name);
-    std::fs::write(&path, touchc::input::synth::to_npy(rec).unwrap()).unwrap();
+    std::fs::write(&path, touchc_synth::to_npy(rec).unwrap()).unwrap();
     path
 }
 

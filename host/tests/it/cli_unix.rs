@@ -365,7 +365,7 @@ fn the_thermal_limit_is_reported_once() {
         on * 2.0 * (-d2 / 4.0).exp()
     });
     let npy = dir.path().join("hold.npy");
-    std::fs::write(&npy, touchc::input::synth::to_npy(&rec).unwrap()).unwrap();
+    std::fs::write(&npy, touchc_synth::to_npy(&rec).unwrap()).unwrap();
     let out = touchc(&[
         "compile",
         s(&npy),

@@ -434,7 +434,7 @@ fn preview_of_a_recording_without_touch_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let rec_path = dir.path().join("still.npy");
     let still = ndarray::Array3::<f64>::zeros((60, 8, 21));
-    std::fs::write(&rec_path, touchc::input::synth::to_npy(&still).unwrap()).unwrap();
+    std::fs::write(&rec_path, touchc_synth::to_npy(&still).unwrap()).unwrap();
     let gif_path = dir.path().join("still.gif");
     let out = touchc(&[
         "preview",
@@ -508,11 +508,7 @@ fn preview_marks_touch_no_contact_explains_and_only_that() {
 
     let dir = tempfile::tempdir().unwrap();
     let rec_path = dir.path().join("blip.npy");
-    std::fs::write(
-        &rec_path,
-        touchc::input::synth::to_npy(&press_and_blip()).unwrap(),
-    )
-    .unwrap();
+    std::fs::write(&rec_path, touchc_synth::to_npy(&press_and_blip()).unwrap()).unwrap();
     let (w, frames, rec, compiled, layout) = preview_gif_and_compile(&rec_path);
 
     // What the picture must show, from the coverage module on the compile's own

@@ -8,8 +8,8 @@ use bin::{ok, refused, touchc};
 use touchc::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc::config::Config;
 use touchc::input::recording::Recording;
-use touchc::input::synth::{self, Gesture, SynthSpec};
 use touchc::layout::Layout;
+use touchc_synth::{self as synth, Gesture, SynthSpec};
 
 fn synth_recording(gestures: &[Gesture], seed: u64) -> Recording {
     let spec = SynthSpec {
@@ -440,7 +440,7 @@ fn compiling_an_owned_recording_gives_the_same_stimulus() {
 #[test]
 fn the_densest_scenes_encode_within_150_bytes_per_second() {
     use touchc::config::{MetadataOverrides, Preset};
-    use touchc::input::synth::Sensor;
+    use touchc_synth::Sensor;
     let blobs = Recording::from_array(
         "moving_blobs(705, 4, 42)",
         common::moving_blobs(705, 4, 42).view(),

@@ -68,7 +68,7 @@ fn a_synthetic_npz_carries_its_rate_and_compiles_at_it() {
 
     // The same array as a .npy, compiled with the rate given by hand.
     let npy = dir.path().join("c.npy");
-    std::fs::write(&npy, touchc::input::synth::to_npy(&pressure).unwrap()).unwrap();
+    std::fs::write(&npy, touchc_synth::to_npy(&pressure).unwrap()).unwrap();
     let from_npy = report(dir.path(), &npy, &["--rate", "54"]);
     assert_eq!(from_npz["duration_s"], from_npy["duration_s"]);
     let at_default = report(dir.path(), &npy, &[]);

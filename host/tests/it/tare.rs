@@ -7,8 +7,8 @@ use touchc::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc::config::{Config, Preset};
 use touchc::input::recording::Recording;
 use touchc::input::sanity::SanityWarning;
-use touchc::input::synth::{self, Gesture, SynthSpec};
 use touchc::input::warning::{ErasedBy, InputWarning};
+use touchc_synth::{self as synth, Gesture, SynthSpec};
 
 fn compiled(data: &Array3<f64>, preset: Preset) -> Compiled {
     let rec = Recording::from_array("rec", data.view()).unwrap();

@@ -5,9 +5,9 @@ use crate::common;
 use touchc::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc::config::{Config, MetadataOverrides, Preset};
 use touchc::input::recording::Recording;
-use touchc::input::synth::{self, Gesture, Sensor, SynthSpec};
 use touchc::measure::evaluate::{evaluate_compiled, Evaluation};
 use touchc::rendering::signals::Source;
+use touchc_synth::{self as synth, Gesture, Sensor, SynthSpec};
 
 /// One synthetic case: a name and its spec on `sensor`.
 struct Case {

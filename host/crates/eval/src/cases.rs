@@ -1,13 +1,13 @@
 //! Tracking and rendering measured on the synthetic cases of real touch
-//! ([`touchc_input::synth::cases`]) under each preset: one row per case, sensor, rate,
+//! ([`touchc_synth::cases`]) under each preset: one row per case, sensor, rate,
 //! seed and preset (`touchc trade --cases`, `docs/trade.md`).
 
 use serde::Serialize;
 
 use touchc_input::recording::{Recording, RecordingError};
-use touchc_input::synth::{self, cases::Case, SynthSpec};
 use touchc_model::config::{Config, MetadataOverrides, Preset};
 use touchc_pipeline::compile::{compile, CompileError, CompileOptions};
+use touchc_synth::{self as synth, cases::Case, SynthSpec};
 
 use crate::evaluate::evaluate_compiled;
 

@@ -1,4 +1,4 @@
-//! Tracking measured against the truth of a synthetic recording ([`touchc_input::synth::Truth`]):
+//! Tracking measured against the truth of a synthetic recording ([`touchc_synth::Truth`]):
 //! what the trajectories keep of the touch that was there, and what they invent.
 //!
 //! Four figures, all in sensor cells and frames of the tared recording, so sensors,
@@ -23,11 +23,11 @@ use ndarray::ArrayView3;
 use serde::Serialize;
 
 use touchc_input::recording::{Recording, RecordingError};
-use touchc_input::synth::{Truth, TruthContact, TruthPoint};
 use touchc_model::config::Sampling;
 use touchc_model::trajectory::Trajectory;
 use touchc_pipeline::compile::Compiled;
 use touchc_pipeline::coverage::{self, ContactPoint, Coverage, DEFAULT_RADIUS_CELLS};
+use touchc_synth::{Truth, TruthContact, TruthPoint};
 
 /// A trajectory follows a contact in a frame when it lies this close to the contact's
 /// centre, in cells (the radius of the coverage definition).
@@ -296,8 +296,8 @@ fn judge_track(
 mod tests {
     use super::*;
     use ndarray::Array3;
-    use touchc_input::synth::{Gesture, Sensor, TruthContact};
     use touchc_model::trajectory::Columns;
+    use touchc_synth::{Gesture, Sensor, TruthContact};
 
     fn point(frame: usize, row: f64, col: f64, pressure_psi: f64) -> TruthPoint {
         TruthPoint {

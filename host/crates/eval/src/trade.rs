@@ -19,11 +19,11 @@ use crate::evaluate::evaluate_compiled;
 use touch_protocol::CHANNELS;
 use touchc_encoding::keyframes::KeyframeOptions;
 use touchc_input::recording::Recording;
-use touchc_input::synth::Truth;
 use touchc_model::config::{Config, Preset};
 use touchc_model::geometry::pixel_centre_mm;
 use touchc_model::stage::{Stage, StageSeconds};
 use touchc_pipeline::compile::{compile, CompileError, CompileOptions, Compiled};
+use touchc_synth::Truth;
 use touchc_tracking::track::TrackOutput;
 
 /// One preset's row of the trade table.

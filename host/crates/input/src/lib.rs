@@ -1,7 +1,7 @@
-//! Stage 0, the input: a recording loaded from disk and tared ([`recording`]), the
-//! warnings for recordings that compile but probably mean something else ([`sanity`]),
-//! and synthetic recordings with their truth for running the chain without a sleeve
-//! ([`synth`]).
+//! Stage 0, the input: a recording loaded from disk and tared ([`recording`]), and the
+//! warnings for recordings that compile but probably mean something else ([`sanity`]).
+//! Synthetic recordings live in their own crate, `touchc-synth`, which nothing in the
+//! pipeline depends on.
 //!
 //! Hands on: tared frames `[T, rows, cols]` in psi at the sensor rate, NaN = no cell.
 
@@ -9,5 +9,4 @@
 
 pub mod recording;
 pub mod sanity;
-pub mod synth;
 pub mod warning;

@@ -335,7 +335,7 @@ pub(crate) const TIME_LAST_RATIO: usize = 4;
 /// line shows the frames and grid read.
 pub fn transposed(shape: (usize, usize, usize)) -> Option<InputWarning> {
     let (a, b, c) = shape;
-    let sleeve = (crate::synth::ROWS, crate::synth::COLS);
+    let sleeve = touchc_model::geometry::PAPER_GRID;
     let reason = if c >= TIME_LAST_RATIO * a.max(b) {
         TransposedBy::LastAxisLongest
     } else if (a, b) == sleeve {

@@ -5,6 +5,10 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The published sleeve sensor's grid, `(rows, cols)` of one-inch cells: the public data
+/// set pads every frame to it, with NaN outside the sleeve.
+pub const PAPER_GRID: (usize, usize) = (8, 21);
+
 /// Centre of upsampled pixel `(row, col)` in mm, as `(x, y)`.
 ///
 /// `pitch_mm` is the cell pitch divided by the upsampling factor (25.4 / 7 on the

@@ -2,7 +2,7 @@
 //! the benches.
 
 use ndarray::Array3;
-use touchc_input::synth::{self, Gesture, Mask, Sensor, SynthSpec, Tuning};
+use touchc_synth::{self as synth, Gesture, Mask, Sensor, SynthSpec, Tuning};
 
 use crate::rng::Xorshift;
 

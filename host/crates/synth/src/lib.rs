@@ -16,6 +16,8 @@
 //! flicker and recordings that begin or end mid-touch. [`generate_with_truth`] also says
 //! where every contact was, frame by frame ([`Truth`], `touchc synth --truth`).
 
+#![deny(missing_docs)]
+
 use ndarray::Array3;
 use serde::{Deserialize, Serialize};
 
@@ -27,9 +29,9 @@ use contacts::*;
 use gestures::gesture;
 
 /// Rows of the published sensor frame.
-pub(crate) const ROWS: usize = 8;
+pub(crate) const ROWS: usize = touchc_model::geometry::PAPER_GRID.0;
 /// Columns of the published sensor frame.
-pub(crate) const COLS: usize = 21;
+pub(crate) const COLS: usize = touchc_model::geometry::PAPER_GRID.1;
 
 /// A gesture the generator can produce.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -423,7 +425,7 @@ pub enum NpzWriteError {
 
 /// The bytes of a numpy `.npz` archive (`np.savez`'s layout: stored members named
 /// `<key>.npy`) holding `recording` as `pressure` and the sampling as the scalars
-/// `rate_hz` and `pitch_mm`, where [`crate::recording::Recording::load`] and
+/// `rate_hz` and `pitch_mm`, where `touchc_input::recording::Recording::load` and
 /// `np.load` find them: the file compiles at its own rate without `--rate`.
 pub fn to_npz(
     recording: &Array3<f64>,
@@ -526,13 +528,13 @@ mod tests {
                 &[Gesture::Stroke],
                 7,
                 Mask::Cells142,
-                include_bytes!("../../../../../examples/stroke.npy"),
+                include_bytes!("../../../../examples/stroke.npy"),
             ),
             (
                 &[Gesture::Tap, Gesture::Pat],
                 11,
                 Mask::Cells142,
-                include_bytes!("../../../../../examples/tap_pat.npy"),
+                include_bytes!("../../../../examples/tap_pat.npy"),
             ),
         ];
         for (gestures, seed, mask, bytes) in cases {

@@ -1,7 +1,7 @@
 //! The contacts of a synthetic recording: how each gesture moves and presses, frame by
 //! frame, with the sensor's flicker.
 
-use super::*;
+use super::{Gesture, Sensor, SynthSpec, COLS, ROWS};
 
 /// Pause between gestures, seconds (10 frames at the sleeve's 20 Hz).
 pub(super) const PAUSE_S: f64 = 0.5;
