@@ -24,18 +24,19 @@ const LAYERS: &[(&str, u32)] = &[
     // never for the pipeline's stages.
     ("touchc-synth", 2),
     ("touchc-export", 2),
-    ("touchc-tracking", 3),
-    // The fixtures of touchc's tests, benches and examples: recordings from the
-    // synthesiser, reference trajectories as the model's type.
+    // The fixtures of the tests, benches and examples: recordings from the
+    // synthesiser, reference trajectories as the model's type. Below the stages, so
+    // each stage's own tests can use them.
     ("touchc-testkit", 3),
-    ("touchc-placement", 4),
-    ("touchc-rendering", 5),
-    ("touchc-encoding", 6),
+    ("touchc-tracking", 4),
+    ("touchc-placement", 5),
+    ("touchc-rendering", 6),
+    ("touchc-encoding", 7),
     // The one driver of the stages, then what measures it.
-    ("touchc-pipeline", 7),
-    ("touchc-eval", 8),
+    ("touchc-pipeline", 8),
+    ("touchc-eval", 9),
     // The command line and its pictures.
-    ("touchc", 9),
+    ("touchc", 10),
 ];
 
 fn workspace_graph() -> BTreeMap<String, Vec<(String, String)>> {

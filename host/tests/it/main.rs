@@ -1,8 +1,8 @@
 //! The host's integration tests, one binary: a change to the library relinks one test
 //! executable, not one per file. Each module is a group of tests that used to be a file
 //! of its own; the fixtures are the test kit's (`touchc-testkit`, shared with the
-//! benches, examples and fuzz targets), `common` its root. proptest keeps its
-//! regression seeds in `../proptest-regressions/`.
+//! benches, examples and fuzz targets), `common` its root. The layer crates' own tests
+//! (oracles, reference placements) live in those crates: `cargo test -p touchc-<layer>`.
 
 use touchc_testkit as common;
 use touchc_testkit::{fuzz_input, poison, stimuli};
@@ -26,8 +26,6 @@ mod bin {
     }
 }
 
-mod blur;
-mod bnb_oracle;
 mod bounded;
 mod cli;
 mod cli_files;
@@ -40,18 +38,14 @@ mod cli_trade;
 mod cli_unix;
 mod cli_viz;
 mod compile;
-mod detect;
 mod emoji_bank;
 mod export;
 mod extremes;
-mod flow;
 mod knobs;
 mod layout_guess;
 mod library_words;
-mod placement_oracle;
 mod pictures;
 mod playback;
-mod placement_reference;
 mod plot_png;
 mod poisoned;
 mod recording;

@@ -49,7 +49,7 @@ impl BitSet {
 ///
 /// `masks[i]` has bit `a` set when left vertex `i` may use workspace `a`. Kuhn's
 /// augmenting paths; at most 32 workspaces, so the matching fits in a small array.
-pub fn has_matching(masks: &[u32]) -> bool {
+pub(crate) fn has_matching(masks: &[u32]) -> bool {
     if masks.len() > 32 {
         return false;
     }
@@ -135,11 +135,6 @@ impl SubsetProblem {
         self.weights.len()
     }
 
-    /// True when there are no vertices.
-    pub fn is_empty(&self) -> bool {
-        self.weights.is_empty()
-    }
-
     /// Forbids choosing both `a` and `b` (two trajectories alone in one workspace at once).
     ///
     /// # Panics
@@ -161,7 +156,8 @@ impl SubsetProblem {
     }
 
     /// Summed weight of `chosen`, in the order given (ascending for the canonical value).
-    pub fn objective(&self, chosen: &[usize]) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn objective(&self, chosen: &[usize]) -> f64 {
         chosen
             .iter()
             .map(|&i| self.weights[i])
@@ -169,7 +165,8 @@ impl SubsetProblem {
     }
 
     /// True when `chosen` violates no conflict and every group has a matching.
-    pub fn is_feasible(&self, chosen: &[usize]) -> bool {
+    #[cfg(test)]
+    pub(crate) fn is_feasible(&self, chosen: &[usize]) -> bool {
         let mut set = BitSet::new(self.len());
         for &i in chosen {
             set.insert(i);
@@ -193,7 +190,8 @@ impl SubsetProblem {
 
     /// The exact optimum, ascending; see the module docs for the tie rule. Unbounded
     /// work: for tests and oracles. The pipeline calls `SubsetProblem::solve_within`.
-    pub fn solve(&self) -> Vec<usize> {
+    #[cfg(test)]
+    pub(crate) fn solve(&self) -> Vec<usize> {
         self.solve_within(u64::MAX).chosen
     }
 
@@ -285,7 +283,8 @@ impl SubsetProblem {
 
     /// Exhaustive search with the same tie rule as [`SubsetProblem::solve`]; exponential,
     /// kept public as the reference that tests and benches compare the solver against.
-    pub fn solve_brute_force(&self) -> Vec<usize> {
+    #[cfg(test)]
+    pub(crate) fn solve_brute_force(&self) -> Vec<usize> {
         let n = self.len();
         assert!(n <= 24, "brute force is for small instances");
         let mut best: Option<(f64, Vec<usize>)> = None;

@@ -3,9 +3,9 @@
 //!
 //! For every transform of the published grid this stage finds which trajectory points lie
 //! in which workspace circle, chooses the best compatible subset of trajectories
-//! ([`crate::bnb`]), and scores the transform; the lowest score wins, ties going to the
+//! (the exact branch-and-bound of `bnb.rs`), and scores the transform; the lowest score wins, ties going to the
 //! first transform in grid order. It reproduces the authors' published code score for
-//! score (pinned against its outputs in `tests/placement_reference.rs`), with two
+//! score (pinned against its outputs in `tests/reference.rs`), with two
 //! deliberate differences: the subset is exact (the published code uses ECOS_BB, which
 //! stops at a 0.1 % gap) and ties between subsets follow a documented rule.
 //!
@@ -25,7 +25,7 @@
 
 #![deny(missing_docs)]
 
-pub mod bnb;
+mod bnb;
 
 mod grid;
 mod scoring;
@@ -430,3 +430,6 @@ mod tests {
         ));
     }
 }
+
+#[cfg(test)]
+mod oracles;

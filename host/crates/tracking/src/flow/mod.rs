@@ -245,7 +245,7 @@ pub fn min_cost_flow(
 /// [`min_cost_flow`] that stops once `budget` edges have been scanned (the two first
 /// passes always run): the solution is then the min-cost flow of the units found, with
 /// `budget_reached` set.
-pub fn min_cost_flow_within(
+pub(crate) fn min_cost_flow_within(
     g: &FlowGraph,
     source: usize,
     sink: usize,
@@ -540,6 +540,9 @@ fn decompose(
 }
 
 mod parts;
+
+#[cfg(test)]
+mod oracle;
 
 pub use parts::min_cost_flow_by_parts;
 

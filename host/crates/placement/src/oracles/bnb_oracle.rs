@@ -3,9 +3,9 @@
 //! `microlp` (objectives must be equal; ILP ties are arbitrary). Hall matching against
 //! Hall's condition checked subset by subset.
 
+use crate::bnb::{has_matching, SubsetProblem};
 use good_lp::{microlp, variable, variables, Expression, Solution, SolverModel};
 use proptest::prelude::*;
-use touchc::placement::bnb::{has_matching, SubsetProblem};
 
 /// Hall's condition by brute force: every subset needs as many workspaces as members.
 fn hall(masks: &[u32]) -> bool {

@@ -2,16 +2,16 @@
 //! (`tests/data/reference/*.reference.json`): every one of the
 //! 4,200 transform scores, the chosen transform and the selected trajectories.
 
-use crate::common;
+use touchc_testkit as common;
 
 use common::Reference;
-use touchc::config::{CoarseToFine, Config, Preset};
-use touchc::layout::Layout;
-use touchc::placement::place;
+use touchc_model::config::{CoarseToFine, Config, Preset};
+use touchc_model::layout::Layout;
+use touchc_placement::place;
 
 fn check(name: &str) {
     let r = Reference::load(name);
-    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
+    let cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
     let k = cfg.preprocess.upsample;
     let trajs = r.trajectories();
     for (t, rt) in trajs.iter().zip(&r.trajectories) {
@@ -86,7 +86,7 @@ fn tap_pat_200_matches_the_published_code() {
 fn coarse_to_fine_finds_the_published_winner() {
     for name in ["stroke_60", "tap_pat_200"] {
         let r = Reference::load(name);
-        let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
+        let cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
         let k = cfg.preprocess.upsample;
         let (rows, cols) = (r.tared_shape[1] * k, r.tared_shape[2] * k);
         let fast = Config::preset(Preset::Fast).placement;

@@ -4,13 +4,13 @@
 //! by exhaustive search. Scores must agree bit for bit. Costs are small binary fractions
 //! so that sums are exact and ties between subsets (common in real data) are exercised.
 
+use crate::bnb::SubsetProblem;
+use crate::{place, transform_grid};
 use proptest::prelude::*;
-use touchc::config::PlacementConfig;
-use touchc::geometry::pixel_centre_mm;
-use touchc::layout::Layout;
-use touchc::placement::bnb::SubsetProblem;
-use touchc::placement::{place, transform_grid};
-use touchc::trajectory::{Columns, Trajectory};
+use touchc_model::config::PlacementConfig;
+use touchc_model::geometry::pixel_centre_mm;
+use touchc_model::layout::Layout;
+use touchc_model::trajectory::{Columns, Trajectory};
 
 const ROWS: usize = 56;
 const COLS: usize = 147;

@@ -1,12 +1,12 @@
 //! The matrix-product blur against scipy's documented numbers and a direct 2-D oracle.
 
-use crate::common;
+use touchc_testkit as common;
 
 use ndarray::{Array2, ArrayView2};
 use proptest::prelude::*;
-use touchc::config::PreprocessConfig;
-use touchc::config::Sampling;
-use touchc::tracking::preprocess::{gaussian_kernel, Blur, BlurOperator};
+use touchc_model::config::PreprocessConfig;
+use touchc_model::config::Sampling;
+use touchc_tracking::preprocess::{gaussian_kernel, Blur, BlurOperator};
 
 /// scipy 'reflect', by bouncing off the ends until inside (independent of the crate's
 /// modular formula).

@@ -2,7 +2,7 @@
 
 use ndarray::Array2;
 use proptest::prelude::*;
-use touchc::tracking::detect::local_maxima;
+use touchc_tracking::detect::local_maxima;
 
 /// The plateau rule of `local_maxima`, pixel by pixel: every pixel at least level with
 /// its 3 x 3 neighbourhood's maximum (outside counts as 0) and above `min_value`; its
@@ -10,7 +10,7 @@ use touchc::tracking::detect::local_maxima;
 /// is lower beyond level, or else its top is above the frame minimum beyond level; it
 /// is reported at its pixel nearest its centroid, then the higher, then the first.
 fn naive(f: &Array2<f64>, min_value: f64) -> Vec<(usize, usize, f64)> {
-    let tol = touchc::tracking::detect::LEVEL_TOLERANCE;
+    let tol = touchc_tracking::detect::LEVEL_TOLERANCE;
     let level = |a: f64, b: f64| (a - b).abs() <= tol * a.abs().max(b.abs());
     let (h, w) = f.dim();
     let fmin = f.iter().cloned().fold(f64::INFINITY, f64::min);

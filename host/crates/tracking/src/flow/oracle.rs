@@ -1,9 +1,7 @@
 //! The successive-shortest-path solver against brute force on small random DAGs.
 
+use super::{min_cost_flow, min_cost_flow_by_parts, min_cost_flow_within, FlowGraph, FlowSolution};
 use proptest::prelude::*;
-use touchc::tracking::flow::{
-    min_cost_flow, min_cost_flow_by_parts, min_cost_flow_within, FlowGraph, FlowSolution,
-};
 
 /// Cheapest feasible unit-capacity flow of value <= max_units, by trying every edge set.
 fn brute_force(n: usize, edges: &[(usize, usize, f64)], max_units: usize) -> f64 {
