@@ -1,6 +1,6 @@
-//! The target build's inputs, each from inside this crate: `memory.x` (the memory map)
-//! and `emoji.bank` (the built-in bank, included by `src/hw/mod.rs`) are copied into
-//! `OUT_DIR`, which goes on the linker's search path, where cortex-m-rt's `link.x`
+//! The target build's inputs: the workspace's `memory.x` (the memory map, at the root,
+//! shared with the QEMU test) and this crate's `emoji.bank` (the built-in bank, included
+//! by `src/hw/mod.rs`) are copied into `OUT_DIR`, which goes on the linker's search path, where cortex-m-rt's `link.x`
 //! finds `memory.x`; then `link.x` and defmt's `defmt.x`. With the feature
 //! `default-bank` the bank named by `SLEEVE_DEFAULT_BANK` is copied there too. Host
 //! builds (the logic's tests) need none of it.
@@ -9,22 +9,23 @@ use std::fmt::Display;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-/// The crate's files the target build takes, and their names in `OUT_DIR`.
-const INPUTS: [&str; 2] = ["memory.x", "emoji.bank"];
+/// The files the target build takes (from this crate's folder) and their names in
+/// `OUT_DIR`.
+const INPUTS: [(&str, &str); 2] = [("../memory.x", "memory.x"), ("emoji.bank", "emoji.bank")];
 
 fn main() {
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("set by cargo"));
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("set by cargo"));
-    for name in INPUTS {
-        println!("cargo:rerun-if-changed={name}");
+    for (path, _) in INPUTS {
+        println!("cargo:rerun-if-changed={path}");
     }
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=SLEEVE_DEFAULT_BANK");
     if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("none") {
         return;
     }
-    for name in INPUTS {
-        copy(&manifest.join(name), &out.join(name));
+    for (path, name) in INPUTS {
+        copy(&manifest.join(path), &out.join(name));
     }
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
@@ -45,7 +46,7 @@ fn main() {
     }
 }
 
-/// Copies one of the crate's own files; a missing one is a broken checkout.
+/// Copies one of the checkout's files; a missing one is a broken checkout.
 fn copy(from: &Path, to: &Path) {
     if let Err(e) = fs::copy(from, to) {
         fail(format_args!(

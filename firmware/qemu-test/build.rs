@@ -1,6 +1,7 @@
 //! Makes the test bank with the protocol crate's encoder, plays every slot with the
 //! host's player, and writes the bank and the expected tick counts and code hashes
-//! for the target to check against. Links with the firmware's `memory.x`.
+//! for the target to check against. Links with the workspace's
+//! `memory.x`, as the firmware does.
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -121,12 +122,11 @@ fn main() {
         .join("..")
         .canonicalize()
         .expect("the firmware crate");
-    println!("cargo:rustc-link-search={}", firmware.display());
+    // The workspace root holds the one memory.x.
+    let root = firmware.join("..");
+    println!("cargo:rustc-link-search={}", root.display());
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
-    println!(
-        "cargo:rerun-if-changed={}",
-        firmware.join("memory.x").display()
-    );
+    println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-changed=../../protocol/src");
 

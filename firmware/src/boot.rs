@@ -159,7 +159,7 @@ mod tests {
     #[test]
     fn bank_region_matches_memory_x() {
         use touch_protocol::bank::{REGION_ADDR, REGION_LEN};
-        let text = include_str!("../memory.x");
+        let text = include_str!("../../memory.x");
         let line = text
             .lines()
             .find(|l| l.trim_start().starts_with("BANK"))

@@ -21,16 +21,6 @@ fn same(truth: &str, copy: &str, how: &str) {
     );
 }
 
-/// The memory map: the firmware and its QEMU test link with `firmware/memory.x`.
-#[test]
-fn root_memory_x_is_the_firmwares() {
-    same(
-        "firmware/memory.x",
-        "memory.x",
-        "edit firmware/memory.x (the one the firmware links with), then copy it to the root",
-    );
-}
-
 /// The built-in bank: `examples/emoji/build.sh` makes it, the firmware carries a copy.
 #[test]
 fn firmware_emoji_bank_is_the_examples() {

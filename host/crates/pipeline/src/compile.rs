@@ -1,7 +1,8 @@
 //! The whole chain, recording to stimulus file: stages 0 to 7 in order, timed.
 //!
-//! Each stage lives in its own module; this one only hands each stage's output to
-//! the next, measures it, and gathers the figures of the [`Report`].
+//! Each stage lives in its own crate (`touchc-input` to `touchc-encoding`); this module
+//! only hands each stage's output to the next, measures it, and gathers the figures of
+//! the [`Report`].
 
 use ndarray::Array3;
 

@@ -1,5 +1,5 @@
-//! Stage 3: trajectories by min-cost flow over the detections (Zhang, Li, Nevatia 2008),
-//! and `track`, the pipeline entry for stages 0 to 3.
+//! Stage 3: trajectories by min-cost flow over the detections (Zhang, Li, Nevatia 2008)
+//! ([`link`]); `touchc-pipeline`'s `track` runs stages 0 to 3 with it.
 //!
 //! Graph layout, matching the published code's node and edge order (it decides ties):
 //! source = node 0; detection `k` (frame-major, row-major) has an entry node `2k + 1` and
