@@ -1,0 +1,317 @@
+"""The sleeve's USB socket on the twin: the OTG FS model's own checks, then the
+release ELF built with USB (`TWIN_ELF`) enumerated by the scripted host and the link
+carried over its bulk endpoints.
+
+Run by `firmware/twin/run.sh test_usb` (ci.sh runs it on the usb build).
+"""
+
+import os
+import struct
+import unittest
+import zlib
+
+import link
+import otg_fs
+import twin
+import usb_host
+from test_twin import ELF, MS, SCRATCH, CODES, Host, bare_board, codes, expected, find, first_frame_after, upload
+
+import subprocess
+
+O = otg_fs
+UID = bytes(range(0x30, 0x3C))  # a 96-bit unique ID (RM0090 39.1) for the board under test
+TICK_BUDGET = 10_000
+
+
+def has_usb():
+    """The ELF handles OTG_FS's interrupt, not the default handler."""
+    segments, symbols = twin.load_elf(ELF)
+    for addr, data in segments:
+        if addr == twin.FLASH_BASE:
+            at = 4 * (16 + O.IRQ)
+            vector = int.from_bytes(data[at:at + 4], "little") & ~1
+            return vector != symbols.get("DefaultHandler", -1) & ~1
+    return False
+
+
+def usb_board(uid=UID, plug_at=0.05, bank=None, erase=False):
+    """The ELF on a board with its OTG FS, a host on its port, the cable plugged."""
+    b = twin.Board(ELF)
+    if bank is not None:
+        b.set_bank(bank)
+    elif erase:
+        b.set_bank(b"")
+    otg_fs.write_uid(b, uid)
+    otg = b.attach(otg_fs.OtgFs(b))
+    h = usb_host.UsbHost(b, otg)
+    b.at(plug_at, lambda _: h.plug(True))
+    return b, otg, h
+
+
+class UsbLink(Host):
+    """test_twin's link host, over the CDC-ACM port instead of USART2."""
+
+    def __init__(self, board, usb):
+        super().__init__(board)
+        self.u = usb
+
+
+# ----------------------------------------------------------------- the model
+
+
+class OtgModel(unittest.TestCase):
+    """The model against RM0090's programming model, register by register."""
+
+    def setUp(self):
+        b = self.b = bare_board()
+        b.poke(0x4002_3834, 1 << 7)  # RCC_AHB2ENR.OTGFSEN
+        self.o = b.attach(O.OtgFs(b))
+
+    def w(self, off, v):
+        self.o.write(off, v)
+
+    def r(self, off):
+        return self.o.read(off)
+
+    def m(self, off, bits):
+        """Read-modify-write, as the driver changes a register."""
+        self.o.write(off, self.o.read(off) | bits)
+
+    def connect(self):
+        """PHY on with VBUS sensing, cable in, session valid, pull-up on."""
+        self.w(O.GCCFG, 1 << 16 | 1 << 19)
+        self.w(O.GAHBCFG, 1)
+        self.o.set_vbus(True)
+        self.b.run(2 * O.SESSION_S)
+        self.assertTrue(self.o.connected())
+
+    def test_vbus_sensing_raises_srqint_then_sedet(self):
+        self.w(O.GCCFG, 1 << 16 | 1 << 19)
+        self.w(O.GINTMSK, O.SRQINT | O.OTGINT)
+        self.w(O.GAHBCFG, 1)
+        self.assertFalse(self.o.connected())
+        self.o.set_vbus(True)
+        self.assertEqual(self.b.gpio[0].level(9), 1, "VBUS is on PA9")
+        self.b.run(2 * O.SESSION_S)
+        self.assertTrue(self.r(O.GINTSTS) & O.SRQINT)
+        self.assertTrue(self.r(O.GOTGCTL) & 1 << 19, "B-session valid")
+        self.assertTrue(self.o.irq_line())
+        self.w(O.GINTSTS, O.SRQINT)
+        self.assertFalse(self.o.irq_line(), "SRQINT is rc_w1")
+        self.w(O.DCTL, 2)
+        self.assertFalse(self.o.connected(), "SDIS holds D+ low")
+        self.w(O.DCTL, 0)
+        self.assertTrue(self.o.connected())
+        self.o.set_vbus(False)
+        self.b.run(2 * O.SESSION_S)
+        self.assertTrue(self.r(O.GOTGINT) & 1 << 2, "SEDET")
+        self.assertTrue(self.r(O.GINTSTS) & O.OTGINT)
+        self.w(O.GOTGINT, 1 << 2)
+        self.assertFalse(self.r(O.GINTSTS) & O.OTGINT)
+        self.assertFalse(self.o.connected())
+
+    def test_setup_goes_through_the_rx_fifo_with_its_status_entries(self):
+        self.connect()
+        self.w(O.GRXFSIZ, 64)
+        self.w(O.DOEPMSK, O.STUP)
+        self.w(O.DAINTMSK, 1 << 16)
+        self.w(O.GINTMSK, O.RXFLVL | O.OEPINT)
+        self.o.bus_reset()
+        self.assertTrue(self.r(O.GINTSTS) & O.USBRST)
+        self.assertIsNone(self.o.setup(0, bytes(8)), "no answer during the reset")
+        self.o.reset_done()
+        self.assertTrue(self.r(O.GINTSTS) & O.ENUMDNE)
+        self.assertIsNone(self.o.setup(3, bytes(8)), "not its address")
+        self.assertEqual(self.o.setup(0, bytes([0x80, 6, 0, 1, 0, 0, 18, 0])), "ACK")
+        self.assertTrue(self.r(O.GINTSTS) & O.RXFLVL)
+        st = self.r(O.GRXSTSP)
+        self.assertEqual((st & 0xF, st >> 4 & 0x7FF, st >> 17 & 0xF), (0, 8, O.SETUP_DATA))
+        self.assertEqual(self.r(0x1000), 0x0100_0680)
+        self.assertEqual(self.r(0x1000), 0x0012_0000)
+        self.assertFalse(self.r(0xB08) & O.STUP, "STUP waits for the SETUP-done entry")
+        st = self.r(O.GRXSTSP)
+        self.assertEqual(st >> 17 & 0xF, O.SETUP_DONE)
+        self.assertFalse(self.r(O.GINTSTS) & O.RXFLVL)
+        self.assertTrue(self.r(0xB08) & O.STUP)
+        self.assertEqual(self.r(O.DAINT), 1 << 16)
+        self.assertTrue(self.r(O.GINTSTS) & O.OEPINT)
+        self.w(0xB08, O.STUP)
+        self.assertFalse(self.r(O.GINTSTS) & O.OEPINT)
+
+    def test_in_packets_come_from_the_tx_fifo_with_their_toggle(self):
+        self.connect()
+        self.w(O.DIEPTXF0, 16 << 16 | 32)
+        self.w(O.DIEPMSK, O.XFRC)
+        self.w(O.DAINTMSK, 1)
+        self.o.setup(0, bytes(8))
+        self.assertEqual(self.o.in_(0, 0), "NAK", "nothing armed")
+        self.assertEqual(self.r(0x918), 16, "DTXFSTS: the whole FIFO free")
+        self.w(0x910, 1 << 19 | 6)  # one packet, 6 bytes
+        self.m(0x900, O.EPENA | O.CNAK)
+        self.w(0x1000, 0x6463_6261)
+        self.assertEqual(self.o.in_(0, 0), "NAK", "the packet is not all in the FIFO")
+        self.w(0x1000, 0x0000_6665)
+        self.assertEqual(self.r(0x918), 14)
+        self.assertEqual(self.o.in_(0, 0), ("DATA", 1, b"abcdef"), "DATA1 after a SETUP")
+        self.assertTrue(self.r(0x908) & O.XFRC)
+        self.assertFalse(self.r(0x900) & O.EPENA, "the transfer is done")
+        self.assertTrue(self.r(O.GINTSTS) & O.IEPINT)
+        self.assertEqual(self.o.in_(0, 0), "NAK")
+
+    def test_bulk_out_toggles_nak_and_drop_a_repeated_pid(self):
+        self.connect()
+        self.w(O.GRXFSIZ, 64)
+        self.w(0xB20, O.USBAEP | 2 << 18 | 64 | O.SD0PID)  # EP1 OUT, bulk, 64 bytes
+        self.w(0xB30, 1 << 19 | 64)
+        self.assertEqual(self.o.out(0, 1, b"x", 0), "NAK", "NAK until cleared")
+        self.m(0xB20, O.CNAK | O.EPENA)
+        self.assertEqual(self.o.out(0, 1, b"hi", 0), "ACK")
+        self.assertEqual(self.r(0xB20) >> 16 & 1, 1, "DPID now DATA1")
+        self.assertEqual(self.o.out(0, 1, b"hi", 0), "NAK", "a short packet ends the transfer")
+        st = self.r(O.GRXSTSP)
+        self.assertEqual((st & 0xF, st >> 4 & 0x7FF, st >> 17 & 0xF), (1, 2, O.OUT_DATA))
+        self.assertEqual(self.r(0x1000) & 0xFFFF, 0x6968)
+        self.assertEqual(self.r(O.GRXSTSP) >> 17 & 0xF, O.OUT_DONE)
+        self.assertTrue(self.r(0xB28) & O.XFRC)
+        self.w(0xB30, 1 << 19 | 64)
+        self.m(0xB20, O.CNAK)
+        self.assertEqual(self.o.out(0, 1, b"again", 0), "ACK", "DATA0 again: a retransmission")
+        self.assertFalse(self.r(O.GINTSTS) & O.RXFLVL, "acknowledged and dropped")
+        self.m(0xB20, O.SD0PID)
+        self.assertEqual(self.o.out(0, 1, b"new", 0), "ACK")
+        self.assertTrue(self.r(O.GINTSTS) & O.RXFLVL, "after SD0PID, DATA0 is new data")
+
+    def test_the_interrupt_line_needs_gint_and_the_mask(self):
+        self.w(O.GCCFG, 1 << 16 | 1 << 19)
+        self.o.set_vbus(True)
+        self.b.run(2 * O.SESSION_S)
+        self.assertFalse(self.o.irq_line(), "GAHBCFG.GINT clear")
+        self.w(O.GAHBCFG, 1)
+        self.assertFalse(self.o.irq_line(), "SRQINT masked")
+        self.w(O.GINTMSK, O.SRQINT)
+        self.assertTrue(self.o.irq_line())
+
+    def test_a_new_address_answers_after_the_status_stage(self):
+        self.connect()
+        self.w(O.DIEPTXF0, 16 << 16 | 32)
+        self.o.setup(0, bytes([0, 5, 7, 0, 0, 0, 0, 0]))
+        self.w(O.DCFG, 7 << 4)
+        self.w(0x910, 1 << 19)
+        self.m(0x900, O.EPENA | O.CNAK)
+        self.assertEqual(self.o.in_(7, 0), None, "the status stage is still at address 0")
+        self.assertEqual(self.o.in_(0, 0), ("DATA", 1, b""))
+        self.assertEqual(self.o.setup(7, bytes(8)), "ACK")
+
+
+# ------------------------------------------------------------ the usb build
+
+
+def needs_usb(cls):
+    return unittest.skipUnless(has_usb(), "this ELF has no USB (no OTG_FS handler)")(cls)
+
+
+@needs_usb
+class Enumeration(unittest.TestCase):
+    """Plugged in, the sleeve enumerates as a CDC-ACM port that says what it is."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.b, cls.otg, cls.h = usb_board()
+        cls.h.port_ready(timeout=1.0)
+        cls.link = UsbLink(cls.b, cls.h)
+
+    def test_the_device_descriptor(self):
+        d = self.h.descriptors["device"]
+        self.assertEqual(len(d), 18)
+        bcd, cls_, sub, proto, mps0, vid, pid = struct.unpack_from("<HBBBBHH", d, 2)
+        self.assertEqual((cls_, sub, proto), (0xEF, 2, 1), "IAD: miscellaneous class")
+        self.assertEqual(mps0, 64)
+        self.assertEqual((vid, pid), (0x1209, 0x0001))
+        self.assertEqual(d[17], 1, "one configuration")
+
+    def test_the_configuration_is_cdc_acm_with_its_endpoints(self):
+        cfg = self.h.descriptors["configuration"]
+        self.assertEqual(struct.unpack_from("<H", cfg, 2)[0], len(cfg))
+        ifaces = [cfg[i:i + 9] for i in range(len(cfg)) if cfg[i:i + 2] == b"\x09\x04"]
+        self.assertEqual([(x[5], x[6]) for x in ifaces], [(2, 2), (10, 0)], "CDC ACM control, CDC data")
+        eps = sorted(self.h.endpoints())
+        self.assertEqual(eps, [(0x01, 2, 64), (0x81, 3, 8), (0x82, 2, 64)])
+
+    def test_self_powered_drawing_nothing_from_vbus(self):
+        cfg = self.h.descriptors["configuration"]
+        self.assertEqual(cfg[7] & 0xC0, 0xC0, "bmAttributes: self-powered")
+        self.assertLessEqual(cfg[8], 50, "bMaxPower: 100 mA or less (the sleeve has its own supply)")
+
+    def test_the_strings_say_what_it_is_and_which_one(self):
+        d = self.h.descriptors["device"]
+        self.assertEqual(self.h.strings[d[14]], "touchc")
+        self.assertEqual(self.h.strings[d[15]], "touchc sleeve")
+        self.assertTrue(d[16], "a serial number string")
+        self.assertEqual(self.h.strings[d[16]], UID.hex().upper())
+
+    def test_the_serial_number_is_the_boards_own(self):
+        b, _, h = usb_board(uid=bytes(range(0xA0, 0xAC)))
+        h.port_ready(timeout=1.0)
+        d = h.descriptors["device"]
+        self.assertEqual(h.strings[d[16]], bytes(range(0xA0, 0xAC)).hex().upper())
+
+    def test_configured_within_half_a_second_of_vbus(self):
+        t = (self.h.configured_at - round(0.05 * twin.T_HZ)) / MS
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nenumeration: configured {t:.1f} ms after VBUS")
+        self.assertLess(t, 500)
+        self.assertEqual(self.otg.errors, [])
+
+    def test_requests_over_bulk(self):
+        m, _ = self.link.ok(link.hello)
+        self.assertEqual(m["version"], 1)
+        self.link.ok(link.request, "Info")
+        self.link.ok(link.status)
+
+    def test_a_reply_of_several_packets_ends_short_or_with_a_zlp(self):
+        h = self.h
+        before = len(h.in_packets)
+        m, _ = self.link.ok(link.request, "BankRead", link.varint(0), link.varint(link.MAX_CHUNK))
+        sizes = [n for _, n in h.in_packets[before:]]
+        self.assertGreaterEqual(len(sizes), 5, "256 bytes of bank and the frame: 5 packets or more")
+        self.assertTrue(all(n == 64 for n in sizes[:-1]))
+        self.assertLess(sizes[-1], 64, "the last packet is short (or a zero-length one)")
+        # Requests packed back to back into 64-byte OUT packets, and split across them.
+        before = len(self.link.messages)
+        burst = b"".join(link.hello(900 + i) for i in range(20))
+        h.send(burst)
+        self.link.pump(0.05)
+        replies = [m for _, m in self.link.messages[before:] if m["kind"] == "reply"]
+        self.assertEqual([m["seq"] for m in replies], list(range(900, 920)))
+        self.assertEqual(h.dropped, [])
+
+
+@needs_usb
+class DataToggles(unittest.TestCase):
+    """USB 2.0 9.4.5 and 9.1.1.5: after SET_CONFIGURATION and after
+    CLEAR_FEATURE(ENDPOINT_HALT), an endpoint's next packet is DATA0. A host that
+    sends them must lose no request."""
+
+    def scenario(self, request):
+        b, otg, h = usb_board()
+        h.port_ready(timeout=1.0)
+        lk = UsbLink(b, h)
+        # One request of one packet each way: both bulk toggles now at DATA1.
+        lk.ok(link.hello)
+        box = h.control(request(h))
+        while not box:
+            b.run(0.0005)
+        self.assertIsNone(box[0])
+        for _ in range(3):
+            m, _ = lk.ok(link.status, timeout=0.2)
+            self.assertEqual(m["reply"], "Status")
+        self.assertEqual(h.dropped, [], "no IN packet dropped for its PID")
+
+    def test_a_repeated_set_configuration(self):
+        self.scenario(lambda h: h.set_configuration())
+
+    def test_clear_halt_on_bulk_out(self):
+        self.scenario(lambda h: h.clear_halt(h.bulk_out))
+
+    def test_clear_halt_on_bulk_in(self):
+        self.scenario(lambda h: h.clear_halt(h.bulk_in))
