@@ -7,20 +7,18 @@ Run by `firmware/twin/run.sh test_usb` (ci.sh runs it on the usb build).
 
 import os
 import struct
+import subprocess
 import unittest
-import zlib
 
 import link
 import otg_fs
 import twin
 import usb_host
-from test_twin import ELF, MS, SCRATCH, CODES, Host, bare_board, codes, expected, find, first_frame_after, upload
-
-import subprocess
+import test_twin
+from test_twin import CODES, ELF, EMOJI, IDLE, MS, SCRATCH, Host, bare_board, upload
 
 O = otg_fs
 UID = bytes(range(0x30, 0x3C))  # a 96-bit unique ID (RM0090 39.1) for the board under test
-TICK_BUDGET = 10_000
 
 
 def has_usb():
@@ -49,11 +47,29 @@ def usb_board(uid=UID, plug_at=0.05, bank=None, erase=False):
 
 
 class UsbLink(Host):
-    """test_twin's link host, over the CDC-ACM port instead of USART2."""
+    """test_twin's link host, over the CDC-ACM port instead of USART2. A request
+    waits for the port (after a restart the sleeve enumerates again); its end is the
+    time the device took its last packet."""
 
     def __init__(self, board, usb):
         super().__init__(board)
         self.u = usb
+
+    def call(self, make, *args, timeout=1.0):
+        if self.u.state != "configured":
+            self.u.port_ready(timeout=2.0)
+        self.seq += 1
+        self.u.send(make(self.seq, *args))
+        deadline = self.b.t + round(timeout * twin.T_HZ)
+        end = None
+        while self.b.t < deadline:
+            self.b.run(0.0005)
+            if end is None and not self.u.tx:
+                end = self.u.sent_at
+            for _, m in self.collect():
+                if m["kind"] in ("reply", "refused") and m["seq"] == self.seq:
+                    return m, end
+        raise AssertionError(f"no answer to {make.__name__}{args} over USB in {timeout} s")
 
 
 # ----------------------------------------------------------------- the model
@@ -315,3 +331,103 @@ class DataToggles(unittest.TestCase):
 
     def test_clear_halt_on_bulk_in(self):
         self.scenario(lambda h: h.clear_halt(h.bulk_in))
+
+
+@needs_usb
+class UsbLinkTwin(test_twin.LinkTwin):
+    """test_twin.LinkTwin's checks, the link over USB: from the built-in bank, a bank
+    uploaded (the restart re-enumerates), played by command tick for tick against
+    the host player, status requests back to back, the tick's budget meanwhile."""
+
+    @classmethod
+    def setUpClass(cls):
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        cls.bank = SCRATCH / "link-hot.bank"
+        subprocess.run([str(CODES), "hot", "1000000", str(cls.bank)], check=True)
+        cls.image = cls.bank.read_bytes()
+        b, cls.otg, cls.usb = usb_board(erase=True)
+        cls.board = b
+        h = cls.host = UsbLink(b, cls.usb)
+        cls.usb.port_ready(timeout=1.0)
+        m, _ = h.ok(link.hello)
+        cls.firmware = m["firmware"]
+        b.count_tick_instructions()
+        cls.upload_from = b.t
+        cls.commit = upload(h, cls.image)
+        cls.upload_until = b.t
+        b.count_tick_instructions(False)
+        cls.usb.port_ready(timeout=1.0)  # let the restart go by, then ask again
+        h.pump(0.5)
+        cls.usb.port_ready(timeout=1.0)
+        cls.restarted = b.t
+        b.count_tick_instructions()
+        cls.play, cls.play_end = h.ok(link.play, 1)
+        cls.statuses = 0
+        while b.t < cls.play_end + 0.45 * twin.T_HZ:
+            h.ok(link.status)
+            cls.statuses += 1
+        h.pump(0.15)
+        b.count_tick_instructions(False)
+
+    def test_the_restart_enumerates_again(self):
+        self.assertEqual([x for _, x in self.usb.log].count("configured"), 2)
+        self.assertEqual(self.otg.errors, [])
+        self.assertEqual(self.usb.dropped, [])
+
+
+@needs_usb
+class UsbStream(test_twin.LinkStream):
+    """test_twin.LinkStream's checks over USB, and a cable pulled mid-stream: the
+    dead-man still takes the outputs to 0 A within its deadline and ramp."""
+
+    def setUp(self):
+        pass
+
+    def boot(self):
+        b, otg, usb = usb_board(bank=EMOJI.read_bytes())
+        usb.port_ready(timeout=1.0)
+        return b, UsbLink(b, usb), usb
+
+    def test_a_vanished_host_leaves_the_outputs_at_0a(self):
+        self.check_abandoned(pull=False)
+
+    def test_a_pulled_cable_leaves_the_outputs_at_0a(self):
+        self.check_abandoned(pull=True)
+
+    def check_abandoned(self, pull):
+        b, h, usb = self.boot()
+        last = self.stream(h, 300)
+        if pull:
+            last = b.t
+            usb.plug(False)
+        self.assertTrue(any(f[1][0] > 2048 for f in b.frames if f[0] > last - 100 * MS), "the stream played")
+        h.pump(0.2)
+        rest = next(f[0] for f in b.frames if f[0] > last and f[1] == IDLE)
+        after = (rest - last) / MS
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nstream {'cable pulled' if pull else 'abandoned'}: at 0 A {after:.1f} ms after")
+        self.assertLessEqual(after, link.STREAM_DEADLINE_MS + self.RAMP_MS + 2)
+        self.assertTrue(all(f[1] == IDLE for f in b.frames if f[0] >= rest))
+        if pull:
+            self.assertEqual(usb.state, "detached")
+
+    def test_the_ticks_of_a_stream_stay_within_the_budget(self):
+        b, h, _ = self.boot()
+        b.count_tick_instructions()
+        self.stream(h, 300)
+        h.ok(link.stop)
+        h.pump(0.1)
+        b.count_tick_instructions(False)
+        costs = sorted(n for _, n in b.tick_instructions)
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nstream ticks over USB: {len(costs)}, worst {costs[-1]} instructions")
+        self.assertLessEqual(costs[-1], test_twin.TICK_BUDGET)
+
+    def test_stop_ramps_a_stream_to_0a(self):
+        b, h, _ = self.boot()
+        self.stream(h, 300)
+        m, end = h.ok(link.stop)
+        self.assertEqual(m["source"], ("stream",))
+        h.pump(0.1)
+        rest = next(f[0] for f in b.frames if f[0] > end and f[1] == IDLE)
+        self.assertLessEqual((rest - end) / MS, self.RAMP_MS + 2)

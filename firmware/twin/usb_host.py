@@ -63,6 +63,7 @@ class UsbHost:
         self.descriptors = {}
         self.strings = {}
         self.attached_at = self.configured_at = None
+        self.sent_at = None  # when the device took the last OUT packet
         self.error = None
         self._next = board.t
         board.at(board.now(), self._step)
@@ -105,7 +106,8 @@ class UsbHost:
             self._run_control()
             if self.state == "configured":
                 self._bulk()
-        self._next += round(STEP_S * twin.T_HZ)
+        # Nothing on the bus while detached: look for an attach once a millisecond.
+        self._next += round((STEP_S if self.state != "detached" else 0.001) * twin.T_HZ)
         b.events.append((self._next, -1, self._step))
         b.events.sort(key=lambda e: (e[0], e[1]))
 
@@ -152,6 +154,7 @@ class UsbHost:
                 break
             self.toggle[out_ep] ^= 1
             del self.tx[:n]
+            self.sent_at = self.b.t
         while self.budget >= data_bits(MPS):
             r = self.otg.in_(self.addr, in_ep & 0x7F)
             if not isinstance(r, tuple):
