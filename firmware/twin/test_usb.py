@@ -8,7 +8,10 @@ Run by `firmware/twin/run.sh test_usb` (ci.sh runs it on the usb build).
 import os
 import struct
 import subprocess
+import threading
+import time
 import unittest
+import zlib
 
 import link
 import otg_fs
@@ -63,7 +66,7 @@ class UsbLink(Host):
         deadline = self.b.t + round(timeout * twin.T_HZ)
         end = None
         while self.b.t < deadline:
-            self.b.run(0.0005)
+            self.b.run(usb_host.STEP_S)
             if end is None and not self.u.tx:
                 end = self.u.sent_at
             for _, m in self.collect():
@@ -431,3 +434,64 @@ class UsbStream(test_twin.LinkStream):
         h.pump(0.1)
         rest = next(f[0] for f in b.frames if f[0] > end and f[1] == IDLE)
         self.assertLessEqual((rest - end) / MS, self.RAMP_MS + 2)
+
+
+PROGRAM_S = 16e-6  # one x32 program, typical (DS8626; twin.Flash)
+
+
+def timed_upload(host, image):
+    """(seconds from BankBegin to the commit's reply, the flash's own seconds)."""
+    b = host.b
+    t0, p0 = b.t, b.programs
+    commit = upload(host, image)
+    assert commit["crc"] == zlib.crc32(image), commit
+    programs = b.programs - p0
+    erases = sum(end - start for start, end, _ in b.erases if start >= t0) / twin.T_HZ
+    return (b.t - t0) / twin.T_HZ, erases + programs * PROGRAM_S
+
+
+@needs_usb
+class UploadTime(unittest.TestCase):
+    """A 200 KB bank over USB takes at most 1.2 times what the flash itself needs to
+    erase and program it: the wire is no longer the bottleneck. (USART2's time for
+    the same bank: `usb_figures.py`.)"""
+
+    def test_a_200_kb_bank(self):
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        big = SCRATCH / "big.bank"
+        subprocess.run([str(CODES), "big", str(200 * 1024), str(big)], check=True)
+        image = big.read_bytes()
+        b, _, usb = usb_board(erase=True)
+        usb.port_ready(timeout=1.0)
+        took, own = timed_upload(UsbLink(b, usb), image)
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\n{len(image)} B over USB: {took:.2f} s, the flash's own {own:.2f} s ({took / own:.2f}x)")
+        self.assertLessEqual(took, 1.2 * own)
+
+
+@needs_usb
+class UsbStudyScript(test_twin.StudyScript):
+    """test_twin.StudyScript's runs of the real `touchc`, over the twin's USB port
+    on a pseudo-terminal: the study script, and an upload that restarts the sleeve
+    (it enumerates again) and is verified."""
+
+    test_the_script_is_valid_bash = None
+    test_without_a_sleeve_the_script_stops_in_one_line = None
+
+    def serving(self, board):
+        if not test_twin.TOUCHC.exists():
+            self.skipTest(f"{test_twin.TOUCHC} not built (run.sh builds it)")
+        otg_fs.write_uid(board, UID)
+        host = usb_host.UsbHost(board, board.attach(otg_fs.OtgFs(board)))
+        host.plug(True)
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        port = SCRATCH / "sleeve-usb-pty"
+        stop = threading.Event()
+        server = threading.Thread(target=usb_host.serve, args=(board, host, str(port)), kwargs={"stop": stop})
+        server.start()
+        self.addCleanup(server.join)
+        self.addCleanup(stop.set)
+        deadline = time.monotonic() + 10
+        while not port.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return port

@@ -12,7 +12,8 @@ The bus is full speed (12 Mbit/s): every transaction takes its bits' time (token
 data with its CRC, handshake, turnarounds; no bit stuffing) out of a budget that
 grows with the board's clock, so the host never moves more than the wire could. The
 host runs every `STEP_S` of emulated time (an event on the board); a pipe the device
-NAKs is retried at the next step. Data toggles are the host's own: it keeps one per
+NAKs is retried at the next step, 50 us later (about one 64-byte transaction's time:
+a host retries a NAKed bulk pipe back to back). Data toggles are the host's own: it keeps one per
 pipe, resets them to DATA0 after SET_CONFIGURATION and CLEAR_FEATURE(ENDPOINT_HALT)
 (USB 2.0 9.1.1.5, 9.4.5), drops a data packet whose PID is not the expected one, and
 a device that did not reset its own loses that packet (see test_usb.py).
@@ -22,7 +23,7 @@ import struct
 
 import twin
 
-STEP_S = 1 / 8000
+STEP_S = 1 / 20000
 BIT_S = 1 / 12_000_000
 STEP_BITS = round(STEP_S / BIT_S)
 TOKEN, HANDSHAKE, GAP = 35, 19, 8  # bits: SYNC PID ADDR ENDP CRC5 EOP; SYNC PID EOP; turnaround
@@ -304,3 +305,75 @@ class UsbHost:
             self.b.run(0.001)
         if self.state != "configured":
             raise UsbError(f"not configured after {timeout} s (state {self.state}, log {self.log[-4:]})")
+
+
+# ------------------------------------------------------------------ serving
+
+
+def serve(board, host, link_path, seconds=None, speed=1.0, stop=None):
+    """Runs `board` in step with the wall clock with the host's CDC-ACM port on a
+    pseudo-terminal linked at `link_path`, as the port a computer shows for the
+    sleeve (/dev/ttyACM0, COM3): `touchc sleeve --port LINK_PATH ...` talks to the
+    twin over USB. While the device is not configured (before its enumeration, or
+    while it restarts after an upload) the port's bytes wait, as a program's writes
+    wait on a port that reappears. Stops after `seconds` (emulated), when `stop` is
+    set, or when interrupted."""
+    import os
+    import select
+    import time
+    import tty
+
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    if os.path.lexists(link_path):
+        os.unlink(link_path)
+    os.symlink(os.ttyname(slave), link_path)
+    step = 0.001
+    try:
+        start, t0 = time.monotonic(), board.t
+        while (seconds is None or board.t - t0 < seconds * twin.T_HZ) and not (stop and stop.is_set()):
+            if host.state == "configured" and not host.tx:
+                ready, _, _ = select.select([master], [], [], 0)
+                if ready:
+                    try:
+                        host.send(os.read(master, 4096))
+                    except OSError:
+                        pass  # no process has the port open
+            board.run(step)
+            out = host.take()
+            if out:
+                os.write(master, out)
+            ahead = (board.t - t0) / twin.T_HZ / speed - (time.monotonic() - start)
+            if ahead > 0:
+                select.select([master], [], [], ahead)
+    finally:
+        os.unlink(link_path)
+        os.close(master)
+        os.close(slave)
+    return board
+
+
+if __name__ == "__main__":
+    import argparse
+
+    import otg_fs
+
+    ap = argparse.ArgumentParser(description="The sleeve firmware on the twin, its USB port on a pseudo-terminal.")
+    ap.add_argument("elf")
+    ap.add_argument("--link", required=True, help="path of a symlink to the pseudo-terminal (the --port for touchc)")
+    ap.add_argument("--bank", help="a bank image in the bank region (default: erased)")
+    ap.add_argument("--uid", default="303132333435363738393a3b", help="the chip's 96-bit unique ID, hexadecimal")
+    ap.add_argument("--seconds", type=float, help="stop after this many emulated seconds")
+    ap.add_argument("--speed", type=float, default=1.0, help="emulated seconds per wall-clock second, at most")
+    a = ap.parse_args()
+    b = twin.Board(a.elf)
+    if a.bank:
+        with open(a.bank, "rb") as f:
+            b.set_bank(f.read())
+    otg_fs.write_uid(b, bytes.fromhex(a.uid))
+    h = UsbHost(b, b.attach(otg_fs.OtgFs(b)))
+    h.plug(True)
+    try:
+        serve(b, h, a.link, a.seconds, a.speed)
+    except KeyboardInterrupt:
+        pass
