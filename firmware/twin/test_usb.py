@@ -495,3 +495,49 @@ class UsbStudyScript(test_twin.StudyScript):
         while not port.exists() and time.monotonic() < deadline:
             time.sleep(0.01)
         return port
+
+
+@needs_usb
+class CablePulled(unittest.TestCase):
+    """VBUS gone and back: the sleeve enumerates again; gone mid-upload, the bank it
+    then plays is a whole one, never part old and part new."""
+
+    def test_the_cable_out_and_in_again_enumerates_again(self):
+        b, otg, usb = usb_board()
+        usb.port_ready(timeout=1.0)
+        lk = UsbLink(b, usb)
+        lk.ok(link.hello)
+        usb.plug(False)
+        lk.pump(0.2)
+        self.assertEqual(usb.state, "detached")
+        usb.plug(True)
+        lk.ok(link.hello)
+        self.assertEqual([x for _, x in usb.log].count("configured"), 2)
+        self.assertEqual(otg.errors, [])
+
+    def test_pulled_mid_upload_the_sleeve_plays_a_whole_bank(self):
+        SCRATCH.mkdir(parents=True, exist_ok=True)
+        bank = SCRATCH / "link-hot.bank"
+        subprocess.run([str(CODES), "hot", "1000000", str(bank)], check=True)
+        image = bank.read_bytes()
+        b, otg, usb = usb_board(erase=True)
+        usb.port_ready(timeout=1.0)
+        lk = UsbLink(b, usb)
+        lk.ok(link.bank_begin, len(image), zlib.crc32(image), timeout=6.0)
+        half = len(image) // 2 // link.MAX_CHUNK * link.MAX_CHUNK
+        for off in range(0, half, link.MAX_CHUNK):
+            lk.ok(link.bank_chunk, off, image[off:off + link.MAX_CHUNK])
+        usb.plug(False)
+        # The upload is abandoned (nothing heard for UPLOAD_IDLE_MS) and the sleeve
+        # restarts on what its flash holds: not a bank (half of one), so the built-in.
+        b.run(31.5)
+        self.assertEqual([c for _, c in b.resets], ["SYSRESETREQ"])
+        usb.plug(True)
+        usb.port_ready(timeout=1.0)
+        t = b.now() + 0.05
+        b.press(t, test_twin.SHORT)
+        b.run(0.8)
+        want, _ = test_twin.expected(EMOJI, 0)
+        frames = test_twin.codes(b)
+        i = test_twin.first_frame_after(b, t + test_twin.SHORT)
+        self.assertIsNotNone(test_twin.find(frames, want[:600], i, i + 40), "the built-in slot 0, tick for tick")
