@@ -124,7 +124,7 @@ fn big(bytes: usize, out: &str) -> Result<(), String> {
     };
     let mut frames = Vec::new();
     loop {
-        for _ in 0..1000 {
+        for _ in 0..50 {
             frames.push([(); CHANNELS].map(|_| next()));
         }
         let one = stimulus::Builder::new("big", 1)

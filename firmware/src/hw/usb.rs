@@ -5,10 +5,10 @@
 //! A task here moves bytes between the USB endpoints and a [`Port`]'s two rings, as
 //! USART2's interrupt does for its own. It starts the USB core only once VBUS is on
 //! PA9: before that no host listens, and the driver's first act, the core's soft
-//! reset, spins until the core reports its AHB master idle. A core that never does
-//! (the twin does not model OTG FS: the access stops the emulation) would stop every
-//! task on the executor there. After the start the driver follows VBUS itself (plug
-//! and unplug).
+//! reset, spins until the core reports its AHB master idle; a core that never does
+//! would stop every task on the executor there. After the start the driver follows
+//! VBUS itself (plug and unplug). The twin models OTG FS (`twin/otg_fs.py`) and
+//! enumerates this port with a scripted host (`twin/test_usb.py`).
 
 use core::ptr::addr_of_mut;
 
