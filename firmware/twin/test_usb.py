@@ -305,6 +305,21 @@ class Enumeration(unittest.TestCase):
         self.assertEqual(h.dropped, [])
 
 
+    def test_a_reply_of_whole_packets_ends_with_a_zero_length_one(self):
+        h, whole = self.h, 0
+        for n in range(1, 120):
+            before = len(h.in_packets)
+            self.link.ok(link.request, "BankRead", link.varint(0), link.varint(n))
+            self.link.pump(0.002)
+            sizes = [k for _, k in h.in_packets[before:]]
+            if sum(sizes) % 64 == 0:
+                whole += 1
+                self.assertEqual(sizes[-1], 0, f"BankRead of {n}: {sizes}")
+            else:
+                self.assertNotIn(0, sizes, f"BankRead of {n}: {sizes}")
+        self.assertGreater(whole, 0, "some reply filled its last packet")
+
+
 @needs_usb
 class DataToggles(unittest.TestCase):
     """USB 2.0 9.4.5 and 9.1.1.5: after SET_CONFIGURATION and after
@@ -541,3 +556,36 @@ class CablePulled(unittest.TestCase):
         frames = test_twin.codes(b)
         i = test_twin.first_frame_after(b, t + test_twin.SHORT)
         self.assertIsNotNone(test_twin.find(frames, want[:600], i, i + 40), "the built-in slot 0, tick for tick")
+
+
+@needs_usb
+class UsbPlayLatency(unittest.TestCase):
+    """A `Play` whose packet the device takes anywhere in the 1 kHz period: the tick
+    writes the slot's first frame within 2 ms of it."""
+
+    def test_every_phase_of_the_tick(self):
+        b, _, usb = usb_board(bank=EMOJI.read_bytes())
+        usb.port_ready(timeout=1.0)
+        h = UsbLink(b, usb)
+        want = test_twin.expected(EMOJI, 0)[0][:300]
+        written = []
+        for k in range(20):
+            tick = b.frames[-1][0]
+            h.pump((tick + 2 * MS + k * MS // 20 - b.t) / twin.T_HZ, step=usb_host.STEP_S)
+            h.seq += 1
+            usb.send(link.play(h.seq, 0))
+            while usb.tx:
+                b.run(usb_host.STEP_S)
+            end = usb.sent_at
+            h.pump(0.31)
+            frames = test_twin.codes(b)
+            i = test_twin.first_frame_after(b, end / twin.T_HZ)
+            o = test_twin.find(frames, want, i, i + 5)
+            self.assertIsNotNone(o, f"phase {k}: slot 0 not on the outputs")
+            written.append((b.frames[o][0] - end) / MS)
+            h.ok(link.stop)
+            h.pump(0.1)
+        if os.environ.get("TWIN_VERBOSE"):
+            print(f"\nplay over USB, its packet taken to the first frame written: "
+                  f"{min(written):.3f}-{max(written):.3f} ms")
+        self.assertLessEqual(max(written), 2.0, written)
