@@ -95,10 +95,6 @@ class OtgFs:
     def clocked(self):
         return self.board.rcc.read(0x34) >> 7 & 1  # RCC_AHB2ENR.OTGFSEN
 
-    def _sensing(self):
-        g = self.r.get(GCCFG, 0)
-        return bool(g & (1 << 16)) and bool(g & (1 << 19) or g & (1 << 21))  # PWRDWN, VBUSBSEN / NOVBUSSENS
-
     def _valid_now(self):
         g = self.r.get(GCCFG, 0)
         return bool(g & (1 << 16)) and (bool(g & (1 << 21)) or (bool(g & (1 << 19)) and self.vbus))
