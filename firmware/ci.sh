@@ -7,12 +7,12 @@
 # 1. tools: the thumbv7em target, flip-link, llvm-tools, qemu-system-arm (bookworm-backports
 #    when available: QEMU 10; else the distribution's)
 # 2. host: fmt check, clippy -D warnings, tests of the firmware logic
-# 3. target: clippy -D warnings (all feature sets), release builds (default and usb),
-#    flash/RAM use of each against the budgets
+# 3. target: clippy -D warnings (all feature sets), release builds (default, with USB,
+#    and UART only), flash/RAM use of each against the budgets
 # 4. QEMU: the player on the F405 checked against the host, instructions per tick
 # 5. twin: the release ELF (with a linked bank) booted on emulated peripherals
-#    (unicorn from PyPI in a venv under target/, see twin/README.md); then the usb
-#    build's playback and link tests
+#    (unicorn from PyPI in a venv under target/, see twin/README.md); the UART-only
+#    build's playback and link tests; the USB tests (twin/test_usb.py)
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -111,19 +111,26 @@ profile=firmware
 
 step "target: clippy, $profile build"
 cd "$here"
-for features in "" "dac-outputs" "button-per-slot" "dac-outputs,button-per-slot" "usb" "usb,dac-outputs,button-per-slot"; do
+# The default build has the USB socket; "--no-default-features --features hw" is the
+# UART-only one.
+uart_only=(--no-default-features --features hw)
+for features in "" "dac-outputs" "button-per-slot" "dac-outputs,button-per-slot"; do
     cargo clippy --profile "$profile" --no-deps --locked --features "$features" -- -D warnings
 done
+cargo clippy --profile "$profile" --no-deps --locked "${uart_only[@]}" -- -D warnings
+cargo clippy --profile "$profile" --no-deps --locked --no-default-features \
+    --features hw,dac-outputs,button-per-slot -- -D warnings
 elf="$root/target/$target/$profile/sleeve-firmware"
-# Builds with the given features; fails when the ELF is over either budget or its stack
-# is not below its statics.
+# Builds with the given cargo feature arguments; fails when the ELF is over either
+# budget or its stack is not below its statics.
 build_within_budget() {
-    local features=$1 flash ram nm stack_start sdata
-    cargo build --profile "$profile" --locked --features "$features"
+    local name=$1 flash ram nm stack_start sdata
+    shift
+    cargo build --profile "$profile" --locked "$@"
     read -r flash ram < <(elf_use "$elf")
-    echo "sleeve-firmware ($profile profile, features: ${features:-default}): flash $flash B ($((flash / 1024)) KB, budget $((flash_budget / 1024)) KB), static RAM $ram B ($((ram / 1024)) KB, budget $((ram_budget / 1024)) KB)"
+    echo "sleeve-firmware ($profile profile, $name): flash $flash B ($((flash / 1024)) KB, budget $((flash_budget / 1024)) KB), static RAM $ram B ($((ram / 1024)) KB, budget $((ram_budget / 1024)) KB)"
     if [ "$flash" -gt "$flash_budget" ] || [ "$ram" -gt "$ram_budget" ]; then
-        echo "firmware (features: ${features:-default}) over its flash or RAM budget" >&2
+        echo "firmware ($name) over its flash or RAM budget" >&2
         exit 1
     fi
     # flip-link: the stack must sit below the statics (it grows down into the RAM boundary).
@@ -138,9 +145,9 @@ build_within_budget() {
         fi
     fi
 }
-# The USB build first: the default one stays in place for the steps below.
-build_within_budget usb
-build_within_budget ""
+# The UART-only build first: the default one stays in place for the steps below.
+build_within_budget "UART only" "${uart_only[@]}"
+build_within_budget "default: USART2 and USB"
 
 step "QEMU: player on the STM32F405 vs the host"
 cd "$here/qemu-test"
@@ -173,12 +180,13 @@ echo "default bank: $((16#$size)) bytes at 0x$addr"
 step "twin: the release ELF on emulated STM32F405 peripherals"
 TWIN_ELF="$elf" TWIN_LINKED_BANK="$bank" bash "$here/twin/run.sh"
 
-step "twin: the usb build's playback and its link on USART2"
-# The twin has no OTG FS model (its VBUS stays low, so the USB task only waits): this
-# holds the usb build's playback, link, latency and tick to the default build's tests.
-cargo build --profile "$profile" --locked --features usb
+step "twin: the UART-only build's playback and its link on USART2"
+cargo build --profile "$profile" --locked "${uart_only[@]}"
 TWIN_ELF="$elf" bash "$here/twin/run.sh" test_twin.BootAndPlay test_twin.LinkTwin \
     test_twin.PlayLatency test_twin.LinkStream
-# Leave the plain build in place for `cargo run --profile firmware`.
+
+step "twin: the default build on USB (OTG FS model, scripted host, the link over USB)"
+# Leaves the default build in place for `cargo run --profile firmware`.
 cargo build --profile "$profile" --locked
+TWIN_ELF="$elf" bash "$here/twin/run.sh" test_usb
 echo "firmware checks passed"

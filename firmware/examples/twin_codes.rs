@@ -15,6 +15,9 @@
 //!   [`SHORT_MS`]; both carry the sleeve's limits with the I^2 t budget lowered to
 //!   `BUDGET_MA2S` (the stricter of stimulus and device wins), so that a few seconds
 //!   of play use it up.
+//! - `twin_codes big BYTES OUT` writes a one-slot bank of at least `BYTES` bytes:
+//!   1 ms keyframes of small pseudo-random currents (they do not compress), for the
+//!   twin's upload timing.
 use std::io::Write;
 use std::process::ExitCode;
 
@@ -43,7 +46,7 @@ fn main() -> ExitCode {
 
 fn run(args: &[String]) -> Result<(), String> {
     let usage = "usage: twin_codes play BANK SLOT [STOP_AFTER] | limit BANK SLOT PEAK_MA OUT \
-                 | hot BUDGET_MA2S OUT | device";
+                 | hot BUDGET_MA2S OUT | big BYTES OUT | device";
     if let [command] = args {
         if command == "device" {
             let d = device_config();
@@ -54,6 +57,9 @@ fn run(args: &[String]) -> Result<(), String> {
     if let [command, budget, out] = args {
         if command == "hot" {
             return hot(number(budget)?, out);
+        }
+        if command == "big" {
+            return big(number(budget)?, out);
         }
     }
     let [command, path, slot, rest @ ..] = args else {
@@ -106,6 +112,33 @@ fn hot(budget_ma2s: u32, out: &str) -> Result<(), String> {
     let (long, short) = (one("hot", HOT_MS)?, one("short", SHORT_MS)?);
     let image = bank::encode(&[&long, &short]).map_err(|e| format!("{e:?}"))?;
     std::fs::write(out, image).map_err(|e| format!("{out}: {e}"))
+}
+
+/// Writes a one-slot bank of at least `bytes` bytes (see the module doc) to `out`.
+fn big(bytes: usize, out: &str) -> Result<(), String> {
+    // A linear congruential generator: the same bank on every machine.
+    let mut seed = 0x2545_f491_u32;
+    let mut next = move || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        ((seed >> 16) as i16 >> 5) / 2
+    };
+    let mut frames = Vec::new();
+    loop {
+        for _ in 0..50 {
+            frames.push([(); CHANNELS].map(|_| next()));
+        }
+        let one = stimulus::Builder::new("big", 1)
+            .ramp_ms(40)
+            .full_scale_ma(FULL_SCALE_MA)
+            .layout(touch_protocol::layout::SLEEVE_NAME, LAYOUT_HASH)
+            .limits(Limits::SLEEVE)
+            .encode(&frames)
+            .map_err(|e| format!("big: {e:?}"))?;
+        let image = bank::encode(&[&one]).map_err(|e| format!("{e:?}"))?;
+        if image.len() >= bytes {
+            return std::fs::write(out, image).map_err(|e| format!("{out}: {e}"));
+        }
+    }
 }
 
 fn number<T: std::str::FromStr>(s: &str) -> Result<T, String>

@@ -7,6 +7,8 @@
 #   TWIN_ELF=path/to/elf bash firmware/twin/run.sh [unittest args, e.g. test_twin.Fault]
 #   bash firmware/twin/run.sh serve --link /tmp/sleeve [--bank B]   # the twin on a pseudo-terminal:
 #                                                # touchc sleeve --port /tmp/sleeve ... talks to it
+#   bash firmware/twin/run.sh serve-usb --link /tmp/sleeve [--bank B]   # the same over its USB port
+#   bash firmware/twin/run.sh figures            # the USB figures of docs/hardware.md
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -26,11 +28,18 @@ if [ "${1:-}" = serve ]; then
     shift
     exec "$venv/bin/python" "$here/twin.py" "$elf" "$@"
 fi
+if [ "${1:-}" = serve-usb ]; then
+    shift
+    exec "$venv/bin/python" "$here/usb_host.py" "$elf" "$@"
+fi
 cd "$here"
 # The host player's codes, from the protocol crate built for this machine; touchc for
 # the README's study script.
 (cd "$root" && cargo build --quiet --locked -p sleeve-firmware --example twin_codes &&
     cargo build --quiet --locked -p touchc --bin touchc)
 
+if [ "${1:-}" = figures ]; then
+    TWIN_ELF="$elf" TWIN_CODES="$root/target/debug/examples/twin_codes" exec "$venv/bin/python" usb_figures.py
+fi
 TWIN_ELF="$elf" TWIN_CODES="$root/target/debug/examples/twin_codes" \
     "$venv/bin/python" -W error::ResourceWarning -m unittest "${@:-test_twin}"

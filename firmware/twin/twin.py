@@ -1047,7 +1047,15 @@ class Board:
         uc.hook_add(UC_HOOK_INTR, self._intr)
         uc.hook_add(UC_HOOK_MEM_WRITE, self._flash_write, None, FLASH_BASE, FLASH_BASE + FLASH_SIZE - 1)
         self.csr_flags = 0x0E00_0000  # power-on reset flags
+        self.devices = []  # models outside the APB/AHB1 map (otg_fs.OtgFs), see `attach`
         self._power_on()
+
+    def attach(self, dev):
+        """Maps a model at `dev.BASE`: its registers, IRQ line, wake-ups and reset."""
+        rd = lambda uc, o, size, _: dev.read(o & ~3) >> 8 * (o & 3) & ((1 << 8 * size) - 1)  # noqa: E731
+        self.uc.mmio_map(dev.BASE, dev.SIZE, rd, None, lambda uc, o, size, v, _: dev.write(o & ~3, v), None)
+        self.devices.append(dev)
+        return dev
 
     # -- memory
     def set_bank(self, image):
@@ -1149,6 +1157,8 @@ class Board:
         self.exti = Exti(self)
         self.nvic = Nvic(self)
         self.other = Regs()
+        for dev in getattr(self, "devices", []):
+            dev.chip_reset()
         self.active = []  # exception numbers, innermost last
         self.saved = []  # per active exception: EXC_RETURN used
         self.event_reg = False
@@ -1291,6 +1301,7 @@ class Board:
         f = self.flash
         if (f.cr & f.EOPIE and f.sr & f.EOP) or (f.cr & f.ERRIE and f.sr & f.OPERR):
             lines |= 1 << (16 + IRQ["FLASH"])
+        lines |= sum(1 << (16 + d.IRQ) for d in self.devices if d.irq_line())
         if self.tick_irq_blocked:
             lines &= ~(1 << (16 + IRQ["TIM7"]))
         return lines
@@ -1417,6 +1428,7 @@ class Board:
                 cands.append(ev)
         if self.flash.busy_until is not None:
             cands.append(self.flash.busy_until)
+        cands += [e for e in (d.next_event() for d in self.devices) if e is not None]
         return max(self.t, min(cands))
 
     def _stalled(self, exception=None):

@@ -3,6 +3,8 @@
 pub mod board;
 pub mod flash;
 pub mod link;
+#[cfg(feature = "usb")]
+pub mod otg;
 pub mod outputs;
 pub mod tick;
 #[cfg(feature = "usb")]

@@ -5,10 +5,10 @@
 //! A task here moves bytes between the USB endpoints and a [`Port`]'s two rings, as
 //! USART2's interrupt does for its own. It starts the USB core only once VBUS is on
 //! PA9: before that no host listens, and the driver's first act, the core's soft
-//! reset, spins until the core reports its AHB master idle. A core that never does
-//! (the twin does not model OTG FS: the access stops the emulation) would stop every
-//! task on the executor there. After the start the driver follows VBUS itself (plug
-//! and unplug).
+//! reset, spins until the core reports its AHB master idle; a core that never does
+//! would stop every task on the executor there. After the start the driver follows
+//! VBUS itself (plug and unplug). The twin models OTG FS (`twin/otg_fs.py`) and
+//! enumerates this port with a scripted host (`twin/test_usb.py`).
 
 use core::ptr::addr_of_mut;
 
@@ -26,11 +26,45 @@ use embassy_usb::Builder;
 use heapless::spsc::{Consumer, Producer, Queue};
 
 use super::link::{self, Port, RX_LEN, TX_LEN};
+use super::otg::OtgDriver;
 
-/// The USB ids: pid.codes' vendor id with its product id 0x0001, which pid.codes
-/// sets aside for testing (not unique to this device; `touchc sleeve` looks for this
-/// pair). A sleeve that ships needs a product id of its own.
-pub const USB_IDS: (u16, u16) = (0x1209, 0x0001);
+/// The USB ids, a build setting: `SLEEVE_USB_VID` and `SLEEVE_USB_PID` (hexadecimal,
+/// e.g. `SLEEVE_USB_PID=0x5a01`) when the firmware is built, else pid.codes' vendor
+/// id with its product id 0x0001, which pid.codes sets aside for testing (shared
+/// with other devices). A sleeve that ships needs a product id of its own.
+pub const USB_IDS: (u16, u16) = (
+    hex_id(option_env!("SLEEVE_USB_VID"), 0x1209),
+    hex_id(option_env!("SLEEVE_USB_PID"), 0x0001),
+);
+
+/// A 16-bit id from a build setting ("0x1209" or "1209"), else `default`; a value
+/// that is not 1-4 hexadecimal digits stops the build.
+const fn hex_id(setting: Option<&str>, default: u16) -> u16 {
+    let Some(s) = setting else {
+        return default;
+    };
+    let b = s.as_bytes();
+    let mut i = if b.len() > 2 && b[0] == b'0' && (b[1] == b'x' || b[1] == b'X') {
+        2
+    } else {
+        0
+    };
+    if b.len() == i || b.len() - i > 4 {
+        panic!("SLEEVE_USB_VID / SLEEVE_USB_PID: 1 to 4 hexadecimal digits");
+    }
+    let mut v = 0u16;
+    while i < b.len() {
+        let d = match b[i] {
+            c @ b'0'..=b'9' => c - b'0',
+            c @ b'a'..=b'f' => c - b'a' + 10,
+            c @ b'A'..=b'F' => c - b'A' + 10,
+            _ => panic!("SLEEVE_USB_VID / SLEEVE_USB_PID: 1 to 4 hexadecimal digits"),
+        };
+        v = v * 16 + d as u16;
+        i += 1;
+    }
+    v
+}
 /// The product string the port shows (`touchc sleeve list` prints it).
 pub const PRODUCT: &str = "touchc sleeve";
 
@@ -101,11 +135,17 @@ pub async fn run(usb: Usb, wire: Wire) {
     let mut otg_config = otg::Config::default();
     // Plug and unplug are followed through PA9 after the first start.
     otg_config.vbus_detection = true;
-    let driver = Driver::new_fs(otg, Irqs, dp, dm, &mut ep_out, otg_config);
+    let driver = OtgDriver(Driver::new_fs(otg, Irqs, dp, dm, &mut ep_out, otg_config));
 
     let mut config = embassy_usb::Config::new(USB_IDS.0, USB_IDS.1);
     config.manufacturer = Some("touchc");
     config.product = Some(PRODUCT);
+    // The chip's 96-bit unique ID in hexadecimal: two sleeves on one computer are
+    // told apart by it (`touchc sleeve list`).
+    config.serial_number = Some(embassy_stm32::uid::uid_hex());
+    // The sleeve has its own supply and only senses VBUS; the controller board may
+    // still run from the cable, within 100 mA.
+    config.self_powered = true;
     config.max_power = 100;
     config.max_packet_size_0 = PACKET as u8;
     let mut config_descriptor = [0u8; 128];

@@ -56,6 +56,9 @@ pub struct Candidate {
     pub usb: Option<(u16, u16)>,
     /// The USB product string, when there is one.
     pub product: Option<String>,
+    /// The USB serial number string, when there is one (a sleeve's is its chip's
+    /// unique ID: two sleeves on one computer differ in it).
+    pub serial: Option<String>,
     /// The port has the sleeve's own USB ids (its OTG FS socket), not an adapter's.
     pub is_sleeve: bool,
 }
@@ -73,6 +76,7 @@ pub fn candidates(sleeve_ids: (u16, u16)) -> io::Result<Vec<Candidate>> {
                 path: PathBuf::from(p.port_name),
                 usb: Some((usb.vid, usb.pid)),
                 product: usb.product,
+                serial: usb.serial_number,
                 is_sleeve: (usb.vid, usb.pid) == sleeve_ids,
             }),
             _ => None,

@@ -20,16 +20,7 @@ pub(super) fn list(probe: bool) -> anyhow::Result<()> {
     }
     let mut out = std::io::stdout().lock();
     for c in &found {
-        let (vid, pid) = c.usb.unwrap_or((0, 0));
-        let kind = if c.is_sleeve {
-            "sleeve (USB)"
-        } else {
-            "USB-serial adapter"
-        };
-        let mut line = format!("{}  {kind}  {vid:04x}:{pid:04x}", c.path.display());
-        if let Some(p) = &c.product {
-            line.push_str(&format!("  {}", escaped(p)));
-        }
+        let mut line = identity(c);
         if probe {
             match open(&c.path).and_then(|mut s| Ok(s.info()?)) {
                 Ok(i) => line.push_str(&format!(
@@ -43,6 +34,25 @@ pub(super) fn list(probe: bool) -> anyhow::Result<()> {
         writeln!(out, "{line}")?;
     }
     Ok(())
+}
+
+/// A port's line in `sleeve list`: its path, what it is, its USB ids, product and
+/// serial number.
+fn identity(c: &serial::Candidate) -> String {
+    let (vid, pid) = c.usb.unwrap_or((0, 0));
+    let kind = if c.is_sleeve {
+        "sleeve (USB)"
+    } else {
+        "USB-serial adapter"
+    };
+    let mut line = format!("{}  {kind}  {vid:04x}:{pid:04x}", c.path.display());
+    if let Some(p) = &c.product {
+        line.push_str(&format!("  {}", escaped(p)));
+    }
+    if let Some(s) = &c.serial {
+        line.push_str(&format!("  serial {}", escaped(s)));
+    }
+    line
 }
 
 pub(super) fn info(port: Option<&Path>, as_json: bool) -> anyhow::Result<()> {
@@ -163,4 +173,35 @@ fn info_text(
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sleeve_is_listed_with_its_usb_identity() {
+        let c = serial::Candidate {
+            path: "/dev/ttyACM0".into(),
+            usb: Some((0x1209, 0x0001)),
+            product: Some("touchc sleeve".into()),
+            serial: Some("303132333435363738393A3B".into()),
+            is_sleeve: true,
+        };
+        assert_eq!(
+            identity(&c),
+            "/dev/ttyACM0  sleeve (USB)  1209:0001  touchc sleeve  serial 303132333435363738393A3B"
+        );
+        let adapter = serial::Candidate {
+            path: "/dev/ttyUSB0".into(),
+            usb: Some((0x0403, 0x6001)),
+            product: None,
+            serial: None,
+            is_sleeve: false,
+        };
+        assert_eq!(
+            identity(&adapter),
+            "/dev/ttyUSB0  USB-serial adapter  0403:6001"
+        );
+    }
 }
