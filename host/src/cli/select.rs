@@ -41,12 +41,15 @@ Ctrl-C stops training and writes nothing.";
 enum Scorer {
     /// Logistic regression on duration, pressure, area, speed, location and rhythm.
     Features,
+    /// The paper's 3D convolutional network.
+    Cnn,
 }
 
 impl From<Scorer> for ScorerKind {
     fn from(s: Scorer) -> Self {
         match s {
             Scorer::Features => ScorerKind::Features,
+            Scorer::Cnn => ScorerKind::Cnn,
         }
     }
 }
@@ -130,7 +133,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let folds = Folds::new(&data.labels(), groups.as_deref(), args.folds, args.seed)
         .map_err(select_error)?;
     let kinds: Vec<ScorerKind> = if args.trade {
-        vec![ScorerKind::Features]
+        vec![ScorerKind::Features, ScorerKind::Cnn]
     } else {
         vec![args.model.into()]
     };
@@ -255,6 +258,7 @@ impl Bar {
 fn steps(kind: ScorerKind, folds: usize, epochs: usize) -> usize {
     match kind {
         ScorerKind::Features => folds,
+        ScorerKind::Cnn => folds * epochs,
     }
     .max(folds * usize::from(epochs == 0))
 }

@@ -15,6 +15,7 @@
 
 #![deny(missing_docs)]
 
+pub mod cnn;
 pub mod dataset;
 pub mod error;
 pub mod features;

@@ -18,6 +18,8 @@ use crate::{features, SelectError};
 pub enum ScorerKind {
     /// Multinomial logistic regression on [`features`].
     Features,
+    /// The paper's 3D convolutional network ([`cnn`](crate::cnn)).
+    Cnn,
 }
 
 impl ScorerKind {
@@ -25,6 +27,7 @@ impl ScorerKind {
     pub fn name(self) -> &'static str {
         match self {
             ScorerKind::Features => "features",
+            ScorerKind::Cnn => "cnn",
         }
     }
 }
@@ -53,6 +56,9 @@ enum Weights {
     Features {
         names: Vec<String>,
         logistic: Logistic,
+    },
+    Cnn {
+        net: crate::cnn::Net,
     },
 }
 
@@ -98,6 +104,17 @@ impl Model {
                     logistic,
                 }
             }
+            ScorerKind::Cnn => Weights::Cnn {
+                net: crate::cnn::train(
+                    samples,
+                    labels,
+                    classes.len(),
+                    settings.seed,
+                    settings.epochs,
+                    fold,
+                    control,
+                )?,
+            },
         };
         Ok(Model {
             format: FORMAT.into(),
@@ -112,6 +129,7 @@ impl Model {
     pub fn kind(&self) -> ScorerKind {
         match self.weights {
             Weights::Features { .. } => ScorerKind::Features,
+            Weights::Cnn { .. } => ScorerKind::Cnn,
         }
     }
 
@@ -126,6 +144,16 @@ impl Model {
                 .iter()
                 .map(|row| logistic.predict(row))
                 .collect()),
+            Weights::Cnn { net } => {
+                let scores: Vec<Option<Vec<f64>>> = samples
+                    .par_iter()
+                    .map(|s| (!control.cancel.load(Ordering::Relaxed)).then(|| net.predict(s)))
+                    .collect();
+                scores
+                    .into_iter()
+                    .map(|r| r.ok_or(SelectError::Cancelled))
+                    .collect()
+            }
         }
     }
 
@@ -163,6 +191,9 @@ impl Model {
                     && logistic.scale.len() == names.len()
                     && logistic.classes == model.classes.len()
                     && logistic.weights.len() == logistic.classes * (names.len() + 1)
+            }
+            Weights::Cnn { net } => {
+                net.consistent(model.classes.len()) && net.shape() == model.shape
             }
         };
         if !consistent || model.classes.len() < 2 {
