@@ -122,6 +122,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let data_path = args.data.as_deref().context("no data set given")?;
     check_outputs(args, data_path)?;
+    if args.folds < 2 {
+        return Err(super::usage(format!(
+            "--folds {}: cross-validation needs at least 2",
+            args.folds
+        )));
+    }
     if args.top == 0 {
         return Err(super::usage(
             "--top 0: list at least one recording per class",
