@@ -165,6 +165,16 @@ pub fn report(err: &anyhow::Error) -> ExitCode {
     if broken_pipe {
         return ExitCode::SUCCESS;
     }
+    // Ctrl-C during `select`'s training: stopped as asked, nothing written (128 + SIGINT).
+    if err.chain().any(|c| {
+        matches!(
+            c.downcast_ref(),
+            Some(touchc::select::SelectError::Cancelled)
+        )
+    }) {
+        eprintln!("touchc: interrupted: nothing written");
+        return ExitCode::from(130);
+    }
     print_error(err);
     // A parameter out of range is a usage error wherever it is found: in the flags, or
     // only once the recording's sampling is known (a blur wider than the frame).

@@ -208,3 +208,38 @@ fn bad_data_sets_are_refused_with_the_file_named_and_nothing_written() {
         &out,
     );
 }
+
+#[test]
+fn ctrl_c_stops_training_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    data_set(&data, 2, 8);
+    let out = dir.path().join("sel");
+    let model = dir.path().join("m.json");
+    let child = command()
+        .args([
+            "select",
+            s(&data),
+            "--model",
+            "cnn",
+            "--epochs",
+            "100000",
+            "-o",
+            s(&out),
+        ])
+        .args(["--model-file", s(&model)])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(3000));
+    let status = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted: nothing written"), "{err}");
+    assert!(!out.exists() && !model.exists());
+}

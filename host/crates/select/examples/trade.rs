@@ -13,6 +13,22 @@ use touchc_select::model::Settings;
 use touchc_select::synthetic::{dataset, SetSpec};
 use touchc_select::{cross_validate, Control, Folds, ScorerKind};
 
+/// This process's CPU seconds (user + system) from `/proc/self/stat`: a figure a
+/// loaded machine does not inflate as it does the wall clock (NaN off Linux).
+fn cpu_s() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // Fields after the command's closing parenthesis; utime and stime are 14 and 15.
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest.split_whitespace().filter_map(|v| v.parse().ok()).collect();
+    // `rest` starts at field 3 (the state, not a number), so field n is f[n - 4].
+    match (f.get(10), f.get(11)) {
+        (Some(u), Some(s)) => (u + s) / 100.0,
+        _ => f64::NAN,
+    }
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let num = |i: usize, default: usize| -> Result<usize, Box<dyn std::error::Error>> {
@@ -45,8 +61,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rayon::current_num_threads(),
         t0.elapsed().as_secs_f64()
     );
-    println!("| scorer | accuracy | macro-F1 | train s | score s | total s |");
-    println!("|---|---|---|---|---|---|");
+    println!("| scorer | accuracy | macro-F1 | train s | score s | total s | CPU s |");
+    println!("|---|---|---|---|---|---|---|");
     for name in scorers.split(',') {
         let kind = match name {
             "features" => ScorerKind::Features,
@@ -64,7 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             cancel: &cancel,
             progress: &progress,
         };
-        let t = Instant::now();
+        let (t, cpu) = (Instant::now(), cpu_s());
         let s = cross_validate(
             &data,
             &Settings {
@@ -77,12 +93,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         )?;
         eprintln!();
         println!(
-            "| {name} | {:.3} | {:.3} | {:.1} | {:.1} | {:.1} |",
+            "| {name} | {:.3} | {:.3} | {:.1} | {:.1} | {:.1} | {:.1} |",
             s.metrics.accuracy,
             s.metrics.macro_f1,
             s.train_s,
             s.score_s,
-            t.elapsed().as_secs_f64()
+            t.elapsed().as_secs_f64(),
+            cpu_s() - cpu
         );
     }
     Ok(())
