@@ -6,8 +6,8 @@ use std::path::Path;
 
 use crate::bin;
 use bin::{command, ok, s, touchc};
-use touchc::input::synth::Sensor;
 use touchc::select::synthetic::{labelled_set, write, SetSpec};
+use touchc_synth::Sensor;
 
 /// A data set of `classes` x `per_class` recordings by 6 people in `dir`.
 fn data_set(dir: &Path, classes: usize, per_class: usize) {
@@ -179,7 +179,7 @@ fn bad_data_sets_are_refused_with_the_file_named_and_nothing_written() {
         seed: 1,
     });
     let odd = mixed.join("calming/zz_grid.npy");
-    std::fs::write(&odd, touchc::input::synth::to_npy(&grid[0].frames).unwrap()).unwrap();
+    std::fs::write(&odd, touchc_synth::to_npy(&grid[0].frames).unwrap()).unwrap();
     refused_with(
         &["select", s(&mixed), "-o", s(&out)],
         1,

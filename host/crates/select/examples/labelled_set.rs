@@ -5,8 +5,8 @@
 //! [FRAMES] [CLASSES] [PEOPLE]`; the benchmark's set is `DIR 117 705 6 10` (702
 //! recordings of 705 x 8 x 21 frames).
 
-use touchc_synth::Sensor;
 use touchc_select::synthetic::{labelled_set, write, SetSpec};
+use touchc_synth::Sensor;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

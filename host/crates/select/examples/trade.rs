@@ -8,10 +8,10 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use touchc_input::synth::Sensor;
 use touchc_select::model::Settings;
 use touchc_select::synthetic::{dataset, SetSpec};
 use touchc_select::{cross_validate, Control, Folds, ScorerKind};
+use touchc_synth::Sensor;
 
 /// This process's CPU seconds (user + system) from `/proc/self/stat`: a figure a
 /// loaded machine does not inflate as it does the wall clock (NaN off Linux).
@@ -21,7 +21,10 @@ fn cpu_s() -> f64 {
     };
     // Fields after the command's closing parenthesis; utime and stime are 14 and 15.
     let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<f64> = rest.split_whitespace().filter_map(|v| v.parse().ok()).collect();
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .filter_map(|v| v.parse().ok())
+        .collect();
     // `rest` starts at field 3 (the state, not a number), so field n is f[n - 4].
     match (f.get(10), f.get(11)) {
         (Some(u), Some(s)) => (u + s) / 100.0,

@@ -3,10 +3,10 @@
 
 use std::sync::atomic::AtomicBool;
 
-use touchc_synth::Sensor;
 use touchc_select::model::Settings;
 use touchc_select::synthetic::{dataset, SetSpec};
 use touchc_select::{cross_validate, Control, Folds, ScorerKind};
+use touchc_synth::Sensor;
 
 fn spec(per_class: usize) -> SetSpec {
     SetSpec {
