@@ -13,7 +13,9 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use touchc::select::dataset::{self, Dataset, Listing};
 use touchc::select::model::Settings;
-use touchc::select::{cross_validate, metrics, Control, Folds, Model, ScorerKind, SelectError};
+use touchc::select::{
+    cross_validate, metrics, Control, Folds, Model, ScorerKind, SelectError, Selection,
+};
 
 use crate::cli::output::{named, refuse_overwrites, write_atomic, Output};
 use crate::cli::params::OUTPUT;
@@ -138,51 +140,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let groups = data.groups();
     let folds = Folds::new(&data.labels(), groups.as_deref(), args.folds, args.seed)
         .map_err(select_error)?;
-    let kinds: Vec<ScorerKind> = if args.trade {
-        vec![ScorerKind::Features, ScorerKind::Cnn]
-    } else {
-        vec![args.model.into()]
-    };
-    let bar = Bar::new(kinds.iter().map(|&k| steps(k, folds.k, args.epochs)).sum());
-    let progress = |p: touchc::select::Progress| bar.tick(p, folds.k);
-    let control = Control {
-        cancel: &cancel,
-        progress: &progress,
-    };
-    let mut runs = Vec::new();
-    for kind in kinds {
-        let settings = Settings {
-            kind,
-            seed: args.seed,
-            epochs: args.epochs,
-        };
-        let t0 = std::time::Instant::now();
-        let sel = cross_validate(&data, &settings, &folds, &control).map_err(select_error)?;
-        runs.push((sel, t0.elapsed().as_secs_f64()));
-    }
-    let model = match &args.model_file {
-        Some(_) if !args.trade => {
-            let settings = Settings {
-                kind: args.model.into(),
-                seed: args.seed,
-                epochs: args.epochs,
-            };
-            let samples: Vec<_> = data.samples.iter().collect();
-            Some(
-                Model::train(
-                    &samples,
-                    &data.labels(),
-                    &data.listing.classes,
-                    &settings,
-                    None,
-                    &control,
-                )
-                .map_err(select_error)?,
-            )
-        }
-        _ => None,
-    };
-    bar.0.finish_and_clear();
+    let (runs, model) = train(args, &data, &folds, &cancel)?;
     if args.trade {
         return report::trade(&runs, &data, args.output.as_deref());
     }
@@ -210,6 +168,65 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_atomic(path, bytes)?;
     }
     Ok(())
+}
+
+/// Each scorer's cross-validation with its seconds, and the model of the whole data set.
+type Trained = (Vec<(Selection, f64)>, Option<Model>);
+
+/// The cross-validation of the scorer (both with `--trade`), each with its seconds, and
+/// the model of the whole data set when `--model-file` asks for one.
+fn train(
+    args: &Args,
+    data: &Dataset,
+    folds: &Folds,
+    cancel: &AtomicBool,
+) -> anyhow::Result<Trained> {
+    let kinds: Vec<ScorerKind> = if args.trade {
+        vec![ScorerKind::Features, ScorerKind::Cnn]
+    } else {
+        vec![args.model.into()]
+    };
+    let bar = Bar::new(kinds.iter().map(|&k| steps(k, folds.k, args.epochs)).sum());
+    let progress = |p: touchc::select::Progress| bar.tick(p, folds.k);
+    let control = Control {
+        cancel,
+        progress: &progress,
+    };
+    let mut runs = Vec::new();
+    for kind in kinds {
+        let settings = Settings {
+            kind,
+            seed: args.seed,
+            epochs: args.epochs,
+        };
+        let t0 = std::time::Instant::now();
+        let sel = cross_validate(data, &settings, folds, &control).map_err(select_error)?;
+        runs.push((sel, t0.elapsed().as_secs_f64()));
+    }
+    let model = match &args.model_file {
+        Some(_) if !args.trade => {
+            let settings = Settings {
+                kind: args.model.into(),
+                seed: args.seed,
+                epochs: args.epochs,
+            };
+            let samples: Vec<_> = data.samples.iter().collect();
+            Some(
+                Model::train(
+                    &samples,
+                    &data.labels(),
+                    &data.listing.classes,
+                    &settings,
+                    None,
+                    &control,
+                )
+                .map_err(select_error)?,
+            )
+        }
+        _ => None,
+    };
+    bar.0.finish_and_clear();
+    Ok((runs, model))
 }
 
 /// Refuses outputs over the data set or the model to apply.
