@@ -26,6 +26,7 @@ pub use touchc_encoding as encoding;
 pub use touchc_input as input;
 pub use touchc_placement as placement;
 pub use touchc_rendering as rendering;
+pub use touchc_select as select;
 pub use touchc_tracking as tracking;
 
 pub use touchc_export as export;

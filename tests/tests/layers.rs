@@ -29,6 +29,9 @@ const LAYERS: &[(&str, u32)] = &[
     // each stage's own tests can use them.
     ("touchc-testkit", 3),
     ("touchc-tracking", 4),
+    // Instance selection: recordings scored per class by cross-validated classifiers
+    // (its synthetic data sets from the synthesiser).
+    ("touchc-select", 4),
     ("touchc-placement", 5),
     ("touchc-rendering", 6),
     ("touchc-encoding", 7),

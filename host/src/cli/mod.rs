@@ -15,6 +15,7 @@ mod plot;
 mod preview;
 mod render;
 mod report_json;
+mod select;
 mod sleeve;
 mod synth;
 mod track;
@@ -78,6 +79,9 @@ enum Command {
     /// Compile recordings under every preset and compare time, placement, signal and
     /// tracks with `exact`.
     Trade(trade::Args),
+    /// Score every recording of a labelled data set for every class by cross-validation
+    /// and list the best of each class (the paper's instance selection).
+    Select(select::Args),
     /// Talk to a sleeve on a cable: list, info, upload, play, stop, stream, status, events.
     Sleeve(sleeve::Args),
     /// Print a shell completion script: `touchc completions bash > /etc/bash_completion.d/touchc`.
@@ -114,6 +118,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bank(args) => bank::run(&args),
         Command::Synth(args) => synth::run(&args),
         Command::Trade(args) => trade::run(&args),
+        Command::Select(args) => select::run(&args),
         Command::Sleeve(args) => sleeve::run(&args),
         Command::Completions { shell } => {
             // Generated into memory: clap_complete panics on a write error.
@@ -159,6 +164,16 @@ pub fn report(err: &anyhow::Error) -> ExitCode {
     });
     if broken_pipe {
         return ExitCode::SUCCESS;
+    }
+    // Ctrl-C during `select`'s training: stopped as asked, nothing written (128 + SIGINT).
+    if err.chain().any(|c| {
+        matches!(
+            c.downcast_ref(),
+            Some(touchc::select::SelectError::Cancelled)
+        )
+    }) {
+        eprintln!("touchc: interrupted: nothing written");
+        return ExitCode::from(130);
     }
     print_error(err);
     // A parameter out of range is a usage error wherever it is found: in the flags, or

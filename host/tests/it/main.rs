@@ -33,6 +33,7 @@ mod cli_help;
 mod cli_messages;
 mod cli_outputs;
 mod cli_sanity;
+mod cli_select;
 mod cli_sleeve;
 mod cli_trade;
 mod cli_unix;
