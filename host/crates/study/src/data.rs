@@ -90,6 +90,17 @@ impl Responses {
         Ok(())
     }
 
+    /// One rating scale (`f` picks it from a trial) grouped by the stimulus's scenario.
+    pub fn ratings(&self, f: impl Fn(&Trial) -> Option<f64>) -> Vec<Vec<f64>> {
+        let mut g = vec![Vec::new(); self.scenarios.len()];
+        for t in &self.trials {
+            if let Some(v) = f(t) {
+                g[t.stimulus].push(v);
+            }
+        }
+        g
+    }
+
     /// The trials that carry probabilities (the classification rounds).
     pub fn classified(&self) -> impl Iterator<Item = (&Trial, &[f64])> {
         self.trials

@@ -21,8 +21,10 @@
 mod classify;
 mod cluster;
 mod data;
+pub mod figures;
 
 pub mod log;
+pub mod markdown;
 
 pub mod order;
 mod rank;
@@ -35,6 +37,5 @@ pub use cluster::{kmeans, KMeansRun};
 pub use data::{DataError, Reference, Responses, Trial};
 pub use rank::{dunn_sidak, kruskal_wallis, KruskalWallis};
 pub use report::{
-    analyse, Accuracy, Clustering, ClusterCandidate, Cutoffs, Rating, RoundReport, Report,
-    Settings,
+    analyse, Accuracy, ClusterCandidate, Clustering, Cutoffs, Rating, Report, RoundReport, Settings,
 };

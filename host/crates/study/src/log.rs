@@ -106,7 +106,10 @@ pub fn records(text: &str) -> Result<Vec<Record>, DataError> {
         if l.trim().is_empty() {
             continue;
         }
-        let r = serde_json::from_str(l).map_err(|source| DataError::Json { line: i + 1, source })?;
+        let r = serde_json::from_str(l).map_err(|source| DataError::Json {
+            line: i + 1,
+            source,
+        })?;
         out.push(r);
     }
     Ok(out)
@@ -133,20 +136,29 @@ pub fn read(text: &str) -> Result<Responses, DataError> {
                     line,
                     problem: "a trial before any session record".into(),
                 })?;
-                let stimulus = names.iter().position(|s| *s == t.stimulus).ok_or_else(|| {
-                    DataError::Line {
-                        line,
-                        problem: format!("stimulus {:?} is none of the scenarios", t.stimulus),
-                    }
-                })?;
+                let stimulus =
+                    names
+                        .iter()
+                        .position(|s| *s == t.stimulus)
+                        .ok_or_else(|| DataError::Line {
+                            line,
+                            problem: format!("stimulus {:?} is none of the scenarios", t.stimulus),
+                        })?;
                 let probabilities = match t.p {
                     Some(p) if p.len() != names.len() => {
                         return Err(DataError::Line {
                             line,
-                            problem: format!("{} probabilities for {} scenarios", p.len(), names.len()),
+                            problem: format!(
+                                "{} probabilities for {} scenarios",
+                                p.len(),
+                                names.len()
+                            ),
                         })
                     }
-                    Some(p) => Some(crate::data::normalise(&p).map_err(|problem| DataError::Line { line, problem })?),
+                    Some(p) => Some(
+                        crate::data::normalise(&p)
+                            .map_err(|problem| DataError::Line { line, problem })?,
+                    ),
                     None => None,
                 };
                 trials.push(Trial {

@@ -145,7 +145,10 @@ mod tests {
 
     #[test]
     fn separated_groups_differ() {
-        let g = vec![(0..10).map(f64::from).collect(), (20..30).map(f64::from).collect()];
+        let g = vec![
+            (0..10).map(f64::from).collect(),
+            (20..30).map(f64::from).collect(),
+        ];
         let kw = kruskal_wallis(&g).unwrap();
         assert_eq!(kw.df, 1);
         assert!(kw.p < 1e-3);

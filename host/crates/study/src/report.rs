@@ -3,8 +3,8 @@
 use serde::Serialize;
 
 use crate::classify::{
-    accuracy_at_cutoff, bhattacharyya, confusion, recall_precision, row_normalised,
-    top_choice, top_tied, wilson_interval,
+    accuracy_at_cutoff, bhattacharyya, confusion, recall_precision, row_normalised, top_choice,
+    top_tied, wilson_interval,
 };
 use crate::cluster::{calinski_harabasz, kmeans, silhouette};
 use crate::rank::{dunn_sidak, kruskal_wallis, KruskalWallis};
@@ -213,9 +213,18 @@ fn clustering(
     s: &Settings,
 ) -> Option<Clustering> {
     let mut distinct = points.to_vec();
-    distinct.sort_by(|a, b| a.iter().zip(b).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal));
+    distinct.sort_by(|a, b| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
     distinct.dedup();
-    let top = s.max_k.min(distinct.len()).min(points.len().saturating_sub(1));
+    let top = s
+        .max_k
+        .min(distinct.len())
+        .min(points.len().saturating_sub(1));
     let mut candidates = Vec::new();
     let mut runs = Vec::new();
     for k in 2..=top {
@@ -233,7 +242,13 @@ fn clustering(
         runs.push(run);
     }
     let best = |f: fn(&ClusterCandidate) -> f64| {
-        (0..candidates.len()).fold(0, |b, i| if f(&candidates[i]) > f(&candidates[b]) { i } else { b })
+        (0..candidates.len()).fold(0, |b, i| {
+            if f(&candidates[i]) > f(&candidates[b]) {
+                i
+            } else {
+                b
+            }
+        })
     };
     if candidates.is_empty() {
         return None;
@@ -258,7 +273,10 @@ fn clustering(
 /// given (its scenarios are matched by name).
 pub fn analyse(responses: &Responses, reference: Option<&Reference>, s: &Settings) -> Report {
     let n = responses.scenarios.len();
-    let trials: Vec<(usize, &[f64])> = responses.classified().map(|(t, p)| (t.stimulus, p)).collect();
+    let trials: Vec<(usize, &[f64])> = responses
+        .classified()
+        .map(|(t, p)| (t.stimulus, p))
+        .collect();
     let m = confusion(n, trials.iter().copied());
     let (recall, precision) = recall_precision(&m);
     let chance = 1.0 / n as f64;
@@ -279,7 +297,12 @@ pub fn analyse(responses: &Responses, reference: Option<&Reference>, s: &Setting
         })
     });
     let cutoffs = (!trials.is_empty()).then(|| {
-        let at = |top| s.cutoffs.iter().map(|c| accuracy_at_cutoff(&trials, top, *c)).collect();
+        let at = |top| {
+            s.cutoffs
+                .iter()
+                .map(|c| accuracy_at_cutoff(&trials, top, *c))
+                .collect()
+        };
         Cutoffs {
             cutoff: s.cutoffs.clone(),
             top1: at(1),
@@ -297,7 +320,12 @@ pub fn analyse(responses: &Responses, reference: Option<&Reference>, s: &Setting
                 let cols: Option<Vec<f64>> = responses
                     .scenarios
                     .iter()
-                    .map(|c| r.scenarios.iter().position(|x| x == c).map(|j| r.rows[row][j]))
+                    .map(|c| {
+                        r.scenarios
+                            .iter()
+                            .position(|x| x == c)
+                            .map(|j| r.rows[row][j])
+                    })
                     .collect();
                 let observed: Vec<f64> = m[i].iter().map(|c| *c as f64).collect();
                 bhattacharyya(&observed, &cols?)
@@ -306,18 +334,13 @@ pub fn analyse(responses: &Responses, reference: Option<&Reference>, s: &Setting
     });
     let points: Vec<Vec<f64>> = trials.iter().map(|(_, p)| p.to_vec()).collect();
     let stimuli: Vec<usize> = trials.iter().map(|(st, _)| *st).collect();
-    let scale = |f: fn(&crate::Trial) -> Option<f64>| {
-        let mut g = vec![Vec::new(); n];
-        for t in &responses.trials {
-            if let Some(v) = f(t) {
-                g[t.stimulus].push(v);
-            }
-        }
-        rating(g)
-    };
-    let valence = scale(|t| t.valence);
-    let arousal = scale(|t| t.arousal);
-    let mut people: Vec<&str> = responses.trials.iter().map(|t| t.participant.as_str()).collect();
+    let valence = rating(responses.ratings(|t| t.valence));
+    let arousal = rating(responses.ratings(|t| t.arousal));
+    let mut people: Vec<&str> = responses
+        .trials
+        .iter()
+        .map(|t| t.participant.as_str())
+        .collect();
     people.sort_unstable();
     people.dedup();
     Report {

@@ -81,7 +81,7 @@ pub fn chi2_sf(x: f64, df: u32) -> f64 {
     let h = x / 2.0;
     let ln_h = h.ln();
     // Q(a, h) with a = df / 2: a finite series of Poisson-like terms, in log space.
-    let (mut lt, mut order, mut base): (f64, f64, f64) = if df % 2 == 0 {
+    let (mut lt, mut order, mut base): (f64, f64, f64) = if df.is_multiple_of(2) {
         (-h, 1.0, 0.0)
     } else {
         // erfc(sqrt h) carries the half-integer part; the terms start at k + 3/2.

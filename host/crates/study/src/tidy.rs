@@ -109,12 +109,17 @@ fn optional(line: usize, column: &str, v: &str) -> Result<Option<f64>, DataError
 fn row(line: usize, f: &[String], scenarios: &[String]) -> Result<Trial, DataError> {
     let n = scenarios.len();
     if f.len() != n + 6 {
-        return Err(bad(line, format!("{} fields where the header has {}", f.len(), n + 6)));
+        return Err(bad(
+            line,
+            format!("{} fields where the header has {}", f.len(), n + 6),
+        ));
     }
-    let stimulus = scenarios
-        .iter()
-        .position(|s| *s == f[3])
-        .ok_or_else(|| bad(line, format!("stimulus {:?} is none of the scenarios", f[3])))?;
+    let stimulus = scenarios.iter().position(|s| *s == f[3]).ok_or_else(|| {
+        bad(
+            line,
+            format!("stimulus {:?} is none of the scenarios", f[3]),
+        )
+    })?;
     let raw = &f[4..4 + n];
     let probabilities = if raw.iter().all(|v| v.trim().is_empty()) {
         None
@@ -190,7 +195,10 @@ pub fn read_reference(text: &str) -> Result<Reference, DataError> {
         .ok_or_else(|| DataError::Shape("the file is empty".into()))?;
     let h = fields(h).map_err(|p| bad(hl, p))?;
     if h.len() < 3 || h[0] != "stimulus" {
-        return Err(bad(hl, "the header must be stimulus, then two or more scenario names"));
+        return Err(bad(
+            hl,
+            "the header must be stimulus, then two or more scenario names",
+        ));
     }
     let scenarios: Vec<String> = h[1..].to_vec();
     let mut names = Vec::new();
@@ -198,7 +206,10 @@ pub fn read_reference(text: &str) -> Result<Reference, DataError> {
     for (line, l) in it {
         let f = fields(l).map_err(|p| bad(line, p))?;
         if f.len() != h.len() {
-            return Err(bad(line, format!("{} fields where the header has {}", f.len(), h.len())));
+            return Err(bad(
+                line,
+                format!("{} fields where the header has {}", f.len(), h.len()),
+            ));
         }
         let vals = f[1..]
             .iter()
@@ -248,15 +259,18 @@ mod tests {
 
     #[test]
     fn errors_name_the_line_and_the_column() {
-        let e = read("participant,round,position,stimulus,p_a,p_b,valence,arousal\nx,1,1,a,0.5,zz,,\n")
-            .unwrap_err()
-            .to_string();
+        let e =
+            read("participant,round,position,stimulus,p_a,p_b,valence,arousal\nx,1,1,a,0.5,zz,,\n")
+                .unwrap_err()
+                .to_string();
         assert_eq!(e, "line 2: p_b: \"zz\" is not a number");
         let e = read("participant,round\n").unwrap_err().to_string();
         assert!(e.starts_with("line 1: the header must be"), "{e}");
-        let e = read("participant,round,position,stimulus,p_a,p_b,valence,arousal\nx,1,1,c,0.5,0.5,,\n")
-            .unwrap_err()
-            .to_string();
+        let e = read(
+            "participant,round,position,stimulus,p_a,p_b,valence,arousal\nx,1,1,c,0.5,0.5,,\n",
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("stimulus \"c\""), "{e}");
     }
 
