@@ -70,6 +70,15 @@ pub fn render(r: &Report) -> String {
             r.top_ties
         );
     }
+    confusion_table(&mut out, r);
+    clustering_tables(&mut out, r);
+    rating_tables(&mut out, r);
+    out
+}
+
+/// The confusion matrix with recall, precision and binomial tests, and the Bhattacharyya
+/// coefficients.
+fn confusion_table(out: &mut String, r: &Report) {
     out.push_str("## Confusion (rows: stimulus; columns: top choice; % of the row)\n\n");
     let mut head = vec!["stimulus".to_string()];
     head.extend(r.scenarios.iter().cloned());
@@ -86,7 +95,7 @@ pub fn render(r: &Report) -> String {
             row
         })
         .collect();
-    table(&mut out, &head, &rows);
+    table(out, &head, &rows);
     if let Some(b) = &r.bhattacharyya {
         out.push_str("## Bhattacharyya coefficient against the reference, per row\n\n");
         let rows: Vec<Vec<String>> = r
@@ -100,8 +109,12 @@ pub fn render(r: &Report) -> String {
                 ]
             })
             .collect();
-        table(&mut out, &["stimulus".into(), "coefficient".into()], &rows);
+        table(out, &["stimulus".into(), "coefficient".into()], &rows);
     }
+}
+
+/// The k-means criteria per k and the chosen clusters.
+fn clustering_tables(out: &mut String, r: &Report) {
     if let Some(c) = &r.clustering {
         let _ = writeln!(out, "## k-means over the probability vectors\n\nCalinski-Harabasz chooses k = {}, the silhouette k = {}; the clusters below are for k = {}.\n", c.k_calinski_harabasz, c.k_silhouette, c.k);
         let rows: Vec<Vec<String>> = c
@@ -117,7 +130,7 @@ pub fn render(r: &Report) -> String {
             })
             .collect();
         table(
-            &mut out,
+            out,
             &["k", "Calinski-Harabasz", "silhouette", "inertia"].map(String::from),
             &rows,
         );
@@ -137,9 +150,13 @@ pub fn render(r: &Report) -> String {
                     row
                 })
                 .collect();
-            table(&mut out, &head, &rows);
+            table(out, &head, &rows);
         }
     }
+}
+
+/// Valence and arousal: medians, Kruskal-Wallis, Dunn-Sidak.
+fn rating_tables(out: &mut String, r: &Report) {
     for (name, rating) in [("Valence", &r.valence), ("Arousal", &r.arousal)] {
         if rating.count.iter().all(|c| *c == 0) {
             continue;
@@ -167,7 +184,6 @@ pub fn render(r: &Report) -> String {
                 row
             })
             .collect();
-        table(&mut out, &head, &rows);
+        table(out, &head, &rows);
     }
-    out
 }
