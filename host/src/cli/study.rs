@@ -9,6 +9,10 @@ use touchc_study::{figures, log, markdown, tidy, Responses, Settings};
 
 use crate::cli::output::{named, refuse_overwrites, write_atomic};
 
+mod http;
+mod plan;
+mod session;
+
 /// What `--help` says after the subcommands.
 const AFTER_HELP: &str = "\
 Inputs of `report`: session logs (JSON lines, as `run` writes them) or tidy CSVs
@@ -27,6 +31,9 @@ pub struct Args {
 
 #[derive(Debug, clap::Subcommand)]
 enum Cmd {
+    /// Run one participant's session: serve the page on 127.0.0.1, play each trial on
+    /// the sleeve, log each answer (JSON lines, flushed per trial).
+    Run(session::RunArgs),
     /// Analyse session logs or tidy CSVs: confusion, accuracy, binomial tests,
     /// cut-offs, Bhattacharyya, k-means, Kruskal-Wallis (Markdown on stdout, or
     /// report.json, report.md, CSVs and SVG figures in -o DIR).
@@ -53,6 +60,7 @@ struct ReportArgs {
 /// Runs `touchc study`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     match &args.command {
+        Cmd::Run(a) => session::run(a),
         Cmd::Report(a) => report(a),
     }
 }
