@@ -123,7 +123,10 @@ fn read_request(stream: TcpStream) -> io::Result<Request> {
         }
         if let Some((k, v)) = h.split_once(':') {
             if k.trim().eq_ignore_ascii_case("content-length") {
-                length = v.trim().parse().map_err(|_| io::Error::from(io::ErrorKind::InvalidData))?;
+                length = v
+                    .trim()
+                    .parse()
+                    .map_err(|_| io::Error::from(io::ErrorKind::InvalidData))?;
             }
         }
     }

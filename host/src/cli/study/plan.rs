@@ -91,7 +91,9 @@ fn key_at(text: &str, e: &toml::de::Error) -> String {
     let Some(span) = e.span() else {
         return "?".into();
     };
-    let start = text[..span.start.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
+    let start = text[..span.start.min(text.len())]
+        .rfind('\n')
+        .map_or(0, |i| i + 1);
     let line = &text[start..];
     let line = line.lines().next().unwrap_or("");
     match line.split_once('=') {
@@ -110,7 +112,11 @@ impl Plan {
             mistake(path, &key_at(&text, &e), what)
         })?;
         if f.scenario.len() < 2 {
-            return Err(mistake(path, "scenario", "at least two [[scenario]] tables are needed"));
+            return Err(mistake(
+                path,
+                "scenario",
+                "at least two [[scenario]] tables are needed",
+            ));
         }
         for (key, v, lo, hi) in [("rounds", f.rounds, 0, 20), ("repeats", f.repeats, 1, 20)] {
             if !(lo..=hi).contains(&v) {
@@ -118,7 +124,11 @@ impl Plan {
             }
         }
         if f.rounds == 0 && !f.sam {
-            return Err(mistake(path, "rounds", "0 rounds and no sam round: nothing to ask"));
+            return Err(mistake(
+                path,
+                "rounds",
+                "0 rounds and no sam round: nothing to ask",
+            ));
         }
         if !(0.0..=600.0).contains(&f.retry_pause_s) {
             return Err(mistake(path, "retry_pause_s", "must be 0 to 600 seconds"));
@@ -128,26 +138,47 @@ impl Plan {
         for (i, s) in f.scenario.into_iter().enumerate() {
             let at = |k: &str| format!("scenario[{i}].{k}");
             let ok_name = !s.name.is_empty()
-                && s.name.chars().all(|c| c.is_alphanumeric() || c == '_' || c == '-');
+                && s.name
+                    .chars()
+                    .all(|c| c.is_alphanumeric() || c == '_' || c == '-');
             if !ok_name {
-                return Err(mistake(path, &at("name"), format!("{:?}: use letters, digits, _ and -", s.name)));
+                return Err(mistake(
+                    path,
+                    &at("name"),
+                    format!("{:?}: use letters, digits, _ and -", s.name),
+                ));
             }
             if scenarios.iter().any(|o| o.name == s.name) {
-                return Err(mistake(path, &at("name"), format!("{:?} is named twice", s.name)));
+                return Err(mistake(
+                    path,
+                    &at("name"),
+                    format!("{:?} is named twice", s.name),
+                ));
             }
             if let Some(o) = scenarios.iter().find(|o| o.slot == s.slot) {
-                return Err(mistake(path, &at("slot"), format!("slot {} is {:?}'s too", s.slot, o.name)));
+                return Err(mistake(
+                    path,
+                    &at("slot"),
+                    format!("slot {} is {:?}'s too", s.slot, o.name),
+                ));
             }
             let audio = match s.audio {
                 Some(a) => {
                     let p = dir.join(&a);
-                    let bytes = std::fs::read(&p)
-                        .map_err(|e| mistake(path, &at("audio"), format!("{}: {e}", p.display())))?;
+                    let bytes = std::fs::read(&p).map_err(|e| {
+                        mistake(path, &at("audio"), format!("{}: {e}", p.display()))
+                    })?;
                     let mime = match p.extension().and_then(|e| e.to_str()) {
                         Some("mp3") => "audio/mpeg",
                         Some("ogg") => "audio/ogg",
                         Some("wav") => "audio/wav",
-                        _ => return Err(mistake(path, &at("audio"), "use a .wav, .mp3 or .ogg file")),
+                        _ => {
+                            return Err(mistake(
+                                path,
+                                &at("audio"),
+                                "use a .wav, .mp3 or .ogg file",
+                            ))
+                        }
                     };
                     Some((bytes, mime))
                 }
@@ -188,7 +219,12 @@ impl Plan {
             let mut order = Vec::new();
             for rep in 0..per {
                 let seed_round = round * 100 + rep;
-                order.extend(touchc_study::order::round_order(self.seed, participant, seed_round, n));
+                order.extend(touchc_study::order::round_order(
+                    self.seed,
+                    participant,
+                    seed_round,
+                    n,
+                ));
             }
             for (pos, s) in order.into_iter().enumerate() {
                 out.push((round, pos as u32 + 1, s));

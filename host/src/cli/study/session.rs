@@ -84,7 +84,8 @@ impl Ui<'_> {
         }
         if self.phase == Phase::Classify {
             let p = a.p.as_ref().ok_or("p is missing")?;
-            if p.len() != self.plan.scenarios.len() || p.iter().any(|v| !v.is_finite() || *v < 0.0) {
+            if p.len() != self.plan.scenarios.len() || p.iter().any(|v| !v.is_finite() || *v < 0.0)
+            {
                 return Err("one probability >= 0 per scenario".into());
             }
             let top = p.iter().copied().fold(0.0, f64::max);
@@ -95,7 +96,8 @@ impl Ui<'_> {
                 return Err("two scenarios share the largest value".into());
             }
         } else {
-            let ok = |v: Option<f64>| v.is_some_and(|v| (1.0..=9.0).contains(&v) && v.fract() == 0.0);
+            let ok =
+                |v: Option<f64>| v.is_some_and(|v| (1.0..=9.0).contains(&v) && v.fract() == 0.0);
             if !ok(a.valence) || !ok(a.arousal) {
                 return Err("valence and arousal are whole numbers 1 to 9".into());
             }
@@ -109,7 +111,10 @@ impl Ui<'_> {
             ("GET", "/") => Response::ok("text/html; charset=utf-8", PAGE),
             ("GET", "/state") => Response::ok("application/json", self.state()),
             ("GET", p) if p.starts_with("/audio/") => {
-                let audio = p[7..].parse::<usize>().ok().and_then(|i| self.plan.scenarios.get(i)?.audio.as_ref());
+                let audio = p[7..]
+                    .parse::<usize>()
+                    .ok()
+                    .and_then(|i| self.plan.scenarios.get(i)?.audio.as_ref());
                 match audio {
                     Some((bytes, mime)) => Response::ok(mime, bytes.clone()),
                     None => Response::error(404, "no such audio"),
@@ -119,7 +124,9 @@ impl Ui<'_> {
                 self.started = true;
                 Response::ok("text/plain", "ok")
             }
-            ("POST", "/replay") if self.plan.replay && matches!(self.phase, Phase::Classify | Phase::Sam) => {
+            ("POST", "/replay")
+                if self.plan.replay && matches!(self.phase, Phase::Classify | Phase::Sam) =>
+            {
                 self.replay = true;
                 Response::ok("text/plain", "ok")
             }
@@ -160,13 +167,17 @@ struct LogFile {
 impl LogFile {
     fn append(&mut self, r: &Record) -> anyhow::Result<()> {
         let what = || self.path.display().to_string();
-        self.file.write_all(r.line().as_bytes()).with_context(what)?;
+        self.file
+            .write_all(r.line().as_bytes())
+            .with_context(what)?;
         self.file.sync_data().with_context(what)
     }
 }
 
 fn now_s() -> u64 {
-    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs())
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
 }
 
 /// Opens the sleeve (`--port`, else the only USB serial port) and says hello.
@@ -174,7 +185,8 @@ fn open_sleeve(port: Option<&Path>) -> anyhow::Result<(PathBuf, Sleeve)> {
     let path = match port {
         Some(p) => p.to_path_buf(),
         None => {
-            let found = serial::candidates(crate::cli::sleeve::USB_IDS).context("cannot list the serial ports")?;
+            let found = serial::candidates(crate::cli::sleeve::USB_IDS)
+                .context("cannot list the serial ports")?;
             match found.as_slice() {
                 [] => bail!("no sleeve attached (no USB serial port found); connect one, or name its port with --port"),
                 [one] => one.path.clone(),
@@ -185,19 +197,29 @@ fn open_sleeve(port: Option<&Path>) -> anyhow::Result<(PathBuf, Sleeve)> {
     let t = match SerialTransport::open(&path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            bail!("{}: no sleeve attached there (no such port)", path.display())
+            bail!(
+                "{}: no sleeve attached there (no such port)",
+                path.display()
+            )
         }
         Err(e) => return Err(e).with_context(|| format!("{}: cannot open", path.display())),
     };
     let mut c = Client::new(t);
-    c.hello().map_err(|e| anyhow!("{}: no sleeve answered: {e}", path.display()))?;
+    c.hello()
+        .map_err(|e| anyhow!("{}: no sleeve answered: {e}", path.display()))?;
     Ok((path, c))
 }
 
 /// Plays `slot` until the sleeve reports its end; a refusal (a coil too hot, no
 /// bank) is logged and retried after the plan's pause, never skipped. Returns the
 /// start and end ticks.
-fn play(ui: &mut Ui, sleeve: &mut Sleeve, log: &mut LogFile, slot: u8, length_ms: u32) -> anyhow::Result<(u32, Option<u32>)> {
+fn play(
+    ui: &mut Ui,
+    sleeve: &mut Sleeve,
+    log: &mut LogFile,
+    slot: u8,
+    length_ms: u32,
+) -> anyhow::Result<(u32, Option<u32>)> {
     loop {
         let refusal = match sleeve.play(slot) {
             Ok(started) => match wait_end(ui, sleeve, slot, length_ms)? {
@@ -207,8 +229,14 @@ fn play(ui: &mut Ui, sleeve: &mut Sleeve, log: &mut LogFile, slot: u8, length_ms
             Err(ClientError::Refused { error, .. }) => format!("{error:?}"),
             Err(e) => return Err(anyhow!("the sleeve failed: {e}")),
         };
-        eprintln!("slot {slot} refused ({refusal}); trying again in {} s", ui.plan.retry_pause_s);
-        log.append(&Record::Event(EventRecord { what: "refused".into(), detail: format!("slot {slot}: {refusal}") }))?;
+        eprintln!(
+            "slot {slot} refused ({refusal}); trying again in {} s",
+            ui.plan.retry_pause_s
+        );
+        log.append(&Record::Event(EventRecord {
+            what: "refused".into(),
+            detail: format!("slot {slot}: {refusal}"),
+        }))?;
         let before = ui.phase;
         ui.phase = Phase::Paused;
         ui.message = "A short pause: the sleeve is cooling down.".into();
@@ -220,14 +248,25 @@ fn play(ui: &mut Ui, sleeve: &mut Sleeve, log: &mut LogFile, slot: u8, length_ms
 
 /// Waits for the end of `slot`: `Ok(Ok(end tick))`, or `Ok(Err(why))` if the sleeve
 /// refused or cut it short.
-fn wait_end(ui: &mut Ui, sleeve: &mut Sleeve, slot: u8, length_ms: u32) -> anyhow::Result<Result<Option<u32>, String>> {
+fn wait_end(
+    ui: &mut Ui,
+    sleeve: &mut Sleeve,
+    slot: u8,
+    length_ms: u32,
+) -> anyhow::Result<Result<Option<u32>, String>> {
     let until = Instant::now() + Duration::from_millis(length_ms as u64 + 3000);
     while Instant::now() < until {
         ui.serve();
-        let ev = sleeve.next_event(Duration::from_millis(20)).map_err(|e| anyhow!("the sleeve failed: {e}"))?;
+        let ev = sleeve
+            .next_event(Duration::from_millis(20))
+            .map_err(|e| anyhow!("the sleeve failed: {e}"))?;
         match ev.map(|e| e.event) {
-            Some(Event::Finished(Source::Slot(s))) if s == slot => return Ok(Ok(Some(ev.map_or(0, |e| e.tick)))),
-            Some(Event::TooHot { cooldown_ms, .. }) => return Ok(Err(format!("too hot, cooling {cooldown_ms} ms"))),
+            Some(Event::Finished(Source::Slot(s))) if s == slot => {
+                return Ok(Ok(Some(ev.map_or(0, |e| e.tick))))
+            }
+            Some(Event::TooHot { cooldown_ms, .. }) => {
+                return Ok(Err(format!("too hot, cooling {cooldown_ms} ms")))
+            }
             Some(Event::LimitHit { kind, .. }) => return Ok(Err(format!("limit hit: {kind:?}"))),
             _ => {}
         }
@@ -259,14 +298,26 @@ pub struct RunArgs {
 
 /// The trials the log already holds for `participant`, and whether acclimation is
 /// done; refuses a log begun with another plan.
-fn prior(path: &Path, plan: &Plan, participant: &str) -> anyhow::Result<(HashSet<(u32, u32)>, bool)> {
+fn prior(
+    path: &Path,
+    plan: &Plan,
+    participant: &str,
+) -> anyhow::Result<(HashSet<(u32, u32)>, bool)> {
     let text = std::fs::read_to_string(path).with_context(|| path.display().to_string())?;
     let records = log::records(&text).with_context(|| path.display().to_string())?;
     let (mut done, mut acclimated) = (HashSet::new(), false);
     for r in records {
         match r {
-            Record::Session(s) if s.scenarios != plan.names() || s.seed != plan.seed || s.rounds != plan.rounds || s.participant != participant => {
-                bail!("{}: the log was begun by another plan or participant", path.display())
+            Record::Session(s)
+                if s.scenarios != plan.names()
+                    || s.seed != plan.seed
+                    || s.rounds != plan.rounds
+                    || s.participant != participant =>
+            {
+                bail!(
+                    "{}: the log was begun by another plan or participant",
+                    path.display()
+                )
             }
             Record::Trial(t) => {
                 done.insert((t.round, t.position));
@@ -282,27 +333,58 @@ fn prior(path: &Path, plan: &Plan, participant: &str) -> anyhow::Result<(HashSet
 pub fn run(a: &RunArgs) -> anyhow::Result<()> {
     let plan = Plan::load(&a.plan)?;
     let who = &a.participant;
-    if who.is_empty() || !who.chars().all(|c| c.is_alphanumeric() || c == '_' || c == '-') {
-        return Err(crate::cli::usage(format!("--participant {who:?}: use letters, digits, _ and -")));
+    if who.is_empty()
+        || !who
+            .chars()
+            .all(|c| c.is_alphanumeric() || c == '_' || c == '-')
+    {
+        return Err(crate::cli::usage(format!(
+            "--participant {who:?}: use letters, digits, _ and -"
+        )));
     }
-    let log_path = a.log.clone().unwrap_or_else(|| PathBuf::from(format!("{who}.jsonl")));
+    let log_path = a
+        .log
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{who}.jsonl")));
     let exists = log_path.exists();
     if exists && !a.resume {
-        return Err(crate::cli::usage(format!("{}: the log exists; continue it with --resume", log_path.display())));
+        return Err(crate::cli::usage(format!(
+            "{}: the log exists; continue it with --resume",
+            log_path.display()
+        )));
     }
-    let (done, acclimated) = if exists { prior(&log_path, &plan, who)? } else { (HashSet::new(), false) };
+    let (done, acclimated) = if exists {
+        prior(&log_path, &plan, who)?
+    } else {
+        (HashSet::new(), false)
+    };
     let (port, mut sleeve) = open_sleeve(a.port.as_deref())?;
     let mut lengths = Vec::new();
     for s in &plan.scenarios {
-        let e = sleeve.slot(s.slot).map_err(|e| anyhow!("{}: slot {} ({}): {e}", port.display(), s.slot, s.name))?;
+        let e = sleeve
+            .slot(s.slot)
+            .map_err(|e| anyhow!("{}: slot {} ({}): {e}", port.display(), s.slot, s.name))?;
         if !e.playable {
-            bail!("{}: slot {} ({}) is not playable", port.display(), s.slot, s.name);
+            bail!(
+                "{}: slot {} ({}) is not playable",
+                port.display(),
+                s.slot,
+                s.name
+            );
         }
         lengths.push(e.playback_ms);
     }
-    let server = Server::bind(a.http_port).with_context(|| format!("cannot listen on 127.0.0.1:{}", a.http_port))?;
-    let file = File::options().create(true).append(true).open(&log_path).with_context(|| log_path.display().to_string())?;
-    let mut log = LogFile { path: log_path, file };
+    let server = Server::bind(a.http_port)
+        .with_context(|| format!("cannot listen on 127.0.0.1:{}", a.http_port))?;
+    let file = File::options()
+        .create(true)
+        .append(true)
+        .open(&log_path)
+        .with_context(|| log_path.display().to_string())?;
+    let mut log = LogFile {
+        path: log_path,
+        file,
+    };
     log.append(&Record::Session(Session {
         version: log::VERSION,
         participant: who.clone(),
@@ -314,8 +396,24 @@ pub fn run(a: &RunArgs) -> anyhow::Result<()> {
         started: now_s(),
         resumed: exists,
     }))?;
-    eprintln!("participant page: {} (sleeve on {})", server.url()?, port.display());
-    let mut ui = Ui { plan: &plan, server, phase: Phase::Intro, id: 0, round: 0, position: 0, of: 0, message: String::new(), started: false, answer: None, replay: false };
+    eprintln!(
+        "participant page: {} (sleeve on {})",
+        server.url()?,
+        port.display()
+    );
+    let mut ui = Ui {
+        plan: &plan,
+        server,
+        phase: Phase::Intro,
+        id: 0,
+        round: 0,
+        position: 0,
+        of: 0,
+        message: String::new(),
+        started: false,
+        answer: None,
+        replay: false,
+    };
     while !ui.started {
         ui.serve_for(Duration::from_millis(50));
     }
@@ -325,21 +423,40 @@ pub fn run(a: &RunArgs) -> anyhow::Result<()> {
         ui.of = order.len() as u32;
         for (i, s) in order.into_iter().enumerate() {
             ui.position = i as u32 + 1;
-            play(&mut ui, &mut sleeve, &mut log, plan.scenarios[s].slot, lengths[s])?;
+            play(
+                &mut ui,
+                &mut sleeve,
+                &mut log,
+                plan.scenarios[s].slot,
+                lengths[s],
+            )?;
             ui.serve_for(Duration::from_millis(1500));
         }
-        log.append(&Record::Event(EventRecord { what: "acclimation".into(), detail: String::new() }))?;
+        log.append(&Record::Event(EventRecord {
+            what: "acclimation".into(),
+            detail: String::new(),
+        }))?;
     }
     trials(&mut ui, &mut sleeve, &mut log, &done, &lengths, who)?;
     ui.phase = Phase::Done;
-    log.append(&Record::Event(EventRecord { what: "done".into(), detail: String::new() }))?;
+    log.append(&Record::Event(EventRecord {
+        what: "done".into(),
+        detail: String::new(),
+    }))?;
     eprintln!("session complete: {}", log.path.display());
     ui.serve_for(Duration::from_secs(3));
     Ok(())
 }
 
 /// Every trial not yet in the log: play, then wait for the page's answer and log it.
-fn trials(ui: &mut Ui, sleeve: &mut Sleeve, log: &mut LogFile, done: &HashSet<(u32, u32)>, lengths: &[u32], who: &str) -> anyhow::Result<()> {
+fn trials(
+    ui: &mut Ui,
+    sleeve: &mut Sleeve,
+    log: &mut LogFile,
+    done: &HashSet<(u32, u32)>,
+    lengths: &[u32],
+    who: &str,
+) -> anyhow::Result<()> {
     let plan = ui.plan;
     let all = plan.trials(who);
     let total = all.len();
@@ -350,11 +467,19 @@ fn trials(ui: &mut Ui, sleeve: &mut Sleeve, log: &mut LogFile, done: &HashSet<(u
         let sc = &plan.scenarios[s];
         ui.id += 1;
         (ui.round, ui.position) = (round, position);
-        ui.of = if round > plan.rounds { plan.scenarios.len() } else { plan.scenarios.len() * plan.repeats as usize } as u32;
+        ui.of = if round > plan.rounds {
+            plan.scenarios.len()
+        } else {
+            plan.scenarios.len() * plan.repeats as usize
+        } as u32;
         ui.phase = Phase::Playing;
         let (start, end) = play(ui, sleeve, log, sc.slot, lengths[s])?;
         let mut plays = 1;
-        ui.phase = if round > plan.rounds { Phase::Sam } else { Phase::Classify };
+        ui.phase = if round > plan.rounds {
+            Phase::Sam
+        } else {
+            Phase::Classify
+        };
         let asked = Instant::now();
         let answer = loop {
             ui.serve_for(Duration::from_millis(20));
@@ -387,7 +512,9 @@ fn trials(ui: &mut Ui, sleeve: &mut Sleeve, log: &mut LogFile, done: &HashSet<(u
             arousal: answer.arousal,
             response_s: asked.elapsed().as_secs_f64(),
         }))?;
-        let heat = sleeve.status().map(|s| s.heat_permille.iter().copied().max().unwrap_or(0));
+        let heat = sleeve
+            .status()
+            .map(|s| s.heat_permille.iter().copied().max().unwrap_or(0));
         eprintln!(
             "trial {}/{total}: round {round} #{position} {} (slot {}), ticks {start}..{}, hottest coil {}",
             n + 1,
