@@ -329,6 +329,50 @@ fn prior(
     Ok((done, acclimated))
 }
 
+/// Each scenario's playback length, ms; refuses a slot the sleeve lacks or will not play.
+fn slot_lengths(port: &Path, sleeve: &mut Sleeve, plan: &Plan) -> anyhow::Result<Vec<u32>> {
+    let mut lengths = Vec::new();
+    for s in &plan.scenarios {
+        let e = sleeve
+            .slot(s.slot)
+            .map_err(|e| anyhow!("{}: slot {} ({}): {e}", port.display(), s.slot, s.name))?;
+        if !e.playable {
+            bail!(
+                "{}: slot {} ({}) is not playable",
+                port.display(),
+                s.slot,
+                s.name
+            );
+        }
+        lengths.push(e.playback_ms);
+    }
+    Ok(lengths)
+}
+
+/// Each stimulus once, unlabelled, so that the participant knows the range.
+fn acclimate(
+    ui: &mut Ui,
+    sleeve: &mut Sleeve,
+    log: &mut LogFile,
+    lengths: &[u32],
+    who: &str,
+) -> anyhow::Result<()> {
+    let plan = ui.plan;
+    ui.phase = Phase::Acclimation;
+    let order = plan.acclimation_order(who);
+    ui.of = order.len() as u32;
+    for (i, s) in order.into_iter().enumerate() {
+        ui.position = i as u32 + 1;
+        play(ui, sleeve, log, plan.scenarios[s].slot, lengths[s])?;
+        ui.serve_for(Duration::from_millis(1500));
+    }
+    log.append(&Record::Event(EventRecord {
+        what: "acclimation".into(),
+        detail: String::new(),
+    }))?;
+    Ok(())
+}
+
 /// Runs `touchc study run`.
 pub fn run(a: &RunArgs) -> anyhow::Result<()> {
     let plan = Plan::load(&a.plan)?;
@@ -359,21 +403,7 @@ pub fn run(a: &RunArgs) -> anyhow::Result<()> {
         (HashSet::new(), false)
     };
     let (port, mut sleeve) = open_sleeve(a.port.as_deref())?;
-    let mut lengths = Vec::new();
-    for s in &plan.scenarios {
-        let e = sleeve
-            .slot(s.slot)
-            .map_err(|e| anyhow!("{}: slot {} ({}): {e}", port.display(), s.slot, s.name))?;
-        if !e.playable {
-            bail!(
-                "{}: slot {} ({}) is not playable",
-                port.display(),
-                s.slot,
-                s.name
-            );
-        }
-        lengths.push(e.playback_ms);
-    }
+    let lengths = slot_lengths(&port, &mut sleeve, &plan)?;
     let server = Server::bind(a.http_port)
         .with_context(|| format!("cannot listen on 127.0.0.1:{}", a.http_port))?;
     let file = File::options()
@@ -418,24 +448,7 @@ pub fn run(a: &RunArgs) -> anyhow::Result<()> {
         ui.serve_for(Duration::from_millis(50));
     }
     if plan.acclimation && !acclimated {
-        ui.phase = Phase::Acclimation;
-        let order = plan.acclimation_order(who);
-        ui.of = order.len() as u32;
-        for (i, s) in order.into_iter().enumerate() {
-            ui.position = i as u32 + 1;
-            play(
-                &mut ui,
-                &mut sleeve,
-                &mut log,
-                plan.scenarios[s].slot,
-                lengths[s],
-            )?;
-            ui.serve_for(Duration::from_millis(1500));
-        }
-        log.append(&Record::Event(EventRecord {
-            what: "acclimation".into(),
-            detail: String::new(),
-        }))?;
+        acclimate(&mut ui, &mut sleeve, &mut log, &lengths, who)?;
     }
     trials(&mut ui, &mut sleeve, &mut log, &done, &lengths, who)?;
     ui.phase = Phase::Done;
