@@ -47,6 +47,9 @@ cargo test --locked -p touch-e2e
 step "study statistics against scipy / scikit-learn (venv under target/)"
 bash scripts/study-oracle.sh
 
+step "study page in headless Chromium against the in-memory sleeve (apt chromium when missing)"
+bash scripts/study-browser.sh
+
 step "API docs: every public item documented, every link resolved"
 RUSTDOCFLAGS='-D warnings' cargo doc --no-deps --workspace --exclude sleeve-firmware --locked -q
 

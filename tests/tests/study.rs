@@ -11,41 +11,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use serialport::{SerialPort, TTYPort};
-use sleeve_firmware::link::sim::Device;
-use touch_protocol::bank;
-
-const EMOJI: &[u8] = include_bytes!("../../examples/emoji/emoji.bank");
+#[path = "common/pty_sleeve.rs"]
+mod pty_sleeve;
 
 /// Device milliseconds per host millisecond: the sleeve runs faster than life, so a
 /// session of 3-second stimuli takes seconds.
 const SPEED: usize = 10;
 
-/// Runs the sleeve on the master side of a pty until `stop`; returns the slave's path.
 fn sleeve(stop: Arc<AtomicBool>) -> String {
-    let (mut master, slave) = TTYPort::pair().expect("a pseudo-terminal");
-    let name = slave.name().expect("the pty has a name");
-    drop(slave);
-    master.set_timeout(Duration::from_millis(1)).unwrap();
-    std::thread::spawn(move || {
-        let mut region = vec![0xFF; bank::REGION_LEN];
-        region[..EMOJI.len()].copy_from_slice(EMOJI);
-        let mut dev = Device::boot(&region, EMOJI);
-        let mut buf = [0u8; 4096];
-        while !stop.load(Ordering::Relaxed) {
-            // Nobody on the slave side reads as an error: wait for the next run.
-            if let Ok(n) = master.read(&mut buf) {
-                dev.write(&buf[..n]);
-            }
-            dev.run(SPEED);
-            let out = dev.read();
-            if !out.is_empty() {
-                let _ = master.write_all(&out);
-            }
-            std::thread::sleep(Duration::from_millis(1));
-        }
-    });
-    name
+    pty_sleeve::serve(SPEED, stop)
 }
 
 /// The `touchc` binary, built first: it is another package's, so Cargo does not

@@ -1,6 +1,7 @@
 """Checks `touchc study report` against scipy and scikit-learn on generated response sets.
 
 Usage: python oracle.py path/to/touchc [WORKDIR]
+       python oracle.py --example OUT.csv   (a simulated study for the docs' figures)
 
 Each set is written as a tidy CSV (and a reference matrix for some), the real `touchc`
 binary reports it with -o, and every statistic in report.json is recomputed here with
@@ -316,6 +317,11 @@ def cases(rng):
 
 
 def main():
+    if sys.argv[1] == "--example":
+        # A simulated paper-sized study with the emoji's names, for the docs' figures.
+        names, rows = make_set(np.random.default_rng(30), kind="named", strength=2.0)
+        write_csv(sys.argv[2], names, rows)
+        return
     touchc = sys.argv[1]
     work = Path(sys.argv[2]) if len(sys.argv) > 2 else Path(tempfile.mkdtemp())
     rng = np.random.default_rng(37)

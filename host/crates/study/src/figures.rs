@@ -240,7 +240,7 @@ fn sam(r: &Report, ratings: &[(&str, Vec<Vec<f64>>)]) -> Option<String> {
         return None;
     }
     let n = r.scenarios.len();
-    let pw = 50.0 * n as f64;
+    let pw = 64.0 * n as f64;
     let mut s = open(
         60.0 + (pw + 60.0) * 2.0,
         330.0,
@@ -256,7 +256,7 @@ fn sam(r: &Report, ratings: &[(&str, Vec<Vec<f64>>)]) -> Option<String> {
             text(&mut s, x0 - 5.0, y(v as f64) + 4.0, "end", &v.to_string());
         }
         for (j, g) in groups.iter().enumerate() {
-            let cx = x0 + 50.0 * j as f64 + 25.0;
+            let cx = x0 + 64.0 * j as f64 + 32.0;
             text(&mut s, cx, y0 + h + 15.0, "middle", &r.scenarios[j]);
             if g.is_empty() {
                 continue;
