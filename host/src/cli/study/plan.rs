@@ -86,19 +86,32 @@ fn mistake(path: &Path, key: &str, problem: impl std::fmt::Display) -> anyhow::E
     crate::cli::usage(format!("{}: key `{key}`: {problem}", path.display()))
 }
 
-/// The key a TOML error points at: the `name = ` before its position, else `?`.
+/// The key a TOML error points at: the `name = ` of its line or its table's header,
+/// with the field a "missing field" error names; `?` when neither is known.
 fn key_at(text: &str, e: &toml::de::Error) -> String {
-    let Some(span) = e.span() else {
-        return "?".into();
+    let field = e
+        .message()
+        .strip_prefix("missing field `")
+        .and_then(|r| r.split('`').next());
+    let line = e.span().map_or("", |span| {
+        let start = text[..span.start.min(text.len())]
+            .rfind('\n')
+            .map_or(0, |i| i + 1);
+        text[start..].lines().next().unwrap_or("").trim()
+    });
+    let header = line
+        .starts_with('[')
+        .then(|| line.trim_matches(['[', ']']).trim());
+    let key = match line.split_once('=') {
+        _ if line.starts_with('#') => None,
+        Some((k, _)) if header.is_none() => Some(k.trim()),
+        _ => header,
     };
-    let start = text[..span.start.min(text.len())]
-        .rfind('\n')
-        .map_or(0, |i| i + 1);
-    let line = &text[start..];
-    let line = line.lines().next().unwrap_or("");
-    match line.split_once('=') {
-        Some((k, _)) => k.trim().to_string(),
-        None => line.trim().trim_matches(['[', ']']).to_string(),
+    match (key, field) {
+        (Some(h), Some(f)) if header.is_some() => format!("{h}.{f}"),
+        (_, Some(f)) => f.to_string(),
+        (Some(k), None) => k.to_string(),
+        (None, None) => "?".into(),
     }
 }
 
