@@ -251,3 +251,47 @@ impl Plan {
         touchc_study::order::round_order(self.seed, participant, 0, self.scenarios.len())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(rounds: u32, repeats: u32, sam: bool) -> Plan {
+        Plan {
+            seed: 3,
+            rounds,
+            repeats,
+            sam,
+            acclimation: true,
+            replay: false,
+            retry_pause_s: 1.0,
+            scenarios: (0..4)
+                .map(|i| Scenario {
+                    name: format!("s{i}"),
+                    slot: i,
+                    prompt: String::new(),
+                    audio: None,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn every_round_presents_each_stimulus_repeats_times_then_the_manikin_round_once() {
+        let p = plan(3, 2, true);
+        let t = p.trials("p01");
+        assert_eq!(t.len(), 3 * 2 * 4 + 4);
+        for round in 1..=4u32 {
+            let mut s: Vec<usize> = t.iter().filter(|x| x.0 == round).map(|x| x.2).collect();
+            let positions: Vec<u32> = t.iter().filter(|x| x.0 == round).map(|x| x.1).collect();
+            assert_eq!(positions, (1..=s.len() as u32).collect::<Vec<_>>());
+            s.sort();
+            let per = if round == 4 { 1 } else { 2 };
+            assert_eq!(s, (0..4).flat_map(|i| vec![i; per]).collect::<Vec<_>>());
+        }
+        // The same participant gets the same orders; another, others.
+        assert_eq!(t, p.trials("p01"));
+        assert_ne!(t, p.trials("p02"));
+        assert!(plan(2, 1, false).trials("p01").iter().all(|x| x.0 <= 2));
+    }
+}
