@@ -38,11 +38,17 @@ cargo test --locked -p touch-protocol
 step "tests: the host's layer crates (host/crates/)"
 cargo test --locked -p touchc-model -p touchc-wide -p touchc-test-rng -p touchc-input -p touchc-synth \
     -p touchc-tracking -p touchc-placement -p touchc-rendering -p touchc-encoding \
-    -p touchc-pipeline -p touchc-eval -p touchc-export -p touchc-link -p touchc-testkit
+    -p touchc-pipeline -p touchc-eval -p touchc-export -p touchc-link -p touchc-study -p touchc-testkit
 step "tests: touchc alone"
 cargo test --locked -p touchc
 step "tests: end-to-end alone"
 cargo test --locked -p touch-e2e
+
+step "study statistics against scipy / scikit-learn (venv under target/)"
+bash scripts/study-oracle.sh
+
+step "study page in headless Chromium against the in-memory sleeve (apt chromium when missing)"
+bash scripts/study-browser.sh
 
 step "API docs: every public item documented, every link resolved"
 RUSTDOCFLAGS='-D warnings' cargo doc --no-deps --workspace --exclude sleeve-firmware --locked -q

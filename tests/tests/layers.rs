@@ -16,6 +16,8 @@ const LAYERS: &[(&str, u32)] = &[
     ("touchc-wide", 0),
     ("touchc-test-rng", 0),
     ("touchc-link", 0),
+    // Perception studies and their statistics.
+    ("touchc-study", 0),
     // The model every stage shares.
     ("touchc-model", 1),
     // The stages, in pipeline order, and what reads a finished stimulus.

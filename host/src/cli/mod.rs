@@ -17,6 +17,7 @@ mod render;
 mod report_json;
 mod select;
 mod sleeve;
+mod study;
 mod synth;
 mod track;
 mod trade;
@@ -84,6 +85,9 @@ enum Command {
     Select(select::Args),
     /// Talk to a sleeve on a cable: list, info, upload, play, stop, stream, status, events.
     Sleeve(sleeve::Args),
+    /// Perception studies with the sleeve: run a participant's session from a plan,
+    /// report the classification experiment's analyses.
+    Study(study::Args),
     /// Print a shell completion script: `touchc completions bash > /etc/bash_completion.d/touchc`.
     Completions {
         /// The shell to complete in.
@@ -120,6 +124,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Trade(args) => trade::run(&args),
         Command::Select(args) => select::run(&args),
         Command::Sleeve(args) => sleeve::run(&args),
+        Command::Study(args) => study::run(&args),
         Command::Completions { shell } => {
             // Generated into memory: clap_complete panics on a write error.
             let mut script = Vec::new();

@@ -35,6 +35,7 @@ mod cli_outputs;
 mod cli_sanity;
 mod cli_select;
 mod cli_sleeve;
+mod cli_study;
 mod cli_trade;
 mod cli_unix;
 mod cli_viz;
