@@ -38,7 +38,8 @@ cargo test --locked -p touch-protocol
 step "tests: the host's layer crates (host/crates/)"
 cargo test --locked -p touchc-model -p touchc-wide -p touchc-test-rng -p touchc-input -p touchc-synth \
     -p touchc-tracking -p touchc-placement -p touchc-rendering -p touchc-encoding \
-    -p touchc-pipeline -p touchc-eval -p touchc-export -p touchc-link -p touchc-study -p touchc-testkit
+    -p touchc-pipeline -p touchc-eval -p touchc-export -p touchc-link -p touchc-study -p touchc-select \
+    -p touchc-testkit
 step "tests: touchc alone"
 cargo test --locked -p touchc
 step "tests: end-to-end alone"
