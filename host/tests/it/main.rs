@@ -31,6 +31,7 @@ mod cli;
 mod cli_files;
 mod cli_help;
 mod cli_messages;
+mod cli_newcomer;
 mod cli_outputs;
 mod cli_sanity;
 mod cli_select;

@@ -20,9 +20,11 @@ use touchc_model::config::{FileMetadata, PITCH_MM_RANGE, RATE_HZ_RANGE};
 mod errors;
 mod npy;
 mod npz;
+mod stream;
 mod tare;
 
 pub use errors::RecordingError;
+pub use stream::STREAM_BUDGET_BYTES;
 pub(crate) use tare::map_cell_series;
 
 /// The most bytes one `.npz` entry may need decompressed: 512 MiB, eleven hours of an
@@ -53,10 +55,30 @@ impl Recording {
     pub fn load(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
         let path = path.as_ref();
         let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| RecordingError::Io {
+        let io = |source| RecordingError::Io {
             name: name.clone(),
             source,
-        })?;
+        };
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        if !file.metadata().map_err(io)?.is_file() {
+            // A device or a pipe (`/dev/zero`, `<(...)`): it may never end.
+            return Self::read_from(name.clone(), &mut file);
+        }
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut file, &mut bytes).map_err(io)?;
+        Self::from_bytes(name, &bytes)
+    }
+
+    /// Reads a `.npy` or `.npz` recording from a stream (standard input, a pipe, a
+    /// device), bounded: the magic number is checked first, a `.npy` is read up to the
+    /// data its header claims, and nothing more than [`STREAM_BUDGET_BYTES`] is read.
+    /// `name` is used in errors.
+    pub fn read_from(
+        name: impl Into<String>,
+        reader: &mut dyn std::io::Read,
+    ) -> Result<Self, RecordingError> {
+        let name = name.into();
+        let bytes = stream::read_bounded(&name, reader)?;
         Self::from_bytes(name, &bytes)
     }
 

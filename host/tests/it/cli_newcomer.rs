@@ -1,0 +1,123 @@
+//! What a newcomer and an adversary found (issue 34): a closed standard output is an
+//! error, endless inputs end, messages keep their advice.
+
+use crate::bin;
+use crate::stimuli;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use bin::{command, s, stderr};
+
+/// A 1 s stimulus in `dir`.
+fn stimulus(dir: &Path) -> PathBuf {
+    let path = dir.join("one.touch");
+    let swell: stimuli::Shape = |x| 0.5 * (std::f64::consts::PI * x).sin();
+    let bytes = stimuli::stimulus("one", &stimuli::one_second(0.0, &[(2, swell)]));
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// Runs `touchc args` through `bash` with `redirect` (`>&-`, `</dev/zero`), under a
+/// 2 GB address-space limit, and kills it after `limit`: returns its output, or `None`
+/// when it had to be killed.
+fn shell(redirect: &str, args: &[&str], limit: Duration) -> Option<Output> {
+    let script = format!("ulimit -v 2000000; exec \"$0\" \"$@\" {redirect}");
+    let mut child = Command::new("bash")
+        .arg("-c")
+        .arg(script)
+        .arg(env!("CARGO_BIN_EXE_touchc"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    Some(child.wait_with_output().unwrap())
+}
+
+#[test]
+fn a_closed_standard_output_is_an_error_not_a_success() {
+    let dir = tempfile::tempdir().unwrap();
+    let touch = stimulus(dir.path());
+    let t = s(&touch);
+    let runs: [&[&str]; 7] = [
+        &["compile", "../examples/tap_pat.npy", "-o", "-"],
+        &["render", t, "--csv"],
+        &["render", t, "--wav", "-"],
+        &["inspect", t],
+        &["export", t, "--to", "hjif", "-o", "-"],
+        &["track", "../examples/stroke.npy", "--json"],
+        &["completions", "bash"],
+    ];
+    for args in runs {
+        let out = shell(">&-", args, Duration::from_secs(120)).expect("finishes");
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains("cannot write standard output: it is closed"),
+            "{args:?}: {err}"
+        );
+        assert!(!err.contains("->"), "{args:?} claims an output: {err}");
+    }
+}
+
+#[test]
+fn endless_inputs_end_in_an_error_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let bank = dir.path().join("b.bank");
+    let runs: [(&str, Vec<&str>); 9] = [
+        ("", vec!["inspect", "/dev/zero"]),
+        ("", vec!["compile", "/dev/zero", "-o", "/dev/null"]),
+        ("", vec!["render", "/dev/urandom", "--csv"]),
+        ("", vec!["track", "/dev/zero"]),
+        ("", vec!["bank", "/dev/zero", "-o", s(&bank)]),
+        ("</dev/zero", vec!["import", "-", "-o", "/dev/null"]),
+        (
+            "</dev/zero",
+            vec!["export", "-", "--to", "hjif", "-o", "/dev/null"],
+        ),
+        ("</dev/zero", vec!["compile", "-", "-o", "/dev/null"]),
+        ("</dev/urandom", vec!["inspect", "-"]),
+    ];
+    for (redirect, args) in runs {
+        let out = shell(redirect, &args, Duration::from_secs(30))
+            .unwrap_or_else(|| panic!("{args:?} {redirect}: still reading after 30 s"));
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?} {redirect}: {err}");
+        assert!(!err.contains("memory"), "{args:?} {redirect}: {err}");
+        assert!(!bank.exists());
+    }
+}
+
+#[test]
+fn an_endless_stream_after_a_valid_header_reads_only_what_the_header_claims() {
+    let dir = tempfile::tempdir().unwrap();
+    let head = dir.path().join("head.npy");
+    let redirect = format!("< <(cat {} /dev/zero)", s(&head));
+    let args = ["compile", "-", "-o", "/dev/null"];
+    // A .npy header for 100 frames of the paper's sleeve, then zeros without end.
+    std::fs::write(&head, crate::poison::npy("<f8", false, "(100, 8, 21)", &[])).unwrap();
+    let out = shell(&redirect, &args, Duration::from_secs(30)).expect("finishes");
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("unexpected bytes after the data"), "{err}");
+
+    // A header claiming more than a stream may bring is refused before its data.
+    let big = crate::poison::npy("<f8", false, "(100000000, 8, 21)", &[]);
+    std::fs::write(&head, big).unwrap();
+    let out = shell(&redirect, &args, Duration::from_secs(30)).expect("finishes");
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("read from a stream"), "{err}");
+}
