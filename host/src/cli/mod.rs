@@ -8,6 +8,7 @@ mod config_error;
 mod export;
 mod help;
 mod import;
+mod input;
 mod inspect;
 mod output;
 mod params;
@@ -24,13 +25,14 @@ mod track;
 mod trade;
 mod warning;
 
-use std::io::Read;
 use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{CommandFactory, Parser, Subcommand};
 use touch_protocol::{Bank, Stimulus};
+
+pub(crate) use input::{load_recording, read_input};
 
 /// What `--help` says about exit codes, `-` and errors.
 const AFTER_HELP: &str = "\
@@ -291,8 +293,10 @@ fn toml_message(e: &toml::de::Error) -> String {
 /// Longest piece of user text (a quoted value, a `--set` assignment) a message
 /// repeats; longer ones are cut with an ellipsis.
 pub(crate) const MAX_ECHO: usize = 80;
-/// Longest message, in characters: a few lines of a terminal.
-const MAX_MESSAGE: usize = 480;
+/// Longest message, in characters: a last resort for user text that [`readable`] did
+/// not recognise as such, set above the longest sentence `touchc` writes itself (a
+/// coverage warning with all its causes and their advice) so that no advice is cut.
+const MAX_MESSAGE: usize = 2000;
 
 /// `text` cut to [`MAX_ECHO`] characters, with `…` when something was cut.
 pub(crate) fn clip(text: &str) -> String {
@@ -306,10 +310,12 @@ fn clip_to(text: &str, max: usize) -> String {
     }
 }
 
-/// `text` as a person should read it on a terminal: on one line, every quoted value
-/// (between backticks or double quotes, as serde and toml quote what they were given)
-/// clipped to [`MAX_ECHO`] characters, control and format characters escaped, and the
-/// whole at most [`MAX_MESSAGE`] characters.
+/// `text` as a person should read it on a terminal: on one line, what the user gave
+/// clipped to [`MAX_ECHO`] characters (every command-line argument it repeats, such as
+/// a file name, and every quoted value, between backticks or double quotes as serde and
+/// toml quote what they were given), control and format characters escaped, and the
+/// whole at most [`MAX_MESSAGE`] characters. The words of `touchc` itself, and so its
+/// advice, are never cut.
 pub(crate) fn readable(text: &str) -> String {
     let one_line = text
         .lines()
@@ -317,7 +323,11 @@ pub(crate) fn readable(text: &str) -> String {
         .filter(|l| !l.is_empty())
         .collect::<Vec<_>>()
         .join("; ");
-    let out = clip_quoted(&one_line, &['`', '"']);
+    let given: Vec<String> = std::env::args_os()
+        .skip(1)
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
+    let out = clip_quoted(&clip_given(&one_line, &given), &['`', '"']);
     let total = out.chars().count();
     let out = if total > MAX_MESSAGE {
         format!(
@@ -329,6 +339,23 @@ pub(crate) fn readable(text: &str) -> String {
         out
     };
     escaped(&out)
+}
+
+/// `text` with every long command-line argument in `given` (or its value after `=`,
+/// as in `--output=FILE`) clipped to [`MAX_ECHO`] characters wherever it appears.
+fn clip_given(text: &str, given: &[String]) -> String {
+    let mut long: Vec<&str> = given
+        .iter()
+        .flat_map(|a| [a.as_str(), a.split_once('=').map_or("", |(_, v)| v)])
+        .filter(|a| a.chars().count() > MAX_ECHO)
+        .collect();
+    // The longest first: an argument can hold another (`dir/file` and `dir`).
+    long.sort_by_key(|a| std::cmp::Reverse(a.len()));
+    let mut out = text.to_string();
+    for a in long {
+        out = out.replace(a, &clip(a));
+    }
+    out
 }
 
 /// `text` with every piece between a pair of `quotes` clipped to [`MAX_ECHO`].
@@ -434,81 +461,6 @@ pub(crate) fn input_name(path: &Path) -> String {
     }
 }
 
-/// The most bytes read from a stream (standard input, a pipe, a device) for one
-/// stimulus, bank or `.hjif` file: 512 MiB, far beyond what `touchc` writes (a bank
-/// fits the sleeve's 256 KiB region), so an endless stream ends in an error, not in
-/// running out of memory.
-const STREAM_BUDGET_BYTES: u64 = 1 << 29;
-
-/// Reads a whole input file, `-` being standard input, naming it in the error. A
-/// regular file is read whole (its size is on the disk); a stream may never end, so it
-/// is read by [`read_stream`].
-pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
-    let name = input_name(path);
-    if crate::cli::output::is_stdio(path) {
-        return read_stream(&name, &mut std::io::stdin().lock());
-    }
-    let mut file = std::fs::File::open(path).with_context(|| format!("{name}: cannot read"))?;
-    let meta = file
-        .metadata()
-        .with_context(|| format!("{name}: cannot read"))?;
-    if !meta.is_file() {
-        return read_stream(&name, &mut file);
-    }
-    let mut bytes = Vec::new();
-    file.read_to_end(&mut bytes)
-        .with_context(|| format!("{name}: cannot read"))?;
-    Ok(bytes)
-}
-
-/// Reads a stimulus, a bank or a JSON file from a stream, looking before it reads: a
-/// stimulus or bank is read up to the length its prefix claims (and one byte more, so
-/// that trailing data is still reported), JSON up to [`STREAM_BUDGET_BYTES`], and
-/// anything else stops after the first bytes, which are enough for the decoder to name
-/// what is wrong (a bad magic number).
-fn read_stream(name: &str, reader: &mut dyn Read) -> anyhow::Result<Vec<u8>> {
-    use touch_protocol::container::PREFIX_LEN;
-    let io = || format!("{name}: cannot read");
-    let mut bytes = Vec::new();
-    read_up_to(reader, &mut bytes, PREFIX_LEN as u64).with_context(io)?;
-    let container = [touch_protocol::stimulus::MAGIC, touch_protocol::bank::MAGIC]
-        .iter()
-        .any(|m| bytes.starts_with(m));
-    let limit = if container && bytes.len() == PREFIX_LEN {
-        let claimed = u32::from_le_bytes([bytes[6], bytes[7], bytes[8], bytes[9]]);
-        u64::from(claimed).min(STREAM_BUDGET_BYTES) + 1
-    } else if bytes.first().is_some_and(|b| b"{[ \t\r\n".contains(b)) {
-        STREAM_BUDGET_BYTES + 1
-    } else {
-        return Ok(bytes);
-    };
-    read_up_to(reader, &mut bytes, limit).with_context(io)?;
-    if bytes.len() as u64 > STREAM_BUDGET_BYTES {
-        anyhow::bail!(
-            "{name}: more than {STREAM_BUDGET_BYTES} bytes arrive, and no stimulus, bank or \
-             .hjif file is that large"
-        );
-    }
-    Ok(bytes)
-}
-
-/// Reads from `reader` until `bytes` holds `total` bytes or the stream ends.
-fn read_up_to(reader: &mut dyn Read, bytes: &mut Vec<u8>, total: u64) -> std::io::Result<()> {
-    let more = total.saturating_sub(bytes.len() as u64);
-    reader.take(more).read_to_end(bytes)?;
-    Ok(())
-}
-
-/// Loads a recording, `-` being standard input (`touchc synth ... -o - | touchc compile -`).
-pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc::input::recording::Recording> {
-    use touchc::input::recording::Recording;
-    if crate::cli::output::is_stdio(path) {
-        let name = input_name(path);
-        return Ok(Recording::read_from(name, &mut std::io::stdin().lock())?);
-    }
-    Ok(Recording::load(path)?)
-}
-
 /// The stimulus in `bytes`: the file itself, or slot `slot` when it is a bank.
 pub(crate) fn stimulus_in<'a>(
     bytes: &'a [u8],
@@ -602,6 +554,23 @@ mod tests {
         // A lone quote does not stop the clipping of the pairs after it.
         let text = format!("--set x=\"{}…: unknown `{long}`", "B".repeat(10));
         assert!(!readable(&text).contains(&"A".repeat(MAX_ECHO + 1)));
+    }
+
+    #[test]
+    fn a_long_argument_is_clipped_wherever_it_appears_and_the_advice_is_whole() {
+        let dir = "d".repeat(300);
+        let path = format!("{dir}/x.npy");
+        let advice = "try a finer lattice (--set detect.split.spacing_cells=1)";
+        let text = format!("{path}: {}; {advice}", "touch is lost ".repeat(30));
+        let given = [path.clone(), format!("--output={dir}/y.touch"), "-o".into()];
+        let shown = clip_given(&text, &given);
+        assert!(
+            shown.starts_with(&format!("{}…", &path[..MAX_ECHO])),
+            "{shown}"
+        );
+        assert!(shown.ends_with(advice), "{shown}");
+        let shown = clip_given(&format!("cannot write {dir}/y.touch"), &given);
+        assert_eq!(shown, format!("cannot write {}…", &dir[..MAX_ECHO]));
     }
 
     #[test]

@@ -121,3 +121,48 @@ fn an_endless_stream_after_a_valid_header_reads_only_what_the_header_claims() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("read from a stream"), "{err}");
 }
+
+#[test]
+fn warnings_keep_their_advice_whatever_the_file_is_called() {
+    let dir = tempfile::tempdir().unwrap();
+    let deep = dir.path().join("d".repeat(200)).join("e".repeat(200));
+    std::fs::create_dir_all(&deep).unwrap();
+    let input = deep.join("tap_pat.npy");
+    std::fs::copy("../examples/tap_pat.npy", &input).unwrap();
+    let out = command()
+        .args(["compile", s(&input), "-o", s(&deep.join("t.touch"))])
+        .args(["--max-trajectories", "2"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    let warnings: Vec<&str> = err.lines().filter(|l| l.contains("warning")).collect();
+    assert!(warnings.len() >= 2, "{err}");
+    for line in &warnings {
+        assert!(!line.contains("more characters"), "cut: {line}");
+        assert!(
+            !line.contains(&"d".repeat(81)),
+            "the name is not clipped: {line}"
+        );
+    }
+    assert!(
+        err.contains("raise it with --max-trajectories (coverage"),
+        "{err}"
+    );
+
+    // A batch prints each recording's warnings whole too.
+    let second = deep.join("again.npy");
+    std::fs::copy(&input, &second).unwrap();
+    let out = command()
+        .args(["compile", s(&input), s(&second), "--out-dir", s(&deep)])
+        .args(["--max-trajectories", "2"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    let warnings: Vec<&str> = err.lines().filter(|l| l.contains("warning")).collect();
+    assert!(warnings.len() >= 4, "{err}");
+    for line in &warnings {
+        assert!(!line.contains("more characters"), "cut: {line}");
+    }
+}

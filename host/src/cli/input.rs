@@ -1,0 +1,84 @@
+//! Reading the inputs: regular files whole, streams (standard input, pipes, devices)
+//! with a bound, since they may never end (`touchc inspect /dev/zero`).
+
+use std::io::Read;
+use std::path::Path;
+
+use anyhow::Context;
+
+use super::input_name;
+
+/// The most bytes read from a stream (standard input, a pipe, a device) for one
+/// stimulus, bank or `.hjif` file: 512 MiB, far beyond what `touchc` writes (a bank
+/// fits the sleeve's 256 KiB region), so an endless stream ends in an error, not in
+/// running out of memory.
+const STREAM_BUDGET_BYTES: u64 = 1 << 29;
+
+/// Reads a whole input file, `-` being standard input, naming it in the error. A
+/// regular file is read whole (its size is on the disk); a stream may never end, so it
+/// is read by [`read_stream`].
+pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
+    let name = input_name(path);
+    if crate::cli::output::is_stdio(path) {
+        return read_stream(&name, &mut std::io::stdin().lock());
+    }
+    let mut file = std::fs::File::open(path).with_context(|| format!("{name}: cannot read"))?;
+    let meta = file
+        .metadata()
+        .with_context(|| format!("{name}: cannot read"))?;
+    if !meta.is_file() {
+        return read_stream(&name, &mut file);
+    }
+    let mut bytes = Vec::new();
+    file.read_to_end(&mut bytes)
+        .with_context(|| format!("{name}: cannot read"))?;
+    Ok(bytes)
+}
+
+/// Reads a stimulus, a bank or a JSON file from a stream, looking before it reads: a
+/// stimulus or bank is read up to the length its prefix claims (and one byte more, so
+/// that trailing data is still reported), JSON up to [`STREAM_BUDGET_BYTES`], and
+/// anything else stops after the first bytes, which are enough for the decoder to name
+/// what is wrong (a bad magic number).
+fn read_stream(name: &str, reader: &mut dyn Read) -> anyhow::Result<Vec<u8>> {
+    use touch_protocol::container::PREFIX_LEN;
+    let io = || format!("{name}: cannot read");
+    let mut bytes = Vec::new();
+    read_up_to(reader, &mut bytes, PREFIX_LEN as u64).with_context(io)?;
+    let container = [touch_protocol::stimulus::MAGIC, touch_protocol::bank::MAGIC]
+        .iter()
+        .any(|m| bytes.starts_with(m));
+    let limit = if container && bytes.len() == PREFIX_LEN {
+        let claimed = u32::from_le_bytes([bytes[6], bytes[7], bytes[8], bytes[9]]);
+        u64::from(claimed).min(STREAM_BUDGET_BYTES) + 1
+    } else if bytes.first().is_some_and(|b| b"{[ \t\r\n".contains(b)) {
+        STREAM_BUDGET_BYTES + 1
+    } else {
+        return Ok(bytes);
+    };
+    read_up_to(reader, &mut bytes, limit).with_context(io)?;
+    if bytes.len() as u64 > STREAM_BUDGET_BYTES {
+        anyhow::bail!(
+            "{name}: more than {STREAM_BUDGET_BYTES} bytes arrive, and no stimulus, bank or \
+             .hjif file is that large"
+        );
+    }
+    Ok(bytes)
+}
+
+/// Reads from `reader` until `bytes` holds `total` bytes or the stream ends.
+fn read_up_to(reader: &mut dyn Read, bytes: &mut Vec<u8>, total: u64) -> std::io::Result<()> {
+    let more = total.saturating_sub(bytes.len() as u64);
+    reader.take(more).read_to_end(bytes)?;
+    Ok(())
+}
+
+/// Loads a recording, `-` being standard input (`touchc synth ... -o - | touchc compile -`).
+pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc::input::recording::Recording> {
+    use touchc::input::recording::Recording;
+    if crate::cli::output::is_stdio(path) {
+        let name = input_name(path);
+        return Ok(Recording::read_from(name, &mut std::io::stdin().lock())?);
+    }
+    Ok(Recording::load(path)?)
+}
