@@ -193,6 +193,7 @@ fn compile_one(
         ..opts.clone()
     };
     let recording = super::load_recording(input)?;
+    super::input::check_file_sampling(&recording, &opts.config, &opts.metadata)?;
     let compiled = compile_owned(recording, &opts)
         .with_context(|| format!("{}: cannot compile", input.display()))?;
     // The report first: if it cannot be written, no stimulus appears either.

@@ -82,3 +82,43 @@ pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc::input::recor
     }
     Ok(Recording::load(path)?)
 }
+
+/// Refuses a recording whose own rate or pitch (a `.npz`'s `rate_hz`, `pitch_mm`)
+/// makes a knob of `config` impossible, as bad input (exit status 1) that names the
+/// file's value, before the library would report the knob as a usage error: nothing
+/// on the command line is wrong, the file is. Values from the command line or the
+/// config are left to the library's usage error.
+pub(crate) fn check_file_sampling(
+    recording: &touchc::input::recording::Recording,
+    config: &touchc::config::Config,
+    overrides: &touchc::config::MetadataOverrides,
+) -> anyhow::Result<()> {
+    use touchc::config::{Metadata, Sampling, Source};
+    let metadata = Metadata::resolve(overrides, &recording.file_metadata(), config);
+    if metadata.rate_hz.source != Source::File && metadata.pitch_mm.source != Source::File {
+        return Ok(());
+    }
+    if config.validate().is_err() {
+        // A knob wrong whatever the sampling: the command line's mistake, told as such.
+        return Ok(());
+    }
+    let sampling = Sampling::new(&metadata, config);
+    let (_, rows, cols) = recording.dim();
+    let Err(e) = config.validate_for(&sampling, (rows, cols)) else {
+        return Ok(());
+    };
+    let mut declared = Vec::new();
+    if metadata.rate_hz.source == Source::File {
+        declared.push(format!("rate_hz = {} Hz", metadata.rate_hz.value));
+    }
+    if metadata.pitch_mm.source == Source::File {
+        declared.push(format!("pitch_mm = {} mm", metadata.pitch_mm.value));
+    }
+    anyhow::bail!(
+        "{}: the file's {} cannot be compiled: {} (if the file is wrong, give the right \
+         value with --rate or --pitch-mm)",
+        recording.name(),
+        declared.join(" and "),
+        super::config_error::describe(&e)
+    )
+}

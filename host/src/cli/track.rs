@@ -54,6 +54,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     }
     let cfg = args.config.resolve()?;
     let rec = super::load_recording(&args.recording)?;
+    super::input::check_file_sampling(&rec, &cfg, &args.config.overrides())?;
     // Streaming, as the compile does: neither the blurred movie nor the detections are
     // printed, so neither is kept.
     let out = track_streaming(&rec, &cfg, &args.config.overrides())?;

@@ -166,3 +166,45 @@ fn warnings_keep_their_advice_whatever_the_file_is_called() {
         assert!(!line.contains("more characters"), "cut: {line}");
     }
 }
+
+/// `tap_pat.npy` as the `pressure` of an archive that declares `rate_hz`.
+fn tap_pat_at(dir: &Path, rate_hz: f64) -> PathBuf {
+    use crate::poison::{scalar_npy, zip, Entry};
+    let pressure = std::fs::read("../examples/tap_pat.npy").unwrap();
+    let rate = scalar_npy("<f8", &rate_hz.to_le_bytes());
+    let path = dir.join(format!("at{rate_hz}.npz"));
+    let entries = [
+        Entry::stored("pressure.npy", pressure),
+        Entry::stored("rate_hz.npy", rate),
+    ];
+    std::fs::write(&path, zip(&entries)).unwrap();
+    path
+}
+
+#[test]
+fn a_files_impossible_rate_is_bad_input_that_names_the_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    for rate in [1.0, 3.0] {
+        let npz = tap_pat_at(dir.path(), rate);
+        let out_touch = dir.path().join("x.touch");
+        let runs: [&[&str]; 2] = [
+            &["compile", s(&npz), "-o", s(&out_touch)],
+            &["track", s(&npz)],
+        ];
+        for args in runs {
+            let out = command().args(args).output().unwrap();
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+            assert!(err.contains(&format!("rate_hz = {rate} Hz")), "{err}");
+            assert!(err.contains(s(&npz)), "{err}");
+        }
+        assert!(!out_touch.exists());
+    }
+    // The same rate given on the command line is the command line's mistake.
+    let npz = tap_pat_at(dir.path(), 20.0);
+    let out = command()
+        .args(["track", s(&npz), "--rate", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+}
