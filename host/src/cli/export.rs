@@ -84,6 +84,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let layout = super::layout(args.layout.as_deref())?;
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    super::input::warn_if_unplayable(&args.file, &stimulus);
     let name = super::input_name(&args.file);
     let playback = export::play(&stimulus, &layout).with_context(|| name.clone())?;
     if let Some(f) = playback.fault {

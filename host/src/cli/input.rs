@@ -122,3 +122,23 @@ pub(crate) fn check_file_sampling(
         super::config_error::describe(&e)
     )
 }
+
+/// Warns when `stimulus` can never play on the sleeve: limits that let nothing move
+/// (a peak or a slew of 0) stop the player before its first tick, so a render or a
+/// plot is empty and an export silent, with nothing else to say why.
+pub(crate) fn warn_if_unplayable(path: &Path, stimulus: &touch_protocol::Stimulus<'_>) {
+    let device = touch_protocol::DeviceConfig::default();
+    if touchc::viz::play(stimulus, &device).next().is_some() {
+        return;
+    }
+    let limits = stimulus.limits().min(device.limits);
+    super::warn(
+        path,
+        &format!(
+            "the stimulus can never play: its limits (peak {} mA, slew {} mA/ms, with the \
+             sleeve's) let no current move, so the player stops before its first tick and \
+             the output is empty; compile it again with limits above 0",
+            limits.peak_ma, limits.slew_ma_per_ms
+        ),
+    );
+}

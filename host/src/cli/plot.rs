@@ -48,6 +48,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     )?;
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    super::input::warn_if_unplayable(&args.file, &stimulus);
     let size = Size {
         width: args.width,
         height: args.height,

@@ -64,6 +64,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    super::input::warn_if_unplayable(&args.file, &stimulus);
     let device = DeviceConfig::default();
     let mut fault = None;
     if let Some(path) = &args.wav {

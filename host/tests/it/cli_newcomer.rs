@@ -208,3 +208,35 @@ fn a_files_impossible_rate_is_bad_input_that_names_the_rate() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
 }
+
+#[test]
+fn a_stimulus_whose_limits_let_nothing_move_says_so() {
+    use touch_protocol::Limits;
+    let dir = tempfile::tempdir().unwrap();
+    let good = std::fs::read(stimulus(dir.path())).unwrap();
+    let zero_peak = Limits {
+        peak_ma: 0,
+        ..Limits::SLEEVE
+    };
+    let zero_slew = Limits {
+        slew_ma_per_ms: 0,
+        ..Limits::SLEEVE
+    };
+    for (what, limits) in [("peak", zero_peak), ("slew", zero_slew)] {
+        let path = dir.path().join(format!("{what}.touch"));
+        std::fs::write(&path, stimuli::reencoded(&good, |b| b.limits(limits))).unwrap();
+        let plot = dir.path().join("p.svg");
+        let runs: [&[&str]; 3] = [
+            &["render", s(&path), "--csv"],
+            &["plot", s(&path), "-o", s(&plot)],
+            &["export", s(&path), "--to", "hjif", "-o", "/dev/null"],
+        ];
+        for args in runs {
+            let out = command().args(args).output().unwrap();
+            let err = stderr(&out);
+            assert!(out.status.success(), "{args:?}: {err}");
+            assert!(err.contains("warning"), "{what} {args:?}: {err}");
+            assert!(err.contains("can never play"), "{what} {args:?}: {err}");
+        }
+    }
+}
