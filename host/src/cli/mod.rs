@@ -461,17 +461,34 @@ pub(crate) fn input_name(path: &Path) -> String {
     }
 }
 
-/// The stimulus in `bytes`: the file itself, or slot `slot` when it is a bank.
+/// The stimulus in `bytes`: the file itself, or slot `slot` (`--slot`, 0 when not
+/// given) when it is a bank. A `--slot` above 0 on a stimulus is a usage error: a
+/// stimulus is its own only slot, and ignoring it would let a mistake pass.
 pub(crate) fn stimulus_in<'a>(
     bytes: &'a [u8],
     path: &Path,
-    slot: usize,
+    slot: Option<usize>,
 ) -> anyhow::Result<Stimulus<'a>> {
     let name = input_name(path);
     if bytes.starts_with(&touch_protocol::bank::MAGIC) {
         let bank = Bank::decode(bytes).with_context(|| format!("{name}: not a valid bank"))?;
+        let slot = slot.unwrap_or(0);
+        if slot >= bank.len() {
+            anyhow::bail!(
+                "{name}: no slot {slot}: the bank has {} slot(s), 0 to {} (--slot)",
+                bank.len(),
+                bank.len() - 1
+            );
+        }
         bank.slot(slot)
             .with_context(|| format!("{name}: slot {slot}"))
+    } else if let Some(slot) =
+        slot.filter(|&s| s > 0 && bytes.starts_with(&touch_protocol::stimulus::MAGIC))
+    {
+        Err(usage(format!(
+            "--slot {slot}: {name} is a stimulus, not a bank; --slot picks a stimulus out of \
+             a bank"
+        )))
     } else {
         Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
     }

@@ -17,8 +17,9 @@ pub struct Args {
     #[arg(short, long)]
     output: PathBuf,
     /// Which slot of a bank to plot.
-    #[arg(long, default_value_t = 0)]
-    slot: usize,
+    /// 0 when not given.
+    #[arg(long)]
+    slot: Option<usize>,
     /// Image width, px.
     #[arg(long, default_value_t = Size::default().width)]
     width: u32,

@@ -32,8 +32,9 @@ pub struct Args {
     #[arg(long, default_value_t = 48_000, requires = "wav")]
     rate: u32,
     /// Which slot of a bank to render.
-    #[arg(long, default_value_t = 0)]
-    slot: usize,
+    /// 0 when not given.
+    #[arg(long)]
+    slot: Option<usize>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {

@@ -240,3 +240,55 @@ fn a_stimulus_whose_limits_let_nothing_move_says_so() {
         }
     }
 }
+
+#[test]
+fn export_names_and_slots_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let touch = stimulus(dir.path());
+    let t = s(&touch);
+    let y = dir.path().join("y.touch");
+    let refused: [&[&str]; 4] = [
+        &["export", t, "--to", "haptic", "-o", "/dev/full"],
+        &["export", t, "--to", "ahap", "-o", s(&y)],
+        &[
+            "export",
+            t,
+            "--to",
+            "hjif",
+            "--slot",
+            "3",
+            "-o",
+            "/dev/null",
+        ],
+        &["render", t, "--csv", "--slot", "1"],
+    ];
+    for args in refused {
+        let out = command().args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+    }
+    let mut names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["one.touch"]);
+    // A slot beyond the bank says how many it has, whatever number was typed.
+    let bank = dir.path().join("b.bank");
+    let out = command()
+        .args(["bank", t, t, "-o", s(&bank)])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let args = ["export", s(&bank), "--to", "hjif"];
+    let out = command()
+        .args(args)
+        .args(["--slot", "99999999999", "-o", "/dev/null"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("no slot 99999999999: the bank has 2 slot(s), 0 to 1"),
+        "{err}"
+    );
+}
