@@ -292,3 +292,23 @@ fn export_names_and_slots_are_checked() {
         "{err}"
     );
 }
+
+#[test]
+fn a_placement_grid_no_sensor_can_use_is_refused_before_any_work() {
+    let out = command()
+        .args(["compile", "../examples/tap_pat.npy", "-o", "/dev/null"])
+        .args([
+            "--set",
+            "placement.grid_x=20000000",
+            "--set",
+            "placement.grid_y=1",
+        ])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("placement.grid_x = 20000000 is out of range"),
+        "{err}"
+    );
+}
