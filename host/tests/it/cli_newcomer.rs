@@ -312,3 +312,29 @@ fn a_placement_grid_no_sensor_can_use_is_refused_before_any_work() {
         "{err}"
     );
 }
+
+#[test]
+fn an_absurd_hjif_amplitude_is_named_in_a_few_characters() {
+    let dir = tempfile::tempdir().unwrap();
+    let touch = stimulus(dir.path());
+    let hjif = dir.path().join("x.hjif");
+    let out = command()
+        .args(["export", s(&touch), "--to", "hjif", "-o", s(&hjif)])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&hjif).unwrap();
+    let key = "\"amplitude_modulation\":";
+    let at = text.find(key).expect("an amplitude") + key.len();
+    let end = at + text[at..].find([',', '}']).unwrap();
+    let absurd = format!("{}1e308{}", &text[..at], &text[end..]);
+    std::fs::write(&hjif, absurd).unwrap();
+    let out = command()
+        .args(["import", s(&hjif), "-o", "/dev/null"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("amplitude 1e308 outside"), "{err}");
+    assert!(err.len() < 300, "{err}");
+}

@@ -436,7 +436,8 @@ pub fn import(bytes: &[u8], full_scale_a: f64) -> Result<Imported, ExportError> 
                         })?;
                     if !a.is_finite() || a.abs() > 1.0 {
                         return Err(invalid(format!(
-                            "channel {c}: amplitude {a} outside -1..=1"
+                            "channel {c}: amplitude {} outside -1..=1",
+                            touchc_model::display::Shortest(a)
                         )));
                     }
                     points.push((t, a));
