@@ -256,6 +256,12 @@ fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
         RecordingError::MemberTooLarge { .. } => {
             Some("; save the array as a .npy file instead".into())
         }
+        RecordingError::Text { name, .. } => Some(format!(
+            "; a CSV of one frame per line (rows x cols values in psi) converts with one line \
+             of numpy: python3 -c 'import numpy as np; np.save(\"recording.npy\", \
+             np.loadtxt(\"{name}\", delimiter=\",\").reshape(-1, ROWS, COLS))' with ROWS \
+             and COLS the sensor's grid (8 and 21 for the paper's sleeve)"
+        )),
         RecordingError::TooShort { .. } => Some(format!(
             " ({}, {})",
             touchc::config::Knob::InputTareS,

@@ -338,3 +338,42 @@ fn an_absurd_hjif_amplitude_is_named_in_a_few_characters() {
     assert!(err.contains("amplitude 1e308 outside"), "{err}");
     assert!(err.len() < 300, "{err}");
 }
+
+#[test]
+fn raw_adc_counts_compile_with_the_counts_warning_and_a_csv_says_how_to_convert() {
+    use ndarray_npy::{ReadNpyExt, WriteNpyExt};
+    let dir = tempfile::tempdir().unwrap();
+    let file = std::fs::File::open("../examples/tap_pat.npy").unwrap();
+    let psi = ndarray::Array3::<f64>::read_npy(file).unwrap();
+    // A 10-bit ADC's counts: a baseline of 512, 100 counts a psi, no NaN.
+    let counts = psi.mapv(|v| {
+        if v.is_nan() {
+            512
+        } else {
+            512 + (100.0 * v).round() as i16
+        }
+    });
+    let path = dir.path().join("counts.npy");
+    counts
+        .write_npy(std::fs::File::create(&path).unwrap())
+        .unwrap();
+    let out = command()
+        .args(["compile", s(&path), "-o", s(&dir.path().join("c.touch"))])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("the median reading is 512"), "{err}");
+
+    let csv = dir.path().join("rec.csv");
+    std::fs::write(&csv, "0.1,0.2,0.0\n0.0,0.3,0.1\n").unwrap();
+    let out = command()
+        .args(["compile", s(&csv), "-o", s(&dir.path().join("r.touch"))])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("text, not a .npy or .npz file"), "{err}");
+    assert!(err.contains("np.loadtxt("), "{err}");
+    assert!(err.contains("reshape(-1, ROWS, COLS))'"), "{err}");
+}

@@ -48,8 +48,8 @@ pub struct Recording {
 }
 
 impl Recording {
-    /// Loads and validates a `.npy` file (float32 or float64, either byte order, C or
-    /// Fortran order) or a numpy `.npz` archive (`savez` or `savez_compressed`) holding
+    /// Loads and validates a `.npy` file (float32, float64 or integers, either byte
+    /// order, C or Fortran order) or a numpy `.npz` archive (`savez` or `savez_compressed`) holding
     /// such an array as `pressure`, with optional scalars `rate_hz` and `pitch_mm`. The
     /// format is told by the first bytes, whatever the file is called.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
@@ -90,6 +90,8 @@ impl Recording {
             Self::from_npz_bytes(name, bytes)
         } else if bytes.starts_with(npy::MAGIC) {
             Self::from_npy_bytes(name, bytes)
+        } else if let Some(start) = text_start(bytes) {
+            Err(RecordingError::Text { name, start })
         } else {
             Err(RecordingError::NotNpy {
                 name,
@@ -228,4 +230,18 @@ impl Recording {
     pub fn dim(&self) -> (usize, usize, usize) {
         self.data.dim()
     }
+}
+
+/// The first line of `bytes` (at most 40 characters) when they start as text: printable
+/// characters and whitespace up to the first line break, or through the first dozen
+/// bytes.
+fn text_start(bytes: &[u8]) -> Option<String> {
+    let head = &bytes[..bytes.len().min(64)];
+    let line = head.split(|&b| b == b'\n').next().unwrap_or_default();
+    let text = std::str::from_utf8(line).ok()?;
+    let printable = |c: char| !c.is_control() || c == '\t' || c == '\r';
+    if text.is_empty() || !text.chars().all(printable) {
+        return None;
+    }
+    Some(text.trim_end().chars().take(40).collect())
 }

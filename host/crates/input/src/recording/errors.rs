@@ -85,6 +85,14 @@ pub enum RecordingError {
         /// The budget ([`STREAM_BUDGET_BYTES`](super::STREAM_BUDGET_BYTES)).
         budget: u64,
     },
+    /// The file is text (a CSV, a JSON export), not a `.npy` or `.npz` file.
+    #[error("{name}: text, not a .npy or .npz file (it starts with {start:?})")]
+    Text {
+        /// The file the recording came from.
+        name: String,
+        /// Its first characters, up to a line.
+        start: String,
+    },
     /// The bytes look like a zip archive but cannot be read as one.
     #[error("{name}: not a readable .npz archive ({detail})")]
     NotNpz {
@@ -182,8 +190,8 @@ pub enum RecordingError {
         /// The unit of the value.
         unit: &'static str,
     },
-    /// The array holds something other than float32 or float64.
-    #[error("{name}: unsupported element type {descr}; expected float32 or float64")]
+    /// The array holds something other than float32, float64 or integers.
+    #[error("{name}: unsupported element type {descr}; expected float32, float64 or integers")]
     UnsupportedDtype {
         /// The file the recording came from.
         name: String,
