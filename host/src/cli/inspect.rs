@@ -99,7 +99,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         match Stimulus::decode(&bytes) {
             Ok(s) => Report::Stimulus(stimulus_report(&s)),
             Err(e @ Error::BadCrc { .. }) => bail!("{name}: CRC check failed: {e}"),
-            Err(e) => bail!("{name}: not a valid stimulus: {e}"),
+            Err(e) => {
+                return Err(anyhow::Error::new(e).context(format!("{name}: not a valid stimulus")))
+            }
         }
     };
     let mut out = crate::cli::output::Output::create(&args.output)?;

@@ -91,7 +91,7 @@ enum Command {
     /// Perception studies with the sleeve: run a participant's session from a plan,
     /// report the classification experiment's analyses.
     Study(study::Args),
-    /// Print a shell completion script: `touchc completions bash > /etc/bash_completion.d/touchc`.
+    /// Print a shell completion script (installing it: see the README's "Install").
     Completions {
         /// The shell to complete in.
         #[arg(value_enum)]
@@ -239,6 +239,15 @@ fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
     use touchc::compile::CompileError;
     use touchc::input::recording::RecordingError;
     use touchc::tracking::track::TrackError;
+    if let Some(touch_protocol::Error::BadMagic { found, .. }) = cause.downcast_ref() {
+        if found[..] == [0x93, b'N', b'U', b'M'] || found[..] == *b"PK\x03\x04" {
+            return Some(
+                " (it is a recording, .npy or .npz: compile it into a stimulus first with \
+                 touchc compile)"
+                    .into(),
+            );
+        }
+    }
     let compile = cause.downcast_ref::<CompileError>();
     let track = match compile {
         Some(CompileError::Limits(_)) => return Some(" (use --fit to scale it down)".into()),

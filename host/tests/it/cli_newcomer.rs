@@ -377,3 +377,75 @@ fn raw_adc_counts_compile_with_the_counts_warning_and_a_csv_says_how_to_convert(
     assert!(err.contains("np.loadtxt("), "{err}");
     assert!(err.contains("reshape(-1, ROWS, COLS))'"), "{err}");
 }
+
+#[test]
+fn a_recording_given_where_a_stimulus_goes_says_to_compile_it_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let bank = dir.path().join("b.bank");
+    let npy = "../examples/stroke.npy";
+    let runs: [&[&str]; 3] = [
+        &["inspect", npy],
+        &["export", npy, "--to", "hjif", "-o", "/dev/null"],
+        &["bank", npy, "-o", s(&bank)],
+    ];
+    for args in runs {
+        let out = command().args(args).output().unwrap();
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains("compile it into a stimulus first"),
+            "{args:?}: {err}"
+        );
+    }
+}
+
+#[test]
+fn help_and_tables_give_usable_figures_and_units() {
+    let out = command().args(["compile", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("[default: 10.886, rounded]"), "{help}");
+    assert!(!help.contains("10.8857142"), "{help}");
+    let out = command()
+        .args(["track", "../examples/tap_pat.npy"])
+        .output()
+        .unwrap();
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("start r,c px"), "{table}");
+}
+
+/// The README's lines that install the completions, run as written by a new account.
+#[test]
+fn the_readmes_completion_lines_work_on_a_fresh_account() {
+    let readme = std::fs::read_to_string("../README.md").unwrap();
+    let lines: Vec<&str> = readme
+        .lines()
+        .filter(|l| l.starts_with("mkdir -p ~") || l.starts_with("touchc completions "))
+        .collect();
+    assert!(lines.len() >= 6, "{lines:?}");
+    let home = tempfile::tempdir().unwrap();
+    let bin = std::path::Path::new(env!("CARGO_BIN_EXE_touchc"))
+        .parent()
+        .unwrap();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    for line in &lines {
+        let out = Command::new("bash")
+            .args(["-euc", line])
+            .env("HOME", home.path())
+            .env("PATH", &path)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{line}: {}", stderr(&out));
+    }
+    for f in [
+        ".local/share/bash-completion/completions/touchc",
+        ".zfunc/_touchc",
+        ".config/fish/completions/touchc.fish",
+    ] {
+        let len = std::fs::metadata(home.path().join(f)).map_or(0, |m| m.len());
+        assert!(len > 1000, "{f}: {len} bytes");
+    }
+}
