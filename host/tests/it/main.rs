@@ -44,6 +44,7 @@ mod compile;
 mod emoji_bank;
 mod export;
 mod extremes;
+mod hjif_schema;
 mod knobs;
 mod layout_guess;
 mod library_words;
