@@ -207,7 +207,7 @@ fn compile_one(
 
 fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
     format!(
-        "touchc: {} -> {}: {} frames of {} x {}, {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, played {:.2}, {}, {:.1} ms",
+        "touchc: {} -> {}: {} frames of {} x {}, {:.2} s of signal, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, played {:.2}, {}, {:.1} ms",
         input.display(),
         out.display(),
         r.shape[0],

@@ -237,7 +237,7 @@ fn summary(
     };
     let seconds = playback.seconds();
     let mut line = format!(
-        "touchc: {name} -> {shown_out}: {:.2} s, {} bytes ({:.0} B/s), error {:.3}% RMS / {:.3}% max of full scale against the player's output",
+        "touchc: {name} -> {shown_out}: plays {:.2} s, {} bytes ({:.0} B/s), error {:.3}% RMS / {:.3}% max of full scale against the player's output",
         seconds,
         exported.bytes(),
         exported.bytes() as f64 / seconds.max(1e-3),

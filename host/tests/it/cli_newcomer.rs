@@ -449,3 +449,28 @@ fn the_readmes_completion_lines_work_on_a_fresh_account() {
         assert!(len > 1000, "{f}: {len} bytes");
     }
 }
+
+/// One stimulus, three lengths: each command says which one it gives.
+#[test]
+fn compile_inspect_and_export_say_which_length_they_give() {
+    let dir = tempfile::tempdir().unwrap();
+    let touch = dir.path().join("stroke.touch");
+    let out = command()
+        .args(["compile", "../examples/stroke.npy", "-o", s(&touch)])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(err.contains(", 7.14 s of signal,"), "{err}");
+    let out = command().args(["inspect", s(&touch)]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("7.150 s of keyframes (plays 7.160 s with the 10 ms ramp down)"),
+        "{text}"
+    );
+    let out = command()
+        .args(["export", s(&touch), "--to", "hjif", "-o", "/dev/null"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(err.contains(": plays 7.16 s,"), "{err}");
+}
