@@ -474,3 +474,18 @@ fn compile_inspect_and_export_say_which_length_they_give() {
     let err = stderr(&out);
     assert!(err.contains(": plays 7.16 s,"), "{err}");
 }
+
+#[test]
+fn trade_says_why_a_preset_is_far_from_exact() {
+    let out = command()
+        .args(["trade", "../examples/tap_pat.npy", "--preset", "touch"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("note: max vs exact over 100% of full scale"),
+        "{err}"
+    );
+    assert!(err.contains("note: tracks agree 0"), "{err}");
+}
