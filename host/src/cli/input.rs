@@ -142,3 +142,21 @@ pub(crate) fn warn_if_unplayable(path: &Path, stimulus: &touch_protocol::Stimulu
         ),
     );
 }
+
+/// The most bytes of a text input read (a `--config` or `--truth` file): 64 MiB, far
+/// more than any of them holds, so that `/dev/zero` ends in an error.
+pub(crate) const MAX_TEXT_BYTES: u64 = 1 << 26;
+
+/// Reads the text file `path`, at most `max` bytes of it: more is an error.
+pub(crate) fn read_text(path: &Path, max: u64) -> std::io::Result<String> {
+    let mut text = String::new();
+    std::fs::File::open(path)?
+        .take(max + 1)
+        .read_to_string(&mut text)?;
+    if text.len() as u64 > max {
+        return Err(std::io::Error::other(format!(
+            "more than {max} bytes, far more than such a file holds"
+        )));
+    }
+    Ok(text)
+}

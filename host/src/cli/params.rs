@@ -460,7 +460,7 @@ fn layered(
     off.sort();
     off.dedup();
     if let Some(p) = path {
-        let text = std::fs::read_to_string(p)
+        let text = super::input::read_text(p, super::input::MAX_TEXT_BYTES)
             .with_context(|| format!("{}: cannot read config", p.display()))?;
         let over: toml::Table =
             toml::from_str(&text).with_context(|| format!("{}: invalid config", p.display()))?;

@@ -150,8 +150,9 @@ fn truths(args: &Args) -> anyhow::Result<Vec<Truth>> {
     args.truth
         .iter()
         .map(|p| {
-            let text = std::fs::read(p).with_context(|| format!("{}: cannot read", p.display()))?;
-            serde_json::from_slice::<Truth>(&text).with_context(|| {
+            let text = super::input::read_text(p, super::input::MAX_TEXT_BYTES)
+                .with_context(|| format!("{}: cannot read", p.display()))?;
+            serde_json::from_str::<Truth>(&text).with_context(|| {
                 format!(
                     "{}: not a truth file of `touchc synth --truth`",
                     p.display()

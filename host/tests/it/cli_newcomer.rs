@@ -489,3 +489,33 @@ fn trade_says_why_a_preset_is_far_from_exact() {
     );
     assert!(err.contains("note: tracks agree 0"), "{err}");
 }
+
+#[test]
+fn endless_parameter_files_end_in_an_error() {
+    let runs: [&[&str]; 3] = [
+        &[
+            "compile",
+            "../examples/tap_pat.npy",
+            "-o",
+            "/dev/null",
+            "--config",
+            "/dev/zero",
+        ],
+        &[
+            "compile",
+            "../examples/tap_pat.npy",
+            "-o",
+            "/dev/null",
+            "--layout",
+            "/dev/zero",
+        ],
+        &["trade", "../examples/tap_pat.npy", "--truth", "/dev/zero"],
+    ];
+    for args in runs {
+        let out = shell("", args, Duration::from_secs(60))
+            .unwrap_or_else(|| panic!("{args:?}: still reading after 60 s"));
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{args:?}: {err}");
+        assert!(err.contains("more than"), "{args:?}: {err}");
+    }
+}
