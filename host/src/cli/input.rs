@@ -160,3 +160,12 @@ pub(crate) fn read_text(path: &Path, max: u64) -> std::io::Result<String> {
     }
     Ok(text)
 }
+
+/// A default as `--help` shows it: 3 pixels of 25.4/7 mm is 10.885714285714286, shown
+/// with the digits a person can use.
+pub(crate) fn rounded(text: String) -> String {
+    match text.parse::<f64>() {
+        Ok(v) if text.len() > 8 => format!("{v:.3}, rounded"),
+        _ => text,
+    }
+}

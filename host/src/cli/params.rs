@@ -263,12 +263,7 @@ impl Flag {
         let get = |k: Knob| lookup(default_table(), k).map(plain);
         let text = match self.kind {
             Kind::Count(k) => get(k),
-            // A default such as 3 pixels of 25.4/7 mm is 10.885714285714286: the digits
-            // a person can use.
-            Kind::Real(k) => get(k).map(|t| match t.parse::<f64>() {
-                Ok(v) if t.len() > 8 => format!("{v:.3}, rounded"),
-                _ => t,
-            }),
+            Kind::Real(k) => get(k).map(super::input::rounded),
             Kind::Grid { x, y } => get(x).zip(get(y)).map(|(x, y)| format!("{x},{y}")),
             // An absent search is `off`.
             Kind::Search { stride, keep } => Some(
