@@ -41,5 +41,6 @@ cd "$here"
 if [ "${1:-}" = figures ]; then
     TWIN_ELF="$elf" TWIN_CODES="$root/target/debug/examples/twin_codes" exec "$venv/bin/python" usb_figures.py
 fi
+[ $# -gt 0 ] || set -- test_twin test_study
 TWIN_ELF="$elf" TWIN_CODES="$root/target/debug/examples/twin_codes" \
-    "$venv/bin/python" -W error::ResourceWarning -m unittest "${@:-test_twin}"
+    "$venv/bin/python" -W error::ResourceWarning -m unittest "$@"

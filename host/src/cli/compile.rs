@@ -193,6 +193,7 @@ fn compile_one(
         ..opts.clone()
     };
     let recording = super::load_recording(input)?;
+    super::input::check_file_sampling(&recording, &opts.config, &opts.metadata)?;
     let compiled = compile_owned(recording, &opts)
         .with_context(|| format!("{}: cannot compile", input.display()))?;
     // The report first: if it cannot be written, no stimulus appears either.
@@ -206,7 +207,7 @@ fn compile_one(
 
 fn summary_line(input: &Path, out: &Path, r: &Report) -> String {
     format!(
-        "touchc: {} -> {}: {} frames of {} x {}, {:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, played {:.2}, {}, {:.1} ms",
+        "touchc: {} -> {}: {} frames of {} x {}, {:.2} s of signal, {} bytes ({:.0} B/s), keyframes every {} ms, error {:.3}% RMS / {:.3}% max of full scale, {} of {} trajectories, coverage {:.2}, played {:.2}, {}, {:.1} ms",
         input.display(),
         out.display(),
         r.shape[0],

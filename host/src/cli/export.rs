@@ -47,8 +47,9 @@ pub struct Args {
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Which slot of a bank to export.
-    #[arg(long, default_value_t = 0)]
-    slot: usize,
+    /// 0 when not given.
+    #[arg(long)]
+    slot: Option<usize>,
     /// For .haptic and .ahap: only this actuator's channel (0 to 7), in one file.
     #[arg(long, conflicts_with = "mix")]
     channel: Option<usize>,
@@ -84,6 +85,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let layout = super::layout(args.layout.as_deref())?;
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    super::input::warn_if_unplayable(&args.file, &stimulus);
     let name = super::input_name(&args.file);
     let playback = export::play(&stimulus, &layout).with_context(|| name.clone())?;
     if let Some(f) = playback.fault {
@@ -165,8 +167,11 @@ fn output_paths(args: &Args, format: Format, every_channel: bool) -> anyhow::Res
                 "the stimulus comes from standard input: name the output with -o",
             ))
         }
-        None => default_output(&args.file, args.slot, format),
+        None => default_output(&args.file, args.slot.unwrap_or(0), format),
     };
+    if args.output.is_some() && !is_stdio(&base) {
+        check_output_name(&base, format, suffixes.len() > 1)?;
+    }
     if is_stdio(&base) && suffixes.len() > 1 {
         return Err(super::usage(format!(
             "--to {}: one file per actuator cannot go to standard output: give -o FILE, \
@@ -178,6 +183,37 @@ fn output_paths(args: &Args, format: Format, every_channel: bool) -> anyhow::Res
         .iter()
         .map(|s| with_suffix(&base, s, format))
         .collect())
+}
+
+/// The extensions of the files `touchc` reads and writes: an `-o` with one of them
+/// that is not the format's own would write, say, AHAP JSON into `y.touch`.
+const KNOWN_EXTENSIONS: [&str; 13] = [
+    "touch", "bank", "npy", "npz", "hjif", "haptic", "ahap", "tact", "wav", "csv", "svg", "png",
+    "gif",
+];
+
+/// Refuses an `-o` that names another format's file, or a device or pipe when one
+/// file per actuator is to be written beside it (`/dev/full.ch0.haptic`).
+fn check_output_name(out: &Path, format: Format, per_channel: bool) -> anyhow::Result<()> {
+    let want = format.extension();
+    if let Some(ext) = out.extension().and_then(|e| e.to_str()) {
+        let ext = ext.to_ascii_lowercase();
+        if ext != want && KNOWN_EXTENSIONS.contains(&ext.as_str()) {
+            return Err(super::usage(format!(
+                "-o {}: a .{ext} name for a --to {want} file; name it .{want}",
+                out.display()
+            )));
+        }
+    }
+    let special = std::fs::metadata(out).is_ok_and(|m| !m.is_file() && !m.is_dir());
+    if per_channel && special {
+        return Err(super::usage(format!(
+            "-o {}: --to {want} writes one file per actuator beside it, and it is a device \
+             or a pipe: give --channel N or --mix for one file",
+            out.display()
+        )));
+    }
+    Ok(())
 }
 
 /// The line that says what was written: where, how long, how large and how close to
@@ -201,7 +237,7 @@ fn summary(
     };
     let seconds = playback.seconds();
     let mut line = format!(
-        "touchc: {name} -> {shown_out}: {:.2} s, {} bytes ({:.0} B/s), error {:.3}% RMS / {:.3}% max of full scale against the player's output",
+        "touchc: {name} -> {shown_out}: plays {:.2} s, {} bytes ({:.0} B/s), error {:.3}% RMS / {:.3}% max of full scale against the player's output",
         seconds,
         exported.bytes(),
         exported.bytes() as f64 / seconds.max(1e-3),

@@ -99,7 +99,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         match Stimulus::decode(&bytes) {
             Ok(s) => Report::Stimulus(stimulus_report(&s)),
             Err(e @ Error::BadCrc { .. }) => bail!("{name}: CRC check failed: {e}"),
-            Err(e) => bail!("{name}: not a valid stimulus: {e}"),
+            Err(e) => {
+                return Err(anyhow::Error::new(e).context(format!("{name}: not a valid stimulus")))
+            }
         }
     };
     let mut out = crate::cli::output::Output::create(&args.output)?;
@@ -167,10 +169,12 @@ fn write_text(w: &mut impl Write, report: &Report) -> std::io::Result<()> {
 fn write_stimulus(w: &mut impl Write, s: &StimulusReport) -> std::io::Result<()> {
     writeln!(
         w,
-        "{} (stimulus v{}): {:.3} s, {} keyframes every {} ms, {} bytes ({} B/s), CRC {}",
+        "{} (stimulus v{}): {:.3} s of keyframes (plays {:.3} s with the {} ms ramp down), {} keyframes every {} ms, {} bytes ({} B/s), CRC {}",
         super::escaped(&s.name),
         s.version,
         s.duration_s,
+        s.duration_s + f64::from(s.ramp_ms) / 1000.0,
+        s.ramp_ms,
         s.keyframes,
         s.keyframe_period_ms,
         s.bytes,

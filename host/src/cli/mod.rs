@@ -8,6 +8,7 @@ mod config_error;
 mod export;
 mod help;
 mod import;
+mod input;
 mod inspect;
 mod output;
 mod params;
@@ -17,19 +18,21 @@ mod render;
 mod report_json;
 mod select;
 mod sleeve;
+mod stdio;
 mod study;
 mod synth;
 mod track;
 mod trade;
 mod warning;
 
-use std::io::Read;
 use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{CommandFactory, Parser, Subcommand};
 use touch_protocol::{Bank, Stimulus};
+
+pub(crate) use input::{load_recording, read_input};
 
 /// What `--help` says about exit codes, `-` and errors.
 const AFTER_HELP: &str = "\
@@ -88,7 +91,7 @@ enum Command {
     /// Perception studies with the sleeve: run a participant's session from a plan,
     /// report the classification experiment's analyses.
     Study(study::Args),
-    /// Print a shell completion script: `touchc completions bash > /etc/bash_completion.d/touchc`.
+    /// Print a shell completion script (installing it: see the README's "Install").
     Completions {
         /// The shell to complete in.
         #[arg(value_enum)]
@@ -236,6 +239,15 @@ fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
     use touchc::compile::CompileError;
     use touchc::input::recording::RecordingError;
     use touchc::tracking::track::TrackError;
+    if let Some(touch_protocol::Error::BadMagic { found, .. }) = cause.downcast_ref() {
+        if found[..] == [0x93, b'N', b'U', b'M'] || found[..] == *b"PK\x03\x04" {
+            return Some(
+                " (it is a recording, .npy or .npz: compile it into a stimulus first with \
+                 touchc compile)"
+                    .into(),
+            );
+        }
+    }
     let compile = cause.downcast_ref::<CompileError>();
     let track = match compile {
         Some(CompileError::Limits(_)) => return Some(" (use --fit to scale it down)".into()),
@@ -253,6 +265,12 @@ fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
         RecordingError::MemberTooLarge { .. } => {
             Some("; save the array as a .npy file instead".into())
         }
+        RecordingError::Text { name, .. } => Some(format!(
+            "; a CSV of one frame per line (rows x cols values in psi) converts with one line \
+             of numpy: python3 -c 'import numpy as np; np.save(\"recording.npy\", \
+             np.loadtxt(\"{name}\", delimiter=\",\").reshape(-1, ROWS, COLS))' with ROWS \
+             and COLS the sensor's grid (8 and 21 for the paper's sleeve)"
+        )),
         RecordingError::TooShort { .. } => Some(format!(
             " ({}, {})",
             touchc::config::Knob::InputTareS,
@@ -290,8 +308,10 @@ fn toml_message(e: &toml::de::Error) -> String {
 /// Longest piece of user text (a quoted value, a `--set` assignment) a message
 /// repeats; longer ones are cut with an ellipsis.
 pub(crate) const MAX_ECHO: usize = 80;
-/// Longest message, in characters: a few lines of a terminal.
-const MAX_MESSAGE: usize = 480;
+/// Longest message, in characters: a last resort for user text that [`readable`] did
+/// not recognise as such, set above the longest sentence `touchc` writes itself (a
+/// coverage warning with all its causes and their advice) so that no advice is cut.
+const MAX_MESSAGE: usize = 2000;
 
 /// `text` cut to [`MAX_ECHO`] characters, with `…` when something was cut.
 pub(crate) fn clip(text: &str) -> String {
@@ -305,10 +325,12 @@ fn clip_to(text: &str, max: usize) -> String {
     }
 }
 
-/// `text` as a person should read it on a terminal: on one line, every quoted value
-/// (between backticks or double quotes, as serde and toml quote what they were given)
-/// clipped to [`MAX_ECHO`] characters, control and format characters escaped, and the
-/// whole at most [`MAX_MESSAGE`] characters.
+/// `text` as a person should read it on a terminal: on one line, what the user gave
+/// clipped to [`MAX_ECHO`] characters (every command-line argument it repeats, such as
+/// a file name, and every quoted value, between backticks or double quotes as serde and
+/// toml quote what they were given), control and format characters escaped, and the
+/// whole at most [`MAX_MESSAGE`] characters. The words of `touchc` itself, and so its
+/// advice, are never cut.
 pub(crate) fn readable(text: &str) -> String {
     let one_line = text
         .lines()
@@ -316,7 +338,11 @@ pub(crate) fn readable(text: &str) -> String {
         .filter(|l| !l.is_empty())
         .collect::<Vec<_>>()
         .join("; ");
-    let out = clip_quoted(&one_line, &['`', '"']);
+    let given: Vec<String> = std::env::args_os()
+        .skip(1)
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
+    let out = clip_quoted(&clip_given(&one_line, &given), &['`', '"']);
     let total = out.chars().count();
     let out = if total > MAX_MESSAGE {
         format!(
@@ -328,6 +354,23 @@ pub(crate) fn readable(text: &str) -> String {
         out
     };
     escaped(&out)
+}
+
+/// `text` with every long command-line argument in `given` (or its value after `=`,
+/// as in `--output=FILE`) clipped to [`MAX_ECHO`] characters wherever it appears.
+fn clip_given(text: &str, given: &[String]) -> String {
+    let mut long: Vec<&str> = given
+        .iter()
+        .flat_map(|a| [a.as_str(), a.split_once('=').map_or("", |(_, v)| v)])
+        .filter(|a| a.chars().count() > MAX_ECHO)
+        .collect();
+    // The longest first: an argument can hold another (`dir/file` and `dir`).
+    long.sort_by_key(|a| std::cmp::Reverse(a.len()));
+    let mut out = text.to_string();
+    for a in long {
+        out = out.replace(a, &clip(a));
+    }
+    out
 }
 
 /// `text` with every piece between a pair of `quotes` clipped to [`MAX_ECHO`].
@@ -433,40 +476,34 @@ pub(crate) fn input_name(path: &Path) -> String {
     }
 }
 
-/// Reads a whole input file, `-` being standard input, naming it in the error.
-pub(crate) fn read_input(path: &Path) -> anyhow::Result<Vec<u8>> {
-    if crate::cli::output::is_stdio(path) {
-        let mut bytes = Vec::new();
-        std::io::stdin()
-            .lock()
-            .read_to_end(&mut bytes)
-            .context("standard input: cannot read")?;
-        return Ok(bytes);
-    }
-    std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
-}
-
-/// Loads a recording, `-` being standard input (`touchc synth ... -o - | touchc compile -`).
-pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc::input::recording::Recording> {
-    use touchc::input::recording::Recording;
-    if crate::cli::output::is_stdio(path) {
-        let bytes = read_input(path)?;
-        return Ok(Recording::from_bytes(input_name(path), &bytes)?);
-    }
-    Ok(Recording::load(path)?)
-}
-
-/// The stimulus in `bytes`: the file itself, or slot `slot` when it is a bank.
+/// The stimulus in `bytes`: the file itself, or slot `slot` (`--slot`, 0 when not
+/// given) when it is a bank. A `--slot` above 0 on a stimulus is a usage error: a
+/// stimulus is its own only slot, and ignoring it would let a mistake pass.
 pub(crate) fn stimulus_in<'a>(
     bytes: &'a [u8],
     path: &Path,
-    slot: usize,
+    slot: Option<usize>,
 ) -> anyhow::Result<Stimulus<'a>> {
     let name = input_name(path);
     if bytes.starts_with(&touch_protocol::bank::MAGIC) {
         let bank = Bank::decode(bytes).with_context(|| format!("{name}: not a valid bank"))?;
+        let slot = slot.unwrap_or(0);
+        if slot >= bank.len() {
+            anyhow::bail!(
+                "{name}: no slot {slot}: the bank has {} slot(s), 0 to {} (--slot)",
+                bank.len(),
+                bank.len() - 1
+            );
+        }
         bank.slot(slot)
             .with_context(|| format!("{name}: slot {slot}"))
+    } else if let Some(slot) =
+        slot.filter(|&s| s > 0 && bytes.starts_with(&touch_protocol::stimulus::MAGIC))
+    {
+        Err(usage(format!(
+            "--slot {slot}: {name} is a stimulus, not a bank; --slot picks a stimulus out of \
+             a bank"
+        )))
     } else {
         Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
     }
@@ -549,6 +586,23 @@ mod tests {
         // A lone quote does not stop the clipping of the pairs after it.
         let text = format!("--set x=\"{}…: unknown `{long}`", "B".repeat(10));
         assert!(!readable(&text).contains(&"A".repeat(MAX_ECHO + 1)));
+    }
+
+    #[test]
+    fn a_long_argument_is_clipped_wherever_it_appears_and_the_advice_is_whole() {
+        let dir = "d".repeat(300);
+        let path = format!("{dir}/x.npy");
+        let advice = "try a finer lattice (--set detect.split.spacing_cells=1)";
+        let text = format!("{path}: {}; {advice}", "touch is lost ".repeat(30));
+        let given = [path.clone(), format!("--output={dir}/y.touch"), "-o".into()];
+        let shown = clip_given(&text, &given);
+        assert!(
+            shown.starts_with(&format!("{}…", &path[..MAX_ECHO])),
+            "{shown}"
+        );
+        assert!(shown.ends_with(advice), "{shown}");
+        let shown = clip_given(&format!("cannot write {dir}/y.touch"), &given);
+        assert_eq!(shown, format!("cannot write {}…", &dir[..MAX_ECHO]));
     }
 
     #[test]

@@ -172,6 +172,9 @@ impl Output {
             source,
         };
         match self.sink {
+            Sink::Stdout(_) if super::stdio::stdout_was_closed() => {
+                Err(fail(super::stdio::closed_error()))
+            }
             Sink::Stdout(mut w) => w.flush().map_err(fail),
             Sink::Direct(mut w) => w.flush().map_err(fail),
             Sink::Atomic { tmp, target } => {
@@ -190,6 +193,7 @@ impl Output {
 
     fn writer(&mut self) -> &mut dyn Write {
         match &mut self.sink {
+            Sink::Stdout(_) if super::stdio::stdout_was_closed() => Box::leak(Box::new(Closed)),
             Sink::Stdout(w) => w,
             Sink::Direct(w) => w,
             Sink::Atomic { tmp, .. } => tmp,
@@ -219,6 +223,19 @@ impl Output {
             return e;
         }
         io::Error::new(e.kind(), self.error(e))
+    }
+}
+
+/// Standard output closed at start-up: every write fails (see [`super::stdio`]).
+struct Closed;
+
+impl Write for Closed {
+    fn write(&mut self, _: &[u8]) -> io::Result<usize> {
+        Err(super::stdio::closed_error())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        Err(super::stdio::closed_error())
     }
 }
 

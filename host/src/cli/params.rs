@@ -262,7 +262,8 @@ impl Flag {
     fn default_text(&self) -> String {
         let get = |k: Knob| lookup(default_table(), k).map(plain);
         let text = match self.kind {
-            Kind::Count(k) | Kind::Real(k) => get(k),
+            Kind::Count(k) => get(k),
+            Kind::Real(k) => get(k).map(super::input::rounded),
             Kind::Grid { x, y } => get(x).zip(get(y)).map(|(x, y)| format!("{x},{y}")),
             // An absent search is `off`.
             Kind::Search { stride, keep } => Some(
@@ -454,7 +455,7 @@ fn layered(
     off.sort();
     off.dedup();
     if let Some(p) = path {
-        let text = std::fs::read_to_string(p)
+        let text = super::input::read_text(p, super::input::MAX_TEXT_BYTES)
             .with_context(|| format!("{}: cannot read config", p.display()))?;
         let over: toml::Table =
             toml::from_str(&text).with_context(|| format!("{}: invalid config", p.display()))?;

@@ -17,8 +17,9 @@ pub struct Args {
     #[arg(short, long)]
     output: PathBuf,
     /// Which slot of a bank to plot.
-    #[arg(long, default_value_t = 0)]
-    slot: usize,
+    /// 0 when not given.
+    #[arg(long)]
+    slot: Option<usize>,
     /// Image width, px.
     #[arg(long, default_value_t = Size::default().width)]
     width: u32,
@@ -48,6 +49,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     )?;
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    super::input::warn_if_unplayable(&args.file, &stimulus);
     let size = Size {
         width: args.width,
         height: args.height,

@@ -74,6 +74,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let name = super::input_name(&args.recording);
     let recording = super::load_recording(&args.recording)?;
+    super::input::check_file_sampling(&recording, &opts.config, &opts.metadata)?;
     let compiled = compile(&recording, &opts).with_context(|| format!("{name}: cannot compile"))?;
     let rate = compiled.report.metadata.rate_hz.value;
     for w in &compiled.report.warnings {

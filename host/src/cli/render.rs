@@ -32,8 +32,9 @@ pub struct Args {
     #[arg(long, default_value_t = 48_000, requires = "wav")]
     rate: u32,
     /// Which slot of a bank to render.
-    #[arg(long, default_value_t = 0)]
-    slot: usize,
+    /// 0 when not given.
+    #[arg(long)]
+    slot: Option<usize>,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -64,6 +65,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let bytes = super::read_input(&args.file)?;
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    super::input::warn_if_unplayable(&args.file, &stimulus);
     let device = DeviceConfig::default();
     let mut fault = None;
     if let Some(path) = &args.wav {

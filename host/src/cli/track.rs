@@ -54,6 +54,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     }
     let cfg = args.config.resolve()?;
     let rec = super::load_recording(&args.recording)?;
+    super::input::check_file_sampling(&rec, &cfg, &args.config.overrides())?;
     // Streaming, as the compile does: neither the blurred movie nor the detections are
     // printed, so neither is kept.
     let out = track_streaming(&rec, &cfg, &args.config.overrides())?;
@@ -106,8 +107,8 @@ fn write_table(w: &mut impl Write, rec: &Recording, out: &TrackOutput) -> std::i
     )?;
     writeln!(
         w,
-        "{:>3}  {:>11}  {:>4}  {:>10}  {:>10}  {:>10}",
-        "#", "frames", "len", "start r,c", "end r,c", "cost"
+        "{:>3}  {:>11}  {:>4}  {:>12}  {:>12}  {:>10}",
+        "#", "frames", "len", "start r,c px", "end r,c px", "cost"
     )?;
     for (i, tr) in out.trajectories.iter().enumerate() {
         let (Some(first), Some(last)) = (tr.points.first(), tr.points.last()) else {
@@ -118,7 +119,7 @@ fn write_table(w: &mut impl Write, rec: &Recording, out: &TrackOutput) -> std::i
         let end = format!("{},{}", last.row, last.col);
         writeln!(
             w,
-            "{i:>3}  {:>11}  {:>4}  {start:>10}  {end:>10}  {:>10.4}",
+            "{i:>3}  {:>11}  {:>4}  {start:>12}  {end:>12}  {:>10.4}",
             format!("{f0}-{f1}"),
             tr.len(),
             tr.total_cost()

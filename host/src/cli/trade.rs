@@ -150,8 +150,9 @@ fn truths(args: &Args) -> anyhow::Result<Vec<Truth>> {
     args.truth
         .iter()
         .map(|p| {
-            let text = std::fs::read(p).with_context(|| format!("{}: cannot read", p.display()))?;
-            serde_json::from_slice::<Truth>(&text).with_context(|| {
+            let text = super::input::read_text(p, super::input::MAX_TEXT_BYTES)
+                .with_context(|| format!("{}: cannot read", p.display()))?;
+            serde_json::from_str::<Truth>(&text).with_context(|| {
                 format!(
                     "{}: not a truth file of `touchc synth --truth`",
                     p.display()
@@ -202,6 +203,9 @@ fn write_outputs(args: &Args, rows: &[TradeRow]) -> anyhow::Result<()> {
         text(rows)
     };
     write_atomic(std::path::Path::new("-"), table.as_bytes())?;
+    for line in far_from_exact(rows) {
+        eprintln!("touchc: note: {line}");
+    }
     if let Some(path) = &args.csv {
         write_atomic(path, csv(rows).as_bytes())?;
     }
@@ -213,6 +217,40 @@ fn write_outputs(args: &Args, rows: &[TradeRow]) -> anyhow::Result<()> {
         write_atomic(path, svg.as_bytes())?;
     }
     Ok(())
+}
+
+/// Why a row's signal or tracks are far from `exact`'s, once per kind: a difference
+/// past full scale or no tracks in common reads as a fault, and is what a preset that
+/// tracks or places otherwise gives.
+fn far_from_exact(rows: &[TradeRow]) -> Vec<String> {
+    let mut notes = Vec::new();
+    let far: Vec<String> = rows
+        .iter()
+        .filter(|r| r.max_vs_exact_pct > 100.0)
+        .map(|r| format!("{} under {}", super::escaped(&r.input), r.preset.name()))
+        .collect();
+    if !far.is_empty() {
+        notes.push(format!(
+            "max vs exact over 100% of full scale ({}): the signals are -0.9 A at rest and \
+             up to +1 A, so where this preset drives an actuator that exact leaves at rest \
+             (or the other way round) they differ by up to 190%",
+            far.join(", ")
+        ));
+    }
+    let apart: Vec<String> = rows
+        .iter()
+        .filter(|r| r.tracks_agree_pct == 0.0 && r.preset != touchc::config::Preset::Exact)
+        .map(|r| format!("{} under {}", super::escaped(&r.input), r.preset.name()))
+        .collect();
+    if !apart.is_empty() {
+        notes.push(format!(
+            "tracks agree 0 ({}): no detection is tracked by both this preset and exact, \
+             as when one splits a broad contact or links at another speed and the other \
+             follows another point of the hand",
+            apart.join(", ")
+        ));
+    }
+    notes
 }
 
 /// `touchc trade --cases`: every synthetic case under the presets, one row each, and

@@ -916,7 +916,7 @@ fn a_missing_slot_or_another_layout_is_refused_with_no_output() {
         "export",
         s(&emoji("love")),
         "--to",
-        "haptic",
+        "hjif",
         "--layout",
         s(&other),
         "-o",

@@ -25,9 +25,17 @@ fn load_err(p: &std::path::Path) -> RecordingError {
 }
 
 #[test]
-fn rejects_other_dtypes() {
+fn reads_integers_as_counts_and_rejects_other_dtypes() {
     let dir = tempfile::tempdir().unwrap();
-    let p = write(&dir, "ints.npy", &Array3::<i64>::zeros((50, 2, 2)));
+    let counts = Array3::<i16>::from_shape_fn((50, 2, 2), |(t, r, c)| (t + r + c) as i16);
+    let p = write(&dir, "ints.npy", &counts);
+    let rec = Recording::load(&p).unwrap();
+    assert_eq!(rec.data()[[49, 1, 1]], 51.0);
+    let p = write(
+        &dir,
+        "bools.npy",
+        &Array3::<bool>::from_elem((50, 2, 2), true),
+    );
     assert!(matches!(
         load_err(&p),
         RecordingError::UnsupportedDtype { .. }
@@ -88,6 +96,8 @@ fn rejects_files_that_are_not_npy_and_missing_files() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("notes.npy");
     std::fs::write(&p, "time,psi\n0,1.0\n").unwrap();
+    assert!(matches!(load_err(&p), RecordingError::Text { .. }));
+    std::fs::write(&p, b"\x00\x01binary").unwrap();
     assert!(matches!(load_err(&p), RecordingError::NotNpy { .. }));
     let truncated = dir.path().join("cut.npy");
     let full = write(&dir, "full.npy", &Array3::<f64>::zeros((50, 2, 2)));

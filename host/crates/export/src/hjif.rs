@@ -275,7 +275,7 @@ fn channel(c: usize, w: &Workspace, keyframes: Vec<Keyframe>) -> Channel {
         gain: 1.0,
         mixing_coefficient: 1.0,
         body_part_mask: LEFT_FOREARM_MASK,
-        reference_device_id: Some(0),
+        reference_device_id: Some(REFERENCE_DEVICE_ID),
         body_part_target: Some(vec!["Forearm".into()]),
         actuator_resolution: Some(Vector { x: 4, y: 2, z: 1 }),
         actuator_target: Some(vec![Vector {
@@ -327,7 +327,7 @@ fn document(
             perception_modality: "Pressure".into(),
             effect_library: Vec::new(),
             reference_devices: vec![ReferenceDevice {
-                id: 0,
+                id: REFERENCE_DEVICE_ID,
                 name: "voice coil (Tectonic TEAX19C01-8) on an LM675T current amplifier, 1 A/V"
                     .into(),
                 body_part_mask: Some(LEFT_FOREARM_MASK),
@@ -359,6 +359,11 @@ pub struct Imported {
     /// The geometry hash the document names.
     pub layout_hash: u32,
 }
+
+/// The sleeve's one reference device. MPEG's JSON schema
+/// (`MPEG_haptics.reference_device.schema.json`) numbers reference devices from 1,
+/// where channels, perceptions and effects count from 0.
+const REFERENCE_DEVICE_ID: i32 = 1;
 
 fn invalid(reason: impl Into<String>) -> ExportError {
     ExportError::Invalid {
@@ -436,7 +441,8 @@ pub fn import(bytes: &[u8], full_scale_a: f64) -> Result<Imported, ExportError> 
                         })?;
                     if !a.is_finite() || a.abs() > 1.0 {
                         return Err(invalid(format!(
-                            "channel {c}: amplitude {a} outside -1..=1"
+                            "channel {c}: amplitude {} outside -1..=1",
+                            touchc_model::display::Shortest(a)
                         )));
                     }
                     points.push((t, a));

@@ -20,9 +20,11 @@ use touchc_model::config::{FileMetadata, PITCH_MM_RANGE, RATE_HZ_RANGE};
 mod errors;
 mod npy;
 mod npz;
+mod stream;
 mod tare;
 
 pub use errors::RecordingError;
+pub use stream::STREAM_BUDGET_BYTES;
 pub(crate) use tare::map_cell_series;
 
 /// The most bytes one `.npz` entry may need decompressed: 512 MiB, eleven hours of an
@@ -46,17 +48,37 @@ pub struct Recording {
 }
 
 impl Recording {
-    /// Loads and validates a `.npy` file (float32 or float64, either byte order, C or
-    /// Fortran order) or a numpy `.npz` archive (`savez` or `savez_compressed`) holding
+    /// Loads and validates a `.npy` file (float32, float64 or integers, either byte
+    /// order, C or Fortran order) or a numpy `.npz` archive (`savez` or `savez_compressed`) holding
     /// such an array as `pressure`, with optional scalars `rate_hz` and `pitch_mm`. The
     /// format is told by the first bytes, whatever the file is called.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
         let path = path.as_ref();
         let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| RecordingError::Io {
+        let io = |source| RecordingError::Io {
             name: name.clone(),
             source,
-        })?;
+        };
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        if !file.metadata().map_err(io)?.is_file() {
+            // A device or a pipe (`/dev/zero`, `<(...)`): it may never end.
+            return Self::read_from(name.clone(), &mut file);
+        }
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut file, &mut bytes).map_err(io)?;
+        Self::from_bytes(name, &bytes)
+    }
+
+    /// Reads a `.npy` or `.npz` recording from a stream (standard input, a pipe, a
+    /// device), bounded: the magic number is checked first, a `.npy` is read up to the
+    /// data its header claims, and nothing more than [`STREAM_BUDGET_BYTES`] is read.
+    /// `name` is used in errors.
+    pub fn read_from(
+        name: impl Into<String>,
+        reader: &mut dyn std::io::Read,
+    ) -> Result<Self, RecordingError> {
+        let name = name.into();
+        let bytes = stream::read_bounded(&name, reader)?;
         Self::from_bytes(name, &bytes)
     }
 
@@ -68,6 +90,8 @@ impl Recording {
             Self::from_npz_bytes(name, bytes)
         } else if bytes.starts_with(npy::MAGIC) {
             Self::from_npy_bytes(name, bytes)
+        } else if let Some(start) = text_start(bytes) {
+            Err(RecordingError::Text { name, start })
         } else {
             Err(RecordingError::NotNpy {
                 name,
@@ -206,4 +230,18 @@ impl Recording {
     pub fn dim(&self) -> (usize, usize, usize) {
         self.data.dim()
     }
+}
+
+/// The first line of `bytes` (at most 40 characters) when they start as text: printable
+/// characters and whitespace up to the first line break, or through the first dozen
+/// bytes.
+fn text_start(bytes: &[u8]) -> Option<String> {
+    let head = &bytes[..bytes.len().min(64)];
+    let line = head.split(|&b| b == b'\n').next().unwrap_or_default();
+    let text = std::str::from_utf8(line).ok()?;
+    let printable = |c: char| !c.is_control() || c == '\t' || c == '\r';
+    if text.is_empty() || !text.chars().all(printable) {
+        return None;
+    }
+    Some(text.trim_end().chars().take(40).collect())
 }

@@ -22,7 +22,9 @@ mod sampling;
 mod knob;
 mod validate;
 
-pub use bounds::{grid_size, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE, RATE_HZ_RANGE};
+pub use bounds::{
+    grid_size, MAX_GRID_STEPS, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE, RATE_HZ_RANGE,
+};
 pub use knob::{Knob, Unit};
 pub use sampling::{FileMetadata, Metadata, MetadataOverrides, Sampling, Source, Sourced};
 pub use validate::{ConfigError, DerivedLimit, SamplingKnob};

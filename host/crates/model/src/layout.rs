@@ -32,6 +32,9 @@ const PAPER_TOML: &str = include_str!("../../../layouts/paper.toml");
 /// Name used in error messages for the built-in layout.
 const PAPER_ORIGIN: &str = "<built-in layouts/paper.toml>";
 
+/// The most bytes of a layout file read: eight actuators take a few hundred.
+pub const MAX_LAYOUT_BYTES: u64 = 1 << 20;
+
 /// One actuator's workspace, as written in the layout file.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -205,13 +208,26 @@ impl Layout {
         Self::validate(file, origin)
     }
 
-    /// Reads a layout file.
+    /// Reads a layout file, at most [`MAX_LAYOUT_BYTES`] of it (a device or a pipe,
+    /// `/dev/zero`, could go on for ever).
     pub fn load(path: &Path) -> Result<Layout, LayoutError> {
+        use std::io::Read;
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Read {
+        let read = |source| LayoutError::Read {
             origin: origin.clone(),
             source,
-        })?;
+        };
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .map_err(read)?
+            .take(MAX_LAYOUT_BYTES + 1)
+            .read_to_string(&mut text)
+            .map_err(read)?;
+        if text.len() as u64 > MAX_LAYOUT_BYTES {
+            return Err(read(std::io::Error::other(format!(
+                "more than {MAX_LAYOUT_BYTES} bytes, far more than a layout file holds"
+            ))));
+        }
         Self::from_toml_str(&text, &origin)
     }
 

@@ -209,9 +209,9 @@ pub fn poisoned() -> Vec<(&'static str, Vec<u8>, &'static str)> {
             "8 unexpected bytes after the data",
         ),
         (
-            "ints.npy",
-            npy("<i8", false, "(50, 2, 2)", &body[..1600]),
-            "unsupported element type <i8",
+            "complex.npy",
+            npy("<c8", false, "(50, 2, 2)", &body[..1600]),
+            "unsupported element type <c8",
         ),
         (
             "rank2.npy",

@@ -63,6 +63,36 @@ pub enum RecordingError {
         /// Data bytes present.
         found: u64,
     },
+    /// A stream's `.npy` header claims more data than a stream may bring
+    /// ([`STREAM_BUDGET_BYTES`](super::STREAM_BUDGET_BYTES)); refused before it is read.
+    #[error("{name}: shape {} needs {needed} bytes, more than the {budget} bytes read from a stream", npy::shape_str(.shape))]
+    StreamClaimTooLarge {
+        /// The stream the recording came from.
+        name: String,
+        /// The shape in the header.
+        shape: Vec<usize>,
+        /// Bytes the header and its shape need.
+        needed: u64,
+        /// The budget ([`STREAM_BUDGET_BYTES`](super::STREAM_BUDGET_BYTES)).
+        budget: u64,
+    },
+    /// A stream carries an archive longer than a stream may bring
+    /// ([`STREAM_BUDGET_BYTES`](super::STREAM_BUDGET_BYTES)).
+    #[error("{name}: the archive goes on past the {budget} bytes read from a stream")]
+    StreamTooLong {
+        /// The stream the recording came from.
+        name: String,
+        /// The budget ([`STREAM_BUDGET_BYTES`](super::STREAM_BUDGET_BYTES)).
+        budget: u64,
+    },
+    /// The file is text (a CSV, a JSON export), not a `.npy` or `.npz` file.
+    #[error("{name}: text, not a .npy or .npz file (it starts with {start:?})")]
+    Text {
+        /// The file the recording came from.
+        name: String,
+        /// Its first characters, up to a line.
+        start: String,
+    },
     /// The bytes look like a zip archive but cannot be read as one.
     #[error("{name}: not a readable .npz archive ({detail})")]
     NotNpz {
@@ -160,8 +190,8 @@ pub enum RecordingError {
         /// The unit of the value.
         unit: &'static str,
     },
-    /// The array holds something other than float32 or float64.
-    #[error("{name}: unsupported element type {descr}; expected float32 or float64")]
+    /// The array holds something other than float32, float64 or integers.
+    #[error("{name}: unsupported element type {descr}; expected float32, float64 or integers")]
     UnsupportedDtype {
         /// The file the recording came from.
         name: String,

@@ -11,7 +11,8 @@ use std::fmt;
 use std::ops::RangeInclusive;
 
 use super::{
-    Config, MAX_TRAJECTORIES, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE, RATE_HZ_RANGE,
+    Config, MAX_GRID_STEPS, MAX_TRAJECTORIES, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE,
+    RATE_HZ_RANGE,
 };
 
 /// Declares [`Knob`] from one table of rows
@@ -114,9 +115,9 @@ knobs! {
     TrackBridgeCostPerMissing => "track", "bridge.cost_per_missing", |_c| None, Range::Free;
     // With the grid's size: see `Config::validate`.
     PlacementGridX => "placement", "grid_x",
-        |c| count(c.placement.grid_x), counts(1..=MAX_TRANSFORMS);
+        |c| count(c.placement.grid_x), counts(1..=MAX_GRID_STEPS);
     PlacementGridY => "placement", "grid_y",
-        |c| count(c.placement.grid_y), counts(1..=MAX_TRANSFORMS);
+        |c| count(c.placement.grid_y), counts(1..=MAX_GRID_STEPS);
     PlacementCentreBonus => "placement", "centre_bonus",
         |c| real(c.placement.centre_bonus), reals(0.0..=10.0, Unit::None);
     PlacementCoarseToFineStride => "placement", "coarse_to_fine.stride",

@@ -49,13 +49,34 @@ impl From<touch_protocol::Limits> for Limits {
     }
 }
 
+/// A value over a limit, with the fewest decimals that still show it over (`30.00005`,
+/// not the 17 digits of `30.000045740926335`, nor a rounded `30` that seems within it).
+struct Beyond(f64, f64);
+
+impl std::fmt::Display for Beyond {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let Beyond(value, limit) = *self;
+        let shortest = value.to_string();
+        if shortest.len() <= 8 {
+            return f.write_str(&shortest);
+        }
+        for decimals in 0..=9 {
+            let text = format!("{value:.decimals$}");
+            if text.parse::<f64>().is_ok_and(|v| v.abs() > limit.abs()) {
+                return f.write_str(&text);
+            }
+        }
+        write!(f, "{value}")
+    }
+}
+
 /// The first limit a signal breaks (earliest sample, then lowest channel), or why the
 /// check could not run.
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum LimitViolation {
     /// |I| above `peak_a`.
-    #[error("channel {channel}, sample {sample}: {current_a} A exceeds the {limit_a} A peak")]
+    #[error("channel {channel}, sample {sample}: {} A exceeds the {limit_a} A peak", Beyond(*.current_a, *.limit_a))]
     Peak {
         /// Channel.
         channel: usize,
@@ -68,7 +89,7 @@ pub enum LimitViolation {
     },
     /// A step between samples above `slew_a_per_ms`.
     #[error(
-        "channel {channel}, sample {sample}: step of {step_a} A exceeds {limit_a_per_ms} A/ms"
+        "channel {channel}, sample {sample}: step of {} A exceeds {limit_a_per_ms} A/ms", Beyond(*.step_a, *.limit_a_per_ms)
     )]
     Slew {
         /// Channel.
@@ -82,8 +103,8 @@ pub enum LimitViolation {
     },
     /// The thermal bucket above `thermal_budget_a2s`.
     #[error(
-        "channel {channel}, sample {sample}: thermal load {bucket_a2s} A^2 s \
-         exceeds {budget_a2s} A^2 s"
+        "channel {channel}, sample {sample}: thermal load {} A^2 s \
+         exceeds {budget_a2s} A^2 s", Beyond(*.bucket_a2s, *.budget_a2s)
     )]
     Thermal {
         /// Channel.
@@ -150,4 +171,26 @@ fn check_scaled(
 pub fn check_limits(signal: &[[f64; CHANNELS]], limits: &Limits) -> Result<(), LimitViolation> {
     validate_limits(limits)?;
     check_scaled(signal, 1.0, limits)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_value_over_its_limit_shows_the_fewest_decimals_that_are_still_over() {
+        let thermal = LimitViolation::Thermal {
+            channel: 5,
+            sample: 30_000,
+            bucket_a2s: 30.000045740926335,
+            budget_a2s: 30.0,
+        };
+        assert_eq!(
+            thermal.to_string(),
+            "channel 5, sample 30000: thermal load 30.00005 A^2 s exceeds 30 A^2 s"
+        );
+        assert_eq!(Beyond(30.5, 30.0).to_string(), "30.5");
+        assert_eq!(Beyond(-1.2500000001, 1.0).to_string(), "-1.3");
+        assert_eq!(Beyond(-1.0000001, 1.0).to_string(), "-1.0000001");
+    }
 }

@@ -160,11 +160,13 @@ pub(super) fn parse_header(name: &str, bytes: &[u8]) -> Result<Header, Recording
     })
 }
 
-/// Checks a header against the recording's contract: float32 or float64, three
-/// dimensions, none of them zero. Returns the shape.
+/// Checks a header against the recording's contract: float32 or float64, or integers
+/// (a sensor's raw counts, which the sanity checks then call such), three dimensions,
+/// none of them zero. Returns the shape.
 pub(super) fn pressure_shape(name: &str, header: &Header) -> Result<[usize; 3], RecordingError> {
     match &header.dtype {
         Ok(d) if d.kind == Kind::Float && d.size >= 4 => {}
+        Ok(d) if matches!(d.kind, Kind::Int | Kind::Uint) => {}
         Ok(Dtype { descr, .. }) | Err(descr) => {
             return Err(RecordingError::UnsupportedDtype {
                 name: name.to_owned(),
