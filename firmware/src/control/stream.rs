@@ -54,14 +54,19 @@ impl Controller<'_> {
         // dry: a host that stalls for less than the buffer holds never cuts the
         // stimulus, and one that vanished still reaches 0 A within the deadline and
         // the ramp after the last keyframe it sent. Until the stream plays, only
-        // data counts (one keyframe alone never starts it).
+        // data counts (one keyframe alone never starts it), for a longer deadline:
+        // nothing plays yet.
         let buffered = self.stream == StreamState::On && port.keyframes_ready() > 0;
         if fed != self.clock.fed || buffered {
             self.clock.fed = fed;
             self.clock.fed_at = self.now;
         }
         let quiet = self.now.wrapping_sub(self.clock.fed_at);
-        if !self.clock.ended && quiet >= wire::STREAM_DEADLINE_MS {
+        let deadline = match self.stream {
+            StreamState::On => wire::STREAM_DEADLINE_MS,
+            _ => wire::STREAM_START_MS,
+        };
+        if !self.clock.ended && quiet >= deadline {
             return self.stop_stream(StreamStop::Deadline);
         }
         match self.stream {
