@@ -25,8 +25,6 @@ impl<T: Transport> Client<T> {
             full_scale_ma: h.full_scale_ma,
             limits: stimulus.limits(),
         };
-        // Asked first: the data follows the begin without another round trip.
-        let per_chunk = link::MAX_STREAM_KEYFRAMES.min(self.chunk_len()? / link::KEYFRAME_LEN);
         let timeout = self.timeouts.reply;
         let capacity = self.call(Command::StreamBegin(params), timeout, 0, |r| match r {
             Reply::StreamBegin { capacity } => Some(capacity),
@@ -40,6 +38,7 @@ impl<T: Transport> Client<T> {
         // Well inside the device's deadline: the stream never starves for want of
         // a frame from the host.
         let keep_alive = Duration::from_millis(u64::from(link::STREAM_DEADLINE_MS) / 4);
+        let per_chunk = link::MAX_STREAM_KEYFRAMES.min(self.chunk_len()? / link::KEYFRAME_LEN);
         loop {
             let n = (room as usize).min(per_chunk).min((total - next) as usize);
             while pending.len() < n {
