@@ -154,6 +154,40 @@ class Commands(Served):
         self.fails("info", says="no sleeve attached there (no such port)")
 
 
+class FoundByItself(Served):
+    """A twin served at its default link (in the temporary directory) is the port
+    when it is the only sleeve; no port at all is an empty list, not an error."""
+
+    def test_list_shows_the_twin_and_info_needs_no_port(self):
+        if not TOUCHC.exists():
+            self.skipTest(f"{TOUCHC} not built (run.sh builds it)")
+        tmp = SCRATCH / "tmp-empty"
+        tmp.mkdir(parents=True, exist_ok=True)
+        env = dict(os.environ, TMPDIR=str(tmp))
+        r = subprocess.run([str(TOUCHC), "sleeve", "list"], capture_output=True, text=True, env=env, timeout=60)
+        if r.stdout.strip():
+            self.skipTest(f"this machine has serial ports: {r.stdout}")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("firmware/twin/run.sh serve", r.stderr)
+        tmp = SCRATCH / "tmp-twin"
+        tmp.mkdir(parents=True, exist_ok=True)
+        b = boot(EMOJI)
+        board_port = tmp / "touchc-sleeve-twin"
+        stop = threading.Event()
+        server = threading.Thread(target=twin.serve, args=(b, str(board_port)), kwargs={"stop": stop})
+        server.start()
+        self.addCleanup(server.join)
+        self.addCleanup(stop.set)
+        self.wait_until(lambda: board_port.exists() and b.now() > 0.3)
+        env = dict(os.environ, TMPDIR=str(tmp))
+        r = subprocess.run([str(TOUCHC), "sleeve", "list"], capture_output=True, text=True, env=env, timeout=60)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("sleeve twin", r.stdout)
+        r = subprocess.run([str(TOUCHC), "sleeve", "info"], capture_output=True, text=True, env=env, timeout=60)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("slot  0: attention", r.stdout)
+
+
 class KilledUpload(Served):
     """`touchc sleeve upload` killed once the erase began: the sleeve says what
     works, `touchc sleeve abort` ends the upload, and the sleeve ends one by itself
