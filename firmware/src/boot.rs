@@ -34,17 +34,31 @@ impl BootError {
     }
 }
 
-/// The bank to boot from: the flash region, or `builtin` when the region is erased
-/// (its first 16 bytes all 0xFF: nothing was flashed there). Anything else in the
-/// region, a corrupt bank included, is the region's: it is checked and refused, never
-/// silently replaced by the built-in bank.
+/// The bank to boot from: the flash region, or `builtin` when no bank was committed
+/// there ([`committed`]: an erased region, or an upload whose commit did not finish).
+/// Anything else in the region, a corrupt bank included, is the region's: it is
+/// checked and refused, never silently replaced by the built-in bank.
 pub fn bank_source<'a>(region: &'a [u8], builtin: &'a [u8]) -> &'a [u8] {
-    let head = region.get(..16).unwrap_or(region);
-    if head.iter().all(|&b| b == 0xFF) {
-        builtin
-    } else {
+    if committed(region) {
         region
+    } else {
+        builtin
     }
+}
+
+/// False when the region holds no committed bank: its first word is not the bank
+/// magic yet but could still be programmed into it (every bit the magic has set is
+/// still set: flash programming only clears bits). An erased region reads so, and
+/// so does one whose upload was cut before or while its commit programmed that word,
+/// which the upload programs last ([`crate::link::bank`]): a cut anywhere in the
+/// commit leaves the built-in bank or the new one, never a refused region.
+pub fn committed(region: &[u8]) -> bool {
+    let magic = touch_protocol::bank::MAGIC;
+    let first = region.get(..magic.len()).unwrap_or(region);
+    let unfinished = first.len() == magic.len()
+        && first != magic
+        && first.iter().zip(magic).all(|(&b, m)| b & m == m);
+    !unfinished
 }
 
 /// Checks the bank region (the whole flash region; the bank says its own length).
@@ -153,6 +167,31 @@ mod tests {
         corrupt[40] ^= 1;
         let e = check_bank(bank_source(&corrupt, &builtin)).unwrap_err();
         assert!(matches!(e, BootError::Corrupt(_)), "{e:?}");
+    }
+
+    /// A first word on its way to the magic (bits still to be cleared) is an
+    /// unfinished commit: the built-in bank. Anything else there is the region's.
+    #[test]
+    fn a_magic_word_programmed_in_part_boots_the_builtin_bank() {
+        let builtin = bank(&[constant_stimulus("b", 200, 100)]);
+        let flashed = region_with(&bank(&[constant_stimulus("f", 300, 100)]));
+        let magic = touch_protocol::bank::MAGIC;
+        for bit in 0..32 {
+            let (byte, mask) = (bit / 8, 1u8 << (bit % 8));
+            let mut region = flashed.clone();
+            if magic[byte] & mask == 0 {
+                // A bit the commit had still to clear: unfinished.
+                region[byte] |= mask;
+                assert!(!committed(&region), "bit {bit}");
+                assert_eq!(check_bank(bank_source(&region, &builtin)).unwrap().len(), 1);
+            } else {
+                // A bit the magic keeps set, cleared: not a bank.
+                region[byte] &= !mask;
+                assert!(committed(&region), "bit {bit}");
+                let e = check_bank(bank_source(&region, &builtin)).unwrap_err();
+                assert!(matches!(e, BootError::NotABank(_)), "bit {bit}: {e:?}");
+            }
+        }
     }
 
     /// `memory.x` and the protocol's bank region agree (address and length).

@@ -5,8 +5,8 @@
 #
 #   bash firmware/twin/run.sh                    # builds the release ELF if missing
 #   TWIN_ELF=path/to/elf bash firmware/twin/run.sh [unittest args, e.g. test_twin.Fault]
-#   bash firmware/twin/run.sh serve --link /tmp/sleeve [--bank B]   # the twin on a pseudo-terminal:
-#                                                # touchc sleeve --port /tmp/sleeve ... talks to it
+#   bash firmware/twin/run.sh serve [--bank B]   # the twin on a pseudo-terminal that
+#                                                # `touchc sleeve ...` finds by itself (--link PATH: elsewhere)
 #   bash firmware/twin/run.sh serve-usb --link /tmp/sleeve [--bank B]   # the same over its USB port
 #   bash firmware/twin/run.sh figures            # the USB figures of docs/hardware.md
 set -euo pipefail
@@ -41,6 +41,8 @@ cd "$here"
 if [ "${1:-}" = figures ]; then
     TWIN_ELF="$elf" TWIN_CODES="$root/target/debug/examples/twin_codes" exec "$venv/bin/python" usb_figures.py
 fi
-[ $# -gt 0 ] || set -- test_twin test_study
+# By default the twin's own tests, the study's, then the real `touchc sleeve` against
+# it (test_cli).
+[ $# -gt 0 ] || set -- test_twin test_study test_cli
 TWIN_ELF="$elf" TWIN_CODES="$root/target/debug/examples/twin_codes" \
     "$venv/bin/python" -W error::ResourceWarning -m unittest "$@"

@@ -1227,7 +1227,8 @@ class LinkStream(unittest.TestCase):
 
     def stream(self, host, ms):
         """Starts a stream of a constant 0.3 A on channel 0, 10 ms keyframes, kept
-        a buffer ahead for `ms`; returns the time the last data byte arrived."""
+        a buffer ahead for `ms`; returns the time the last data byte arrived and the
+        keyframes sent."""
         cap = host.ok(link.stream_begin, 10, self.RAMP_MS, 1000, self.LIMITS)[0]["capacity"]
         self.assertGreater(cap, 4)
         index, room, last = 0, cap, None
@@ -1237,7 +1238,7 @@ class LinkStream(unittest.TestCase):
             m, last = host.ok(link.stream_data, index, [[self.LEVEL] + [0] * 7] * n)
             index, room = m["next"], m["room"]
             host.pump(0.02)
-        return last
+        return last, index
 
     def setUp(self):
         if not has_link():
@@ -1247,13 +1248,20 @@ class LinkStream(unittest.TestCase):
         b = boot(EMOJI)
         h = Host(b)
         b.run(0.3)
-        last = self.stream(h, 400)
-        self.assertTrue(any(f[1][0] > 2048 for f in b.frames if f[0] > last - 100 * MS), "the stream played")
-        h.pump(0.2)
+        begun = b.t
+        last, sent = self.stream(h, 400)
+        h.pump(0.2 + sent * 0.01)
+        # The buffer plays out (the dead-man counts from it running dry), then the
+        # outputs ramp to 0 A: within the deadline and the ramp after the last
+        # keyframe sent is due.
+        start = next(f[0] for f in b.frames if f[0] > begun and f[1][0] > 2048)
+        due = start + (sent - 1) * 10 * MS
         rest = next(f[0] for f in b.frames if f[0] > last and f[1] == IDLE)
-        after = (rest - last) / MS
+        after = (rest - due) / MS
         if os.environ.get("TWIN_VERBOSE"):
-            print(f"\nstream abandoned: at 0 A {after:.1f} ms after the last byte")
+            print(f"\nstream abandoned: at 0 A {(rest - last) / MS:.1f} ms after the last byte, "
+                  f"{after:.1f} ms after its last keyframe was due")
+        self.assertGreater(rest - last, 200 * MS, "the buffered keyframes played")
         self.assertLessEqual(after, link.STREAM_DEADLINE_MS + self.RAMP_MS + 2)
         self.assertTrue(all(f[1] == IDLE for f in b.frames if f[0] >= rest))
         self.assertTrue(h.events("StreamStopped"), "the device said why")

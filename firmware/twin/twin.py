@@ -1592,10 +1592,15 @@ def serve(board, link_path, usart="USART2", seconds=None, speed=1.0, stop=None):
 
 if __name__ == "__main__":
     import argparse
+    import os
+    import tempfile
 
     ap = argparse.ArgumentParser(description="The sleeve firmware on the twin, its USART on a pseudo-terminal.")
     ap.add_argument("elf")
-    ap.add_argument("--link", required=True, help="path of a symlink to the pseudo-terminal (the --port for touchc)")
+    default_link = os.path.join(tempfile.gettempdir(), "touchc-sleeve-twin")
+    ap.add_argument("--link", default=default_link,
+                    help="path of a symlink to the pseudo-terminal (the --port for touchc; by default the one "
+                         "`touchc sleeve` finds by itself: %(default)s)")
     ap.add_argument("--bank", help="a bank image in the bank region (default: erased)")
     ap.add_argument("--usart", default="USART2")
     ap.add_argument("--seconds", type=float, help="stop after this many emulated seconds")

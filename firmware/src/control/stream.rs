@@ -23,7 +23,8 @@ pub(super) enum StreamState {
 pub(super) struct StreamClock {
     /// The host's data counter when last seen.
     pub(super) fed: u32,
-    /// The tick it last changed.
+    /// The tick it last changed, or the last tick with keyframes buffered (while
+    /// the stream plays), whichever is later: what the deadline counts from.
     pub(super) fed_at: u32,
     /// The host sent `StreamEnd`: play out what is buffered, then stop.
     pub(super) ended: bool,
@@ -49,12 +50,23 @@ impl Controller<'_> {
         }
         let port = self.link.as_mut()?;
         let fed = port.fed();
-        if fed != self.clock.fed {
+        // The dead-man counts from the later of the last data and the buffer running
+        // dry: a host that stalls for less than the buffer holds never cuts the
+        // stimulus, and one that vanished still reaches 0 A within the deadline and
+        // the ramp after the last keyframe it sent. Until the stream plays, only
+        // data counts (one keyframe alone never starts it), for a longer deadline:
+        // nothing plays yet.
+        let buffered = self.stream == StreamState::On && port.keyframes_ready() > 0;
+        if fed != self.clock.fed || buffered {
             self.clock.fed = fed;
             self.clock.fed_at = self.now;
         }
         let quiet = self.now.wrapping_sub(self.clock.fed_at);
-        if !self.clock.ended && quiet >= wire::STREAM_DEADLINE_MS {
+        let deadline = match self.stream {
+            StreamState::On => wire::STREAM_DEADLINE_MS,
+            _ => wire::STREAM_START_MS,
+        };
+        if !self.clock.ended && quiet >= deadline {
             return self.stop_stream(StreamStop::Deadline);
         }
         match self.stream {

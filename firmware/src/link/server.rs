@@ -34,10 +34,14 @@ pub struct Identity<'a> {
     pub slots: Option<Bank<'a>>,
 }
 
-/// An upload with nothing heard from the host for this long is abandoned: the host
-/// is gone, and the device restarts (into the built-in bank: the region was erased
-/// at the upload's begin) rather than stay locked, with nothing playable, for good.
-pub const UPLOAD_IDLE_MS: u64 = 30_000;
+/// An upload whose host sent none of its requests (begin, chunk, commit, abort) for
+/// this long is abandoned: the host is gone, and the device restarts (into the
+/// built-in bank: the region was erased at the upload's begin) rather than stay
+/// locked, with nothing playable. Other requests (another program's `Info`, a
+/// `Play` refused as busy) do not keep it alive. Longer than the erase at the
+/// upload's begin (two 128 KB sectors, 4 s at most by the datasheet) and any pause
+/// of a host that is still there.
+pub const UPLOAD_IDLE_MS: u64 = 10_000;
 
 /// The server (see the module docs).
 pub struct LinkServer<'a, F: Flash> {
@@ -59,6 +63,8 @@ pub struct LinkServer<'a, F: Flash> {
     restart: bool,
     /// When bytes last came from the host, ms on the caller's clock.
     heard_ms: u64,
+    /// When the upload's last request came, ms on the same clock.
+    upload_ms: u64,
 }
 
 impl<'a, F: Flash> LinkServer<'a, F> {
@@ -77,6 +83,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             stream: None,
             restart: false,
             heard_ms: 0,
+            upload_ms: 0,
         }
     }
 
@@ -94,9 +101,9 @@ impl<'a, F: Flash> LinkServer<'a, F> {
 
     /// True once the device should restart, at `now_ms`: after a committed or
     /// aborted upload ([`LinkServer::restart_requested`]), or an upload that owns
-    /// the bank and heard nothing from the host for [`UPLOAD_IDLE_MS`].
+    /// the bank and got none of its requests for [`UPLOAD_IDLE_MS`].
     pub fn restart_due(&self, now_ms: u64) -> bool {
-        let abandoned = self.locked && now_ms.saturating_sub(self.heard_ms) > UPLOAD_IDLE_MS;
+        let abandoned = self.locked && now_ms.saturating_sub(self.upload_ms) > UPLOAD_IDLE_MS;
         self.restart || abandoned
     }
 
@@ -148,6 +155,15 @@ impl<'a, F: Flash> LinkServer<'a, F> {
     #[inline(never)]
     pub fn handle(&mut self, r: Request<'_>, out: &mut dyn FnMut(&[u8])) {
         let seq = r.seq;
+        if matches!(
+            r.command,
+            Command::BankBegin { .. }
+                | Command::BankChunk { .. }
+                | Command::BankCommit
+                | Command::BankAbort
+        ) {
+            self.upload_ms = self.heard_ms;
+        }
         match r.command {
             Command::Hello { version } if version == link::VERSION => {
                 let firmware = self.id.firmware;

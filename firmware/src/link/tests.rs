@@ -858,11 +858,15 @@ fn an_upload_cut_at_every_chunk_leaves_the_builtin_bank() {
     }
 }
 
-/// The host stops in the middle of an upload and never comes back: 30 s after the
-/// last byte it sent (not before, and counted again from each chunk), the device
-/// drops the staged upload and restarts into the built-in bank, which plays.
+/// The host stops in the middle of an upload and never comes back (killed): 10 s
+/// after its last upload request (not before, and counted again from each chunk),
+/// the device drops the staged upload and restarts into the built-in bank, which
+/// plays. Another program's requests meanwhile (`Info`, a refused `Play`) do not
+/// keep the upload alive.
 #[test]
-fn an_upload_abandoned_for_30_s_restarts_into_the_builtin_bank() {
+fn an_upload_abandoned_for_10_s_restarts_into_the_builtin_bank() {
+    use super::server::UPLOAD_IDLE_MS;
+    assert_eq!(UPLOAD_IDLE_MS, 10_000);
     let new = bank(&[constant_stimulus("x", 200, 2000)]);
     let mut h = host();
     h.call(Command::BankBegin {
@@ -876,30 +880,35 @@ fn an_upload_abandoned_for_30_s_restarts_into_the_builtin_bank() {
         bytes: chunks[0],
     })
     .unwrap();
-    // A chunk 20 s later starts the wait again.
-    h.run(20_000);
+    // A chunk 8 s later starts the wait again.
+    h.run(8_000);
     assert_eq!(h.dev.boots, 0);
     h.call(Command::BankChunk {
         offset: 16,
         bytes: chunks[1],
     })
     .unwrap();
-    let last_heard = h.dev.ms;
-    h.run(29_990);
-    assert_eq!(h.dev.boots, 0, "restarted before 30 s of silence");
-    assert_eq!(
-        h.call(Command::Play { slot: 0 }),
-        Err(LinkError::Busy(Busy::Uploading))
-    );
-    // That request was heard: the silence starts again from it.
-    let last_heard = last_heard.max(h.dev.ms - 1);
-    while h.dev.boots == 0 && h.dev.ms < last_heard + 40_000 {
+    let last_chunk = h.dev.ms;
+    // Another program tries the sleeve every second meanwhile: refused, busy.
+    for _ in 0..9 {
+        h.run(1000);
+        assert_eq!(h.dev.boots, 0, "restarted before 10 s of silence");
+        assert_eq!(
+            h.call(Command::Play { slot: 0 }),
+            Err(LinkError::Busy(Busy::Uploading))
+        );
+        assert!(h.call(Command::Info).is_ok());
+    }
+    while h.dev.boots == 0 && h.dev.ms < last_chunk + 20_000 {
         h.dev.tick();
     }
-    assert_eq!(h.dev.boots, 1, "no restart 40 s after the host went silent");
-    let silent = h.dev.ms - last_heard;
+    assert_eq!(
+        h.dev.boots, 1,
+        "no restart 20 s after the upload went silent"
+    );
+    let silent = h.dev.ms - last_chunk;
     assert!(
-        (30_000..=30_010).contains(&silent),
+        (10_000..=10_010).contains(&silent),
         "restarted after {silent} ms"
     );
     let f = h.call(Command::Info).unwrap();
@@ -907,6 +916,34 @@ fn an_upload_abandoned_for_30_s_restarts_into_the_builtin_bank() {
     assert_eq!(h.call(Command::BankCommit), Err(LinkError::NoUpload));
     let f = h.call(Command::Play { slot: 0 }).unwrap();
     assert!(matches!(reply(&f), Reply::Play { now: true, .. }));
+}
+
+/// `BankAbort` (what `touchc sleeve abort` sends) ends a stale upload at once: the
+/// device restarts into the built-in bank, which plays.
+#[test]
+fn an_abort_ends_a_stale_upload_into_the_builtin_bank() {
+    let new = bank(&[constant_stimulus("x", 200, 2000)]);
+    let mut h = host();
+    h.call(Command::BankBegin {
+        len: new.len() as u32,
+        crc: bank_crc(&new),
+    })
+    .unwrap();
+    h.call(Command::BankChunk {
+        offset: 0,
+        bytes: &new[..16],
+    })
+    .unwrap();
+    h.run(1000);
+    assert!(h.call(Command::BankAbort).is_ok());
+    h.run(5);
+    assert_eq!(h.dev.boots, 1);
+    let f = h.call(Command::Info).unwrap();
+    assert!(matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))));
+    let f = h.call(Command::Play { slot: 0 }).unwrap();
+    assert!(matches!(reply(&f), Reply::Play { now: true, .. }));
+    // Nothing left to abort.
+    assert_eq!(h.call(Command::BankAbort), Err(LinkError::NoUpload));
 }
 
 fn stream_params() -> link::StreamParams {
@@ -942,23 +979,50 @@ fn feed(h: &mut Host, ks: &[[i16; 8]], from: usize, to: usize) {
     }
 }
 
-#[test]
-fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
-    let ks = stream_keyframes(30);
+/// The codes the stored player gives for a stimulus of the stream's keyframes.
+fn stored_codes(ks: &[[i16; 8]]) -> Vec<[u16; 8]> {
+    let file = touch_protocol::stimulus::Builder::new("s", 20)
+        .ramp_ms(20)
+        .layout("test", 1)
+        .encode(ks)
+        .unwrap();
+    let stored = Stimulus::decode(&file).unwrap();
+    touch_protocol::Player::new(&stored, &device_config())
+        .take(stored.duration_ms() as usize)
+        .map(|t| t.codes)
+        .collect()
+}
+
+/// Streams `ks` (20 ms keyframes), the first 16 at once, then waits `gap(sent)`
+/// ms and tops the buffer up (as far as its room allows, as the host does), until
+/// every keyframe is sent; returns the host and the stream's first frame.
+fn stream_with_gaps(ks: &[[i16; 8]], mut gap: impl FnMut(usize) -> usize) -> (Host, usize) {
     let mut h = host();
     let f = h.call(Command::StreamBegin(stream_params())).unwrap();
     let Reply::StreamBegin { capacity } = reply(&f) else {
         panic!()
     };
     assert_eq!(capacity, 32);
-    feed(&mut h, &ks, 0, 16);
-    // Keep the buffer topped up every 40 ms (2 keyframes), inside the deadline.
+    feed(&mut h, ks, 0, 16);
     let mut sent = 16;
     while sent < ks.len() {
-        h.run(40);
-        let next = (sent + 2).min(ks.len());
-        feed(&mut h, &ks, sent, next);
-        sent = next;
+        h.run(gap(sent));
+        loop {
+            let n = (ks.len() - sent).min(8);
+            let mut bytes = [0u8; 8 * link::KEYFRAME_LEN];
+            let len = link::put_stream_keyframes(&ks[sent..sent + n], &mut bytes);
+            match h.call(Command::StreamData {
+                index: sent as u32,
+                keyframes: &bytes[..len],
+            }) {
+                Ok(_) => sent += n,
+                Err(LinkError::StreamFull { .. }) => break,
+                Err(e) => panic!("keyframe {sent}: {e:?}"),
+            }
+            if sent == ks.len() {
+                break;
+            }
+        }
     }
     h.call(Command::StreamEnd).unwrap();
     h.run(1000);
@@ -968,6 +1032,14 @@ fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
         .find(|e| e.1 == Event::Started(Source::Stream))
         .unwrap()
         .0 as usize;
+    (h, started)
+}
+
+#[test]
+fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
+    let ks = stream_keyframes(30);
+    // Every 40 ms (2 keyframes): inside the deadline.
+    let (h, started) = stream_with_gaps(&ks, |_| 40);
     assert!(
         h.events
             .iter()
@@ -980,21 +1052,40 @@ fn a_stream_plays_like_the_stimulus_of_its_keyframes() {
         .iter()
         .any(|e| e.1 == Event::Finished(Source::Stream)));
     // The stored player, on a stimulus of the same keyframes: the same codes.
-    let file = touch_protocol::stimulus::Builder::new("s", 20)
-        .ramp_ms(20)
-        .layout("test", 1)
-        .encode(&ks)
-        .unwrap();
-    let stored = Stimulus::decode(&file).unwrap();
-    let expected: Vec<_> = touch_protocol::Player::new(&stored, &device_config())
-        .take(stored.duration_ms() as usize)
-        .map(|t| t.codes)
-        .collect();
+    let expected = stored_codes(&ks);
     assert_eq!(
         &h.dev.outputs()[started..started + expected.len()],
         &expected[..]
     );
     assert_eq!(*h.dev.outputs().last().unwrap(), IDLE_FRAME);
+}
+
+/// A host that stalls for longer than the deadline while the buffer still holds
+/// keyframes (up to 32 of 20 ms: 640 ms ahead) does not cut the stimulus: the dead-man
+/// counts from the buffer running dry, not from the last data.
+#[test]
+fn a_host_that_stalls_within_the_buffer_never_cuts_the_stimulus() {
+    let ks = stream_keyframes(60);
+    // 40 ms between top-ups, but 200 ms (four deadlines) at two points.
+    let (h, started) =
+        stream_with_gaps(&ks, |sent| if sent == 20 || sent == 40 { 200 } else { 40 });
+    let stops: Vec<Event> = h
+        .events
+        .iter()
+        .map(|e| e.1)
+        .filter(|e| matches!(e, Event::StreamStopped(_)))
+        .collect();
+    assert_eq!(
+        stops,
+        [Event::StreamStopped(StreamStop::Ended)],
+        "{:?}",
+        h.events
+    );
+    let expected = stored_codes(&ks);
+    assert_eq!(
+        &h.dev.outputs()[started..started + expected.len()],
+        &expected[..]
+    );
 }
 
 #[test]
@@ -1003,19 +1094,33 @@ fn a_host_that_vanishes_mid_stream_brings_the_outputs_to_rest() {
     let mut h = host();
     h.call(Command::StreamBegin(stream_params())).unwrap();
     feed(&mut h, &ks, 0, 30);
-    let last_data = h.dev.controller().now();
     // Nothing more: no data, no end.
-    h.run(400);
-    let (tick, _) = *h
+    h.run(1000);
+    let started = h
         .events
         .iter()
-        .find(|e| e.1 == Event::StreamStopped(StreamStop::Deadline))
-        .expect("the deadline stopped the stream");
+        .find(|e| e.1 == Event::Started(Source::Stream))
+        .unwrap()
+        .0;
+    // The last keyframe sent is due 29 periods after the first frame: the buffer
+    // plays out, then the outputs ramp to 0 A within the deadline and the ramp.
+    let last_keyframe = started + 29 * 20;
+    let (tick, why) = *h
+        .events
+        .iter()
+        .find(|e| matches!(e.1, Event::StreamStopped(_)))
+        .expect("the stream stopped");
     assert!(
-        tick - last_data <= link::STREAM_DEADLINE_MS + 1,
-        "{tick} vs {last_data}"
+        matches!(
+            why,
+            Event::StreamStopped(StreamStop::Deadline | StreamStop::Underrun)
+        ),
+        "{why:?}"
     );
-    // 0 A within the deadline plus the ramp (and the slew bound from where it was).
+    assert!(
+        tick <= last_keyframe + link::STREAM_DEADLINE_MS,
+        "{tick} vs {last_keyframe}"
+    );
     let rest = h
         .dev
         .outputs()
@@ -1024,9 +1129,16 @@ fn a_host_that_vanishes_mid_stream_brings_the_outputs_to_rest() {
         .unwrap() as u32
         + 1;
     assert!(
-        rest - last_data <= link::STREAM_DEADLINE_MS + 20 + 20,
-        "at rest {} ms after the last data",
-        rest - last_data
+        rest <= last_keyframe + link::STREAM_DEADLINE_MS + 20 + 20,
+        "at rest {} ms after the last keyframe",
+        rest - last_keyframe
+    );
+    // Every keyframe sent was played before the ramp.
+    let expected = stored_codes(&ks);
+    let n = (last_keyframe - started) as usize;
+    assert_eq!(
+        &h.dev.outputs()[started as usize..started as usize + n],
+        &expected[..n]
     );
     // Data after the stream stopped is refused.
     let mut bytes = [0u8; 16];
@@ -1038,6 +1150,26 @@ fn a_host_that_vanishes_mid_stream_brings_the_outputs_to_rest() {
         }),
         Err(LinkError::NoStream)
     );
+}
+
+/// A host that sends a stream's first keyframe and vanishes: the armed stream
+/// is forgotten at its start deadline (one keyframe never starts it).
+#[test]
+fn an_armed_stream_without_its_second_keyframe_ends_at_the_deadline() {
+    let ks = stream_keyframes(1);
+    let mut h = host();
+    h.call(Command::StreamBegin(stream_params())).unwrap();
+    feed(&mut h, &ks, 0, 1);
+    let last_data = h.dev.controller().now();
+    h.run(link::STREAM_START_MS as usize + 200);
+    let (tick, _) = *h
+        .events
+        .iter()
+        .find(|e| e.1 == Event::StreamStopped(StreamStop::Deadline))
+        .expect("the deadline forgot the stream");
+    assert!(tick - last_data >= link::STREAM_START_MS - 1);
+    assert!(tick - last_data <= link::STREAM_START_MS + 1);
+    assert!(h.dev.outputs().iter().all(|f| *f == IDLE_FRAME));
 }
 
 #[test]

@@ -11,7 +11,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use anyhow::{anyhow, bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use touch_protocol::link::{Limit, LinkError, Source};
+use touch_protocol::link::{Limit, LinkError, Source, StreamStop, STREAM_DEADLINE_MS};
 use touchc::link::serial::{self, Candidate, SerialTransport};
 use touchc::link::{Client, ClientError};
 
@@ -22,13 +22,17 @@ mod watch;
 
 use info::{info, list};
 use playback::{play, stop};
-use transfer::{stream, upload};
+use transfer::{abort, stream, upload};
 use watch::{events, status};
 
 /// The USB vendor and product id a sleeve's own USB socket would present (pid.codes'
 /// test pair): such a port is listed first. The firmware's link is on its USART, so
 /// in practice every port is a USB-serial adapter.
 pub const USB_IDS: (u16, u16) = (0x1209, 0x0001);
+
+/// Seconds after an upload's last request at which the sleeve gives it up
+/// (`sleeve_firmware::link::server::UPLOAD_IDLE_MS`, the firmware's rule).
+const UPLOAD_IDLE_S: u32 = 10;
 
 /// What `--help` says after the subcommands.
 const AFTER_HELP: &str = "\
@@ -86,7 +90,12 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
-    /// Stream a stimulus to the sleeve while it plays (no data for 50 ms: 0 A).
+    /// End an upload left unfinished (its program killed or unplugged): the sleeve
+    /// restarts into its built-in bank. The sleeve ends one by itself 10 s after its
+    /// last chunk.
+    Abort,
+    /// Stream a stimulus to the sleeve while it plays (its buffer run dry and no
+    /// data for 50 ms: 0 A).
     Stream {
         /// The `.touch` stimulus.
         file: PathBuf,
@@ -123,6 +132,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Cmd::Upload { files, layout } => upload(args.port.as_deref(), files, layout.as_deref()),
         Cmd::Play { slot, json } => play(args.port.as_deref(), *slot, *json),
         Cmd::Stop { json } => stop(args.port.as_deref(), *json),
+        Cmd::Abort => abort(args.port.as_deref()),
         Cmd::Stream { file } => stream(args.port.as_deref(), file),
         Cmd::Status {
             watch,
@@ -141,17 +151,56 @@ struct Link {
     client: Sleeve,
 }
 
-/// The port to use: `--port`, else the only candidate.
+/// Where the firmware twin serves a sleeve by default (`bash firmware/twin/run.sh
+/// serve`): a link to its pseudo-terminal, in the temporary directory.
+fn twin_port() -> PathBuf {
+    std::env::temp_dir().join("touchc-sleeve-twin")
+}
+
+/// The twin's port, if a twin serves there now (the link leads to a terminal).
+fn running_twin() -> Option<PathBuf> {
+    let p = twin_port();
+    let target = std::fs::canonicalize(&p).ok()?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if !std::fs::metadata(&target)
+            .ok()?
+            .file_type()
+            .is_char_device()
+        {
+            return None;
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = target;
+    Some(p)
+}
+
+/// The port to use: `--port`, else the only sleeve (a running twin counts), else
+/// the only candidate.
 fn choose_port(port: Option<&Path>) -> anyhow::Result<PathBuf> {
     if let Some(p) = port {
         return Ok(p.to_path_buf());
     }
-    let found = serial::candidates(USB_IDS).context("cannot list the serial ports")?;
+    let mut found = serial::candidates(USB_IDS).context("cannot list the serial ports")?;
+    if let Some(twin) = running_twin() {
+        found.push(Candidate {
+            path: twin,
+            usb: None,
+            product: None,
+            serial: None,
+            is_sleeve: true,
+        });
+    }
     let sleeves: Vec<&Candidate> = found.iter().filter(|c| c.is_sleeve).collect();
     match (sleeves.as_slice(), found.as_slice()) {
         ([one], _) => Ok(one.path.clone()),
         ([], [one]) => Ok(one.path.clone()),
-        ([], []) => bail!("no sleeve attached (no USB serial port found); connect one, or name its port with --port"),
+        ([], []) => bail!(
+            "no sleeve attached (no USB serial port found); connect one, or name its port with \
+             --port (without hardware: `bash firmware/twin/run.sh serve` in the workspace)"
+        ),
         _ => bail!(
             "several serial ports may be a sleeve ({}); choose one with --port",
             found
@@ -179,6 +228,12 @@ fn open(port: &Path) -> anyhow::Result<Sleeve> {
                 port.display()
             )
         }
+        Err(e) if e.kind() == std::io::ErrorKind::ResourceBusy => {
+            bail!(
+                "{}: {e}; the sleeve answers one program at a time: close that one, or wait until it is done",
+                port.display()
+            )
+        }
         Err(e) => return Err(e).with_context(|| format!("{}: cannot open", port.display())),
     };
     let mut client = Client::new(transport);
@@ -202,8 +257,23 @@ fn describe(e: ClientError, port: &Path, what: &str) -> anyhow::Error {
         )
         }
         ClientError::Refused { error, .. } => anyhow!("{p}: {what} refused: {}", refusal(&error)),
+        ClientError::StreamStopped(why) => anyhow!("{p}: {}", stream_stopped(why)),
         ClientError::Io(io) => anyhow!("{p}: the link failed during {what}: {io}"),
         other => anyhow!("{p}: {what}: {other}"),
+    }
+}
+
+/// Why the sleeve stopped a stream, in words.
+fn stream_stopped(why: StreamStop) -> String {
+    match why {
+        StreamStop::Deadline => format!(
+            "the sleeve stopped the stream: its buffer ran dry and no data came within its \
+             {STREAM_DEADLINE_MS} ms deadline (this computer fell behind); it ramped to 0 A"
+        ),
+        StreamStop::Underrun => "the sleeve stopped the stream: a keyframe was due before it \
+             arrived (its buffer ran dry: this computer fell behind); it ramped to 0 A"
+            .into(),
+        StreamStop::Ended => "the sleeve ended the stream before every keyframe was sent".into(),
     }
 }
 
@@ -234,8 +304,14 @@ fn refusal(e: &LinkError) -> String {
             f64::from(permille) / 10.0,
             f64::from(cooldown_ms) / 1000.0
         ),
+        LinkError::Busy(touch_protocol::link::Busy::Uploading) => format!(
+            "the sleeve is busy: an upload is in progress, or was left unfinished; \
+             `touchc sleeve abort` ends it (the sleeve restarts into its built-in bank), \
+             as the sleeve does {} s after the upload's last chunk",
+            UPLOAD_IDLE_S
+        ),
         LinkError::Busy(b) => format!(
-            "the sleeve is busy ({}); stop it first",
+            "the sleeve is busy ({}); `touchc sleeve stop` stops it",
             match b {
                 touch_protocol::link::Busy::Playing => "something plays",
                 touch_protocol::link::Busy::Uploading => "an upload is in progress",

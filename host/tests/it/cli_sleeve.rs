@@ -9,6 +9,7 @@ const SUBCOMMANDS: &[&[&str]] = &[
     &["list"],
     &["info"],
     &["upload", "../examples/emoji/emoji.bank"],
+    &["abort"],
     &["play", "0"],
     &["stop"],
     &["stream", "../examples/emoji/love.touch"],
@@ -43,11 +44,19 @@ fn with_no_sleeve_attached_every_subcommand_says_so_and_exits_1() {
         eprintln!("skipped: a USB serial port is attached here");
         return;
     }
-    for args in SUBCOMMANDS {
+    for args in SUBCOMMANDS.iter().filter(|a| a[0] != "list") {
         let mut full = vec!["sleeve"];
         full.extend_from_slice(args);
         one_line_exit_1(&full, "no sleeve attached");
     }
+    // An empty list is an answer: exit 0, nothing listed, a note on how to try the
+    // twin (exit 1 before).
+    let out = touchc(&["sleeve", "list"]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(out.stdout.is_empty());
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("firmware/twin/run.sh serve"), "{err}");
 }
 
 #[test]
@@ -128,7 +137,7 @@ fn help_documents_every_subcommand() {
     assert!(out.status.success());
     let help = String::from_utf8_lossy(&out.stdout);
     for sub in [
-        "list", "info", "upload", "play", "stop", "stream", "status", "events",
+        "list", "info", "upload", "abort", "play", "stop", "stream", "status", "events",
     ] {
         assert!(
             help.lines().any(|l| l.trim_start().starts_with(sub)),

@@ -70,8 +70,14 @@ pub const KEYFRAME_LEN: usize = 16;
 /// Most keyframes in one `StreamData`.
 pub const MAX_STREAM_KEYFRAMES: usize = MAX_CHUNK / KEYFRAME_LEN;
 
-/// A stream that gets no data for this long ramps to 0 A (the host is gone).
+/// A playing stream whose buffer ran dry and that got no data for this long ramps
+/// to 0 A (the host is gone).
 pub const STREAM_DEADLINE_MS: u32 = 50;
+
+/// A stream begun but not yet playing (fewer than two keyframes in) that gets no
+/// data for this long is forgotten. Nothing plays meanwhile, so it may wait out a
+/// host's stall longer than the playing stream's deadline.
+pub const STREAM_START_MS: u32 = 1000;
 
 /// Why a frame could not be read or written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -6,7 +6,7 @@ use std::time::{Duration, SystemTime};
 
 use touch_protocol::link::cobs::Decoder;
 use touch_protocol::link::{
-    self, BankState, Command, Event, FrameError, LinkError, Reply, Source, StatusReport,
+    self, BankState, Command, Event, FrameError, LinkError, Reply, Source, StatusReport, StreamStop,
 };
 use touch_protocol::Limits;
 
@@ -84,6 +84,10 @@ pub enum ClientError {
         /// This host's ([`link::VERSION`]).
         host: u16,
     },
+    /// The device stopped a stream before every keyframe was sent (its outputs
+    /// ramp to 0 A): the reason its `StreamStopped` event gave.
+    #[error("the device stopped the stream: {0:?}")]
+    StreamStopped(StreamStop),
     /// The bank the device holds after an upload is not the image sent.
     #[error("the sleeve's bank differs from the image sent: {0}")]
     Verify(VerifyError),

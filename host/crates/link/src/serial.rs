@@ -16,8 +16,14 @@ pub struct SerialTransport {
 }
 
 impl SerialTransport {
-    /// Opens `path` at `BAUD`.
+    /// Opens `path` at `BAUD`, for this process alone.
+    ///
+    /// A port another process holds fails with [`io::ErrorKind::ResourceBusy`], its
+    /// message naming the holders where the system tells ([`holders`]); the holder's
+    /// exclusive mode is left as it was. A path that does not exist fails with
+    /// [`io::ErrorKind::NotFound`].
     pub fn open(path: &Path) -> io::Result<SerialTransport> {
+        check_free(path)?;
         let name = path.to_string_lossy();
         let port = serialport::new(name.as_ref(), BAUD)
             .timeout(Duration::from_millis(100))
@@ -45,6 +51,85 @@ impl Transport for SerialTransport {
             Err(e) => Err(e),
         }
     }
+}
+
+/// Fails if another process holds `path`. Looked at with a descriptor of our own
+/// before the serial library opens it: that library sets the port's exclusive
+/// mode (`TIOCEXCL`) before it finds the holder's lock taken, and clears it again
+/// (`TIOCNXCL`) as it gives up, which would unlock the holder's port for anyone
+/// (a process running as root opens a port in exclusive mode all the same).
+fn check_free(path: &Path) -> io::Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .custom_flags(libc::O_NOCTTY | libc::O_NONBLOCK)
+            .open(path);
+        let busy = match file {
+            // Another process holds it in exclusive mode (and this one is not root).
+            Err(e) if e.raw_os_error() == Some(libc::EBUSY) => true,
+            Err(e) => return Err(e),
+            // Another process holds its lock (the serial library's `flock`). Ours
+            // goes with the descriptor, which closes here.
+            Ok(f) => matches!(f.try_lock(), Err(std::fs::TryLockError::WouldBlock)),
+        };
+        if busy {
+            let who = holders(path);
+            let by = if who.is_empty() {
+                String::new()
+            } else {
+                let names: Vec<String> = who
+                    .iter()
+                    .map(|(pid, name)| format!("{name} (pid {pid})"))
+                    .collect();
+                format!(" by {}", names.join(", "))
+            };
+            return Err(io::Error::new(
+                io::ErrorKind::ResourceBusy,
+                format!("in use{by}"),
+            ));
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    Ok(())
+}
+
+/// The other processes that have `path` open, as (pid, name), where the system
+/// says (Linux: `/proc/PID/fd`, readable for one's own processes, or all as root).
+pub fn holders(path: &Path) -> Vec<(u32, String)> {
+    let Ok(target) = std::fs::canonicalize(path) else {
+        return Vec::new();
+    };
+    let me = std::process::id();
+    let Ok(procs) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for p in procs.flatten() {
+        let Some(pid) = p.file_name().to_str().and_then(|n| n.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid == me {
+            continue;
+        }
+        let Ok(fds) = std::fs::read_dir(p.path().join("fd")) else {
+            continue;
+        };
+        if fds
+            .flatten()
+            .any(|fd| std::fs::read_link(fd.path()).is_ok_and(|l| l == target))
+        {
+            let name = std::fs::read_to_string(p.path().join("comm"))
+                .map(|n| n.trim().to_string())
+                .unwrap_or_else(|_| "?".into());
+            out.push((pid, name));
+        }
+    }
+    out.sort();
+    out
 }
 
 /// A serial port that may be a sleeve.

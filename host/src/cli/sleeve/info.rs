@@ -4,19 +4,33 @@
 use std::io::Write;
 use std::path::Path;
 
-use anyhow::{bail, Context};
+use anyhow::Context;
 use serde_json::json;
 use touch_protocol::link::BankState;
 use touchc::link::serial;
 use touchc::link::{DeviceInfo, SlotEntry};
 
-use super::{connect, describe, open, USB_IDS};
+use super::{connect, describe, open, running_twin, USB_IDS};
 use crate::cli::escaped;
 
 pub(super) fn list(probe: bool) -> anyhow::Result<()> {
-    let found = serial::candidates(USB_IDS).context("cannot list the serial ports")?;
+    let mut found = serial::candidates(USB_IDS).context("cannot list the serial ports")?;
+    if let Some(twin) = running_twin() {
+        found.push(serial::Candidate {
+            path: twin,
+            usb: None,
+            product: None,
+            serial: None,
+            is_sleeve: true,
+        });
+    }
     if found.is_empty() {
-        bail!("no sleeve attached (no USB serial port found)");
+        // An empty list is an answer, not a failure.
+        eprintln!(
+            "touchc: no USB serial port found (to try the sleeve without hardware: \
+             `bash firmware/twin/run.sh serve` in the workspace, then `touchc sleeve info`)"
+        );
+        return Ok(());
     }
     let mut out = std::io::stdout().lock();
     for c in &found {
@@ -39,7 +53,9 @@ pub(super) fn list(probe: bool) -> anyhow::Result<()> {
 /// A port's line in `sleeve list`: its path, what it is, its USB ids, product and
 /// serial number.
 fn identity(c: &serial::Candidate) -> String {
-    let (vid, pid) = c.usb.unwrap_or((0, 0));
+    let Some((vid, pid)) = c.usb else {
+        return format!("{}  sleeve twin (firmware/twin serve)", c.path.display());
+    };
     let kind = if c.is_sleeve {
         "sleeve (USB)"
     } else {

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{bail, Context};
-use touch_protocol::link::{Event, Source, StreamStop};
+use touch_protocol::link::{Event, LinkError, Source, StreamStop};
 use touch_protocol::{bank, Stimulus};
-use touchc::link::Progress;
+use touchc::link::{ClientError, Progress};
 
 use super::{bar, connect, describe, limit_name, open, Link, Sleeve};
 use crate::cli::{escaped, usage};
@@ -76,9 +76,15 @@ pub(super) fn upload(
         .map_err(|e| describe(e, &port, "upload"));
     bar.finish_and_clear();
     let slots = slots?;
-    // The sleeve restarts into the new bank (a USB socket goes away and comes back).
-    drop(client);
-    let mut client = reopen(&port)?;
+    // The sleeve restarts into the new bank: asked again once it is back, on the same
+    // port; a USB socket goes away and comes back, and is opened again.
+    let mut client = match client.reconnect() {
+        Ok(_) => client,
+        Err(_) => {
+            drop(client);
+            reopen(&port)?
+        }
+    };
     let bar = self::bar(image.len() as u64, "bytes read back");
     let verified = client
         .verify(&image, |p: Progress| bar.set_position(p.done))
@@ -132,6 +138,33 @@ fn reopen(port: &Path) -> anyhow::Result<Sleeve> {
     }
 }
 
+/// Ends an upload left unfinished: the sleeve restarts into its built-in bank.
+pub(super) fn abort(port: Option<&Path>) -> anyhow::Result<()> {
+    let Link { port, mut client } = connect(port)?;
+    match client.abort_upload() {
+        Ok(()) => {}
+        Err(ClientError::Refused {
+            error: LinkError::NoUpload,
+            ..
+        }) => {
+            eprintln!(
+                "touchc: {}: no upload in progress; nothing to abort",
+                port.display()
+            );
+            return Ok(());
+        }
+        Err(e) => return Err(describe(e, &port, "abort")),
+    }
+    client
+        .reconnect()
+        .map_err(|e| describe(e, &port, "abort (the restart)"))?;
+    eprintln!(
+        "touchc: {}: the unfinished upload is ended; the sleeve restarted into its built-in bank",
+        port.display()
+    );
+    Ok(())
+}
+
 pub(super) fn stream(port: Option<&Path>, file: &Path) -> anyhow::Result<()> {
     let bytes = crate::cli::read_input(file)?;
     let stimulus = Stimulus::decode(&bytes)
@@ -167,11 +200,8 @@ pub(super) fn stream(port: Option<&Path>, file: &Path) -> anyhow::Result<()> {
             Event::LimitHit { kind, channel, .. } => {
                 bail!("{}: the stream hit the {} limit on channel {channel}; the sleeve ramped to 0 A", port.display(), limit_name(kind))
             }
-            Event::StreamStopped(StreamStop::Deadline | StreamStop::Underrun) => {
-                bail!(
-                    "{}: the stream starved (the host fell behind); the sleeve ramped to 0 A",
-                    port.display()
-                )
+            Event::StreamStopped(why @ (StreamStop::Deadline | StreamStop::Underrun)) => {
+                bail!("{}: {}", port.display(), super::stream_stopped(why))
             }
             _ => {}
         }

@@ -3,7 +3,7 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
-use touch_protocol::link::{self, Command, Reply, StreamParams};
+use touch_protocol::link::{self, Command, Event, LinkError, Reply, StreamParams};
 use touch_protocol::Stimulus;
 
 use super::{Client, ClientError, Progress, RETRIES};
@@ -51,7 +51,7 @@ impl<T: Transport> Client<T> {
             let batch: Vec<[i16; 8]> = pending.iter().take(n).copied().collect();
             let used = link::put_stream_keyframes(&batch, &mut payload);
             let index = next;
-            let (dev_next, dev_room) = self.call(
+            let acked = self.call(
                 Command::StreamData {
                     index,
                     keyframes: &payload[..used],
@@ -62,7 +62,21 @@ impl<T: Transport> Client<T> {
                     Reply::StreamData { next, room } => Some((next, room)),
                     _ => None,
                 },
-            )?;
+            );
+            let (dev_next, dev_room) = match acked {
+                Ok(a) => a,
+                // The device ended the stream on its own (its event came first).
+                Err(ClientError::Refused {
+                    error: LinkError::NoStream,
+                    ..
+                }) => {
+                    return Err(self.stream_stopped().unwrap_or(ClientError::Refused {
+                        command: "stream data",
+                        error: LinkError::NoStream,
+                    }))
+                }
+                Err(e) => return Err(e),
+            };
             if dev_next < next || dev_next > next + n as u32 {
                 return Err(ClientError::Protocol("a stream acknowledged out of order"));
             }
@@ -82,6 +96,16 @@ impl<T: Transport> Client<T> {
         }
         self.call(Command::StreamEnd, timeout, RETRIES, |r| match r {
             Reply::StreamEnd => Some(()),
+            _ => None,
+        })
+    }
+
+    /// Why the device stopped the stream, from its queued events, if it said.
+    fn stream_stopped(&mut self) -> Option<ClientError> {
+        // What already arrived: the event precedes the refusal on the wire.
+        let _ = self.receive(std::time::Duration::ZERO, |_| false);
+        self.events.iter().rev().find_map(|e| match e.event {
+            Event::StreamStopped(why) => Some(ClientError::StreamStopped(why)),
             _ => None,
         })
     }

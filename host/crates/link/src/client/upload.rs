@@ -10,6 +10,10 @@ use crate::Transport;
 /// How long a restarting device is left alone before [`Client::reconnect`] asks.
 const RESTART_GRACE: Duration = Duration::from_millis(100);
 
+/// How often [`Client::reconnect`] asks a restarting device (a reply needs a few ms;
+/// the boot's bank check up to some 100 ms).
+const RESTART_POLL: Duration = Duration::from_millis(50);
+
 impl<T: Transport> Client<T> {
     /// Reads `len` bytes of the bank region from `offset`.
     pub fn read_bank(
@@ -127,21 +131,27 @@ impl<T: Transport> Client<T> {
 
     /// Waits for a restarted device to answer (`hello`), for at most the restart
     /// timeout. The device restarts after its reply to a commit went out: the first
-    /// moments are left to it, so that the old firmware cannot answer.
+    /// moments are left to it, so that the old firmware cannot answer. A hello sent
+    /// while it boots is lost: it is asked again every [`RESTART_POLL`], not after a
+    /// whole reply timeout.
     pub fn reconnect(&mut self) -> Result<String, ClientError> {
         let start = self.transport.now();
         // A port that vanished with the restart (USB) fails here: the hello says so.
         let _ = self.pump(RESTART_GRACE);
         self.decoder.reset();
         self.inbox.clear();
-        loop {
+        let reply = self.timeouts.reply;
+        self.timeouts.reply = RESTART_POLL.min(reply);
+        let r = loop {
             match self.hello() {
-                Ok(firmware) => return Ok(firmware),
+                Ok(firmware) => break Ok(firmware),
                 Err(ClientError::Timeout { .. } | ClientError::Unreadable { .. })
                     if self.transport.now() - start < self.timeouts.restart => {}
-                Err(e) => return Err(e),
+                Err(e) => break Err(e),
             }
-        }
+        };
+        self.timeouts.reply = reply;
+        r
     }
 
     /// Checks that the device plays `image` from its bank region: its summary says
