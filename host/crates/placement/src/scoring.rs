@@ -377,6 +377,12 @@ fn trajectory_hits(
         sum += pt.cost * weight;
         if candidate {
             let next = s.head[pt.frame];
+            // Another cell of the same footprint in this frame: one hit, in any of
+            // the circles either cell is in.
+            if next != NONE && s.hits[next].local == local {
+                s.hits[next].mask |= mask;
+                continue;
+            }
             if next != NONE && s.hits[next].next == NONE {
                 s.shared.push(pt.frame);
             }
