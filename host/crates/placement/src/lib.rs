@@ -27,6 +27,7 @@
 
 mod bnb;
 
+mod footprint;
 mod grid;
 mod scoring;
 mod search;
