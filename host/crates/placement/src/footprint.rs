@@ -26,8 +26,10 @@ pub(super) struct Footprint {
 
 impl Footprint {
     /// The footprint of `points` (frame order) when some frame holds two or more of
-    /// them; `None` for a trajectory with one point a frame.
-    pub(super) fn of(points: &[Point]) -> Option<Footprint> {
+    /// them; `None` for a trajectory with one point a frame. Only the frames where
+    /// `shared` holds (another trajectory is present) are kept as groups: elsewhere
+    /// nothing can conflict with it.
+    pub(super) fn of(points: &[Point], shared: impl Fn(usize) -> bool) -> Option<Footprint> {
         if !points.windows(2).any(|w| w[0].frame == w[1].frame) {
             return None;
         }
@@ -39,7 +41,8 @@ impl Footprint {
             refs: Vec::with_capacity(points.len()),
         };
         for p in points {
-            if fp.frames.last() != Some(&p.frame) {
+            let keep = shared(p.frame);
+            if keep && fp.frames.last() != Some(&p.frame) {
                 fp.frames.push(p.frame);
                 fp.start.push(fp.refs.len());
             }
@@ -48,7 +51,9 @@ impl Footprint {
                 fp.pixels.len() - 1
             });
             fp.pixels[i].cost += p.cost;
-            fp.refs.push(i as u32);
+            if keep {
+                fp.refs.push(i as u32);
+            }
         }
         fp.start.push(fp.refs.len());
         Some(fp)

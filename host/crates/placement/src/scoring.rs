@@ -128,8 +128,20 @@ impl Scene {
         start.push(points.len());
         // The published objective: maximise the summed -total_cost of the chosen set.
         let gains = trajs.iter().map(|t| -t.total_cost()).collect();
+        // Trajectories present per frame: a footprint's frames that no other
+        // trajectory shares can conflict with nothing, so they need no hit.
+        let mut present = vec![0u32; frames];
+        for traj in trajs {
+            let mut last = None;
+            for p in &traj.points {
+                if last != Some(p.frame) {
+                    present[p.frame] += 1;
+                    last = Some(p.frame);
+                }
+            }
+        }
         let footprints = (0..trajs.len())
-            .map(|t| Footprint::of(&points[start[t]..start[t + 1]]))
+            .map(|t| Footprint::of(&points[start[t]..start[t + 1]], |f| present[f] > 1))
             .collect();
         Scene {
             points,
