@@ -132,7 +132,7 @@ pub fn real_like_on(sensor: Sensor, rate_hz: f64) -> Vec<Case> {
         gap_max_s: Some(0.4),
         ..Tuning::default()
     };
-    let list: [(&str, Gesture, Tuning, Option<Fabric>, bool, f64); 8] = [
+    let list = [
         ("held hand, fabric", Gesture::Hand, held, bare, true, 150.0),
         ("rub, fabric", Gesture::Rub, rub, bare, true, 150.0),
         (

@@ -91,7 +91,7 @@ impl Fabric {
     /// One cell's dropouts over `[0, end_s]`, as `(from, to)` seconds.
     fn dropouts(&self, rng: &mut Rng, end_s: f64) -> Vec<(f64, f64)> {
         let mut out = Vec::new();
-        if !(self.dropouts_hz > 0.0) {
+        if self.dropouts_hz.is_nan() || self.dropouts_hz <= 0.0 {
             return out;
         }
         let mut t = 0.0;

@@ -26,7 +26,7 @@ fn stats(rec: &Array3<f64>) -> (usize, usize, f64) {
                 n += 1;
                 let top = (r.saturating_sub(1)..(r + 2).min(rows))
                     .flat_map(|i| (c.saturating_sub(1)..(c + 2).min(cols)).map(move |j| (i, j)))
-                    .all(|(i, j)| !(f[[i, j]] > f[[r, c]]));
+                    .all(|(i, j)| f[[i, j]] <= f[[r, c]]);
                 m += usize::from(top);
             }
         }
@@ -72,7 +72,7 @@ fn a_fabric_grid_shows_real_captures_statistics() {
         );
         // REAL-TOUCH: 21-81% of a cell's runs last at most two frames (scratches, whose
         // contact moves a cell a frame, more).
-        assert!(short >= 0.21 && short <= 0.9, "{what}");
+        assert!((0.21..=0.9).contains(&short), "{what}");
         if case.name.starts_with("held hand") || case.name.starts_with("rub") {
             // A hand: tens of cells, several maxima.
             assert!(active >= 10 && maxima >= 2, "{what}");
