@@ -332,7 +332,24 @@ fn run_cases(args: &Args) -> anyhow::Result<()> {
     } else {
         aligned(&table, 5)
     };
-    for (preset, _) in &configs {
+    summarise(&mut out, &rows, &configs);
+    write_atomic(Path::new("-"), out.as_bytes())?;
+    if let Some(path) = &args.csv {
+        let csv: String = table
+            .iter()
+            .map(|l| l.iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(",") + "\n")
+            .collect();
+        write_atomic(path, csv.as_bytes())?;
+    }
+    if let Some(path) = &args.json {
+        write_atomic(path, &serde_json::to_vec_pretty(&rows)?)?;
+    }
+    Ok(())
+}
+
+/// One line per preset: how many smooth and how many real-like cases pass their bar.
+fn summarise<C>(out: &mut String, rows: &[CaseRow], configs: &[(Preset, C)]) {
+    for (preset, _) in configs {
         let of = |real: bool| -> Vec<&CaseRow> {
             rows.iter()
                 .filter(|r| r.preset == *preset && matches!(r.bar, Bar::RealLike { .. }) == real)
@@ -350,18 +367,6 @@ fn run_cases(args: &Args) -> anyhow::Result<()> {
             real.len()
         );
     }
-    write_atomic(Path::new("-"), out.as_bytes())?;
-    if let Some(path) = &args.csv {
-        let csv: String = table
-            .iter()
-            .map(|l| l.iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(",") + "\n")
-            .collect();
-        write_atomic(path, csv.as_bytes())?;
-    }
-    if let Some(path) = &args.json {
-        write_atomic(path, &serde_json::to_vec_pretty(&rows)?)?;
-    }
-    Ok(())
 }
 
 /// A table for a terminal: the first `left` columns left-aligned, the rest right.
