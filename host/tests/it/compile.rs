@@ -359,9 +359,10 @@ fn a_fitted_long_touch_still_encodes() {
     for (share, refits) in [(0.96, false), (1.0, true)] {
         let mut config = Config::default();
         config.signal.fit_thermal_share = share;
-        // The touch whose played codes tripped the limit: the default with contact
-        // splitting on the top of each contact only (below it, the signal differs and
-        // the player's rounding happens to stay within the limit).
+        // The touch whose played codes tripped the limit: the lattice of flat contacts
+        // (the default without regions) on the top of each contact only (below it, the
+        // signal differs and the player's rounding happens to stay within the limit).
+        config.track.regions = None;
         if let Some(split) = config.detect.split.as_mut() {
             split.extent = None;
         }
