@@ -268,13 +268,13 @@ fn trade_cases_takes_no_recordings_and_seeds_only_with_cases() {
     }
 }
 
-/// A knob of a table only the chosen preset has (`track.regions`) reaches that preset;
+/// A knob of a table only the chosen preset has (`detect.split`) reaches that preset;
 /// the `exact` reference, which has no such table, runs without it and says so, where
 /// the whole trade used to be refused.
 #[test]
 fn trade_applies_a_knob_to_the_presets_whose_table_has_it() {
     let dir = tempfile::tempdir().unwrap();
-    // A pat: flat hands, whose footprints the threshold shapes.
+    // A pat: a flat hand, whose weaker regions the extent reaches.
     let rec = synth(dir.path(), "pat", "pat");
     let json = dir.path().join("t.json");
     let trade = |set: &str| {
@@ -291,20 +291,20 @@ fn trade_applies_a_knob_to_the_presets_whose_table_has_it() {
             s(&json),
         ])
     };
-    let out = trade("track.regions.footprint_psi=0.06");
+    let out = trade("detect.split.extent=0.5");
     ok(&out);
     let err = bin::stderr(&out);
     assert!(
-        err.contains("--set track.regions.footprint_psi=0.06 is not applied to --preset exact")
-            && err.contains("`track.regions` is off"),
+        err.contains("--set detect.split.extent=0.5 is not applied to --preset exact")
+            && err.contains("`detect.split` is off"),
         "{err}"
     );
     let with = report(&json);
-    let narrow = with.as_array().unwrap()[0]["bytes"].clone();
-    ok(&trade("track.regions.footprint_psi=0.03"));
+    let top_only = with.as_array().unwrap()[0]["bytes"].clone();
+    ok(&trade("detect.split.extent=0.25"));
     let default = report(&json).as_array().unwrap()[0]["bytes"].clone();
-    // The knob reached `touch`: a narrower footprint is another stimulus.
-    assert_ne!(narrow, default);
+    // The knob reached `touch`: splitting on the top only is another stimulus.
+    assert_ne!(top_only, default);
     // A knob the chosen preset cannot take is still refused.
     let out = touchc(&[
         "trade",
@@ -312,7 +312,7 @@ fn trade_applies_a_knob_to_the_presets_whose_table_has_it() {
         "--preset",
         "paper",
         "--set",
-        "track.regions.footprint_psi=0.06",
+        "detect.split.extent=0.5",
     ]);
     assert!(refused(&out).contains("off under --preset paper"));
 }

@@ -1,5 +1,5 @@
 //! The real-like cases (a fabric grid's touch, `touchc_synth::cases::real_like_on`)
-//! under the default: recalled and covered, about one trajectory per true contact, and
+//! under `touch` with contacts as regions (`track.regions`, opt-in): recalled and covered, about one trajectory per true contact, and
 //! passing their bar but for the cases expected to fail (a case that starts to pass
 //! must leave the list).
 //!
@@ -7,7 +7,7 @@
 //! second per case in a debug build.
 
 use touchc_eval::cases::{run_case, CaseRow};
-use touchc_model::config::{Config, Preset};
+use touchc_model::config::{Config, Preset, Regions};
 use touchc_pipeline::compile::CompileOptions;
 use touchc_synth::cases::{real_like_on, Bar};
 use touchc_synth::Sensor;
@@ -26,7 +26,10 @@ const EXPECTED_TO_FAIL: [(&str, &str); 5] = [
 ];
 
 fn rows() -> Vec<CaseRow> {
-    let configs = [(Preset::Touch, Config::preset(Preset::Touch))];
+    // `touch` with contacts as regions (opt-in, `Regions::MEASURED`).
+    let mut regions = Config::preset(Preset::Touch);
+    regions.track.regions = Some(Regions::MEASURED);
+    let configs = [(Preset::Touch, regions)];
     [Sensor::Sleeve, Sensor::Grid10]
         .into_iter()
         .flat_map(|s| real_like_on(s, 20.0))

@@ -174,11 +174,7 @@ impl Config {
                         max_missing_s: 0.06,
                         cost_per_missing: 0.5,
                     }),
-                    regions: Some(Regions {
-                        seed_psi: 0.08,
-                        footprint_psi: 0.03,
-                        join_cells: 2,
-                    }),
+                    regions: None,
                 },
                 signal: SignalConfig {
                     ring_out: RingOut::Seconds,

@@ -102,3 +102,15 @@ pub struct Regions {
     /// cells) are one region.
     pub join_cells: usize,
 }
+
+impl Regions {
+    /// The measured setting (`docs/trade.md`, "Real touch on a fabric grid"): seed at
+    /// the touch threshold (0.08 psi), footprint at 0.03 psi (ten times the noise),
+    /// cells up to 2 apart joined. Not yet the `touch` preset's: lay it over it with
+    /// `[track.regions]` in a `--config` file.
+    pub const MEASURED: Regions = Regions {
+        seed_psi: 0.08,
+        footprint_psi: 0.03,
+        join_cells: 2,
+    };
+}
