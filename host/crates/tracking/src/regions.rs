@@ -83,7 +83,7 @@ fn regions_of(at: &[(i64, i64)], values: &[f64], join: i64) -> Vec<Region> {
     }
     let mut index = vec![usize::MAX; n];
     let mut out: Vec<Region> = Vec::new();
-    for i in 0..n {
+    for (i, &value) in values.iter().enumerate().take(n) {
         let root = find(&mut parent, i);
         if index[root] == usize::MAX {
             index[root] = out.len();
@@ -94,7 +94,7 @@ fn regions_of(at: &[(i64, i64)], values: &[f64], join: i64) -> Vec<Region> {
         }
         let r = &mut out[index[root]];
         r.cells.push(i);
-        r.peak = r.peak.max(values[i]);
+        r.peak = r.peak.max(value);
     }
     out
 }
