@@ -210,20 +210,7 @@ pub fn track_cropped(
     let detections = score_candidates(&candidates, stats.mean, stats.std, &cfg.detect);
     drop(candidates);
     lap(&[(Stage::Detect, 1.0)]);
-    let linked = match &cfg.track.regions {
-        Some(regions) => Linked {
-            trajectories: link_regions(&detections, regions, &cfg.track, sampling),
-            work: 0,
-            budget_reached: false,
-        },
-        None => link(&detections, &cfg.track, sampling).map_err(|e| match e {
-            FlowError::TooManyEdges { limit } => TrackError::TooDense {
-                detections: detections.all.len(),
-                limit,
-            },
-            e => TrackError::Flow(e),
-        })?,
-    };
+    let linked = link_detections(&detections, cfg, sampling)?;
     lap(&[(Stage::Track, 1.0)]);
     let detection_count = detections.all.len();
     let detections = if keep_scene {
@@ -246,6 +233,29 @@ pub fn track_cropped(
         flow_budget_reached: linked.budget_reached,
     };
     Ok((tracked, crop))
+}
+
+/// Stage 3 on the scored detections: contacts as regions with `track.regions`, else
+/// the min-cost flow.
+fn link_detections(
+    detections: &Detections,
+    cfg: &Config,
+    sampling: &Sampling,
+) -> Result<Linked, TrackError> {
+    Ok(match &cfg.track.regions {
+        Some(regions) => Linked {
+            trajectories: link_regions(detections, regions, &cfg.track, sampling),
+            work: 0,
+            budget_reached: false,
+        },
+        None => link(detections, &cfg.track, sampling).map_err(|e| match e {
+            FlowError::TooManyEdges { limit } => TrackError::TooDense {
+                detections: detections.all.len(),
+                limit,
+            },
+            e => TrackError::Flow(e),
+        })?,
+    })
 }
 
 /// What the pass of [`track_cropped`] finds in one run of frames, from its first.
