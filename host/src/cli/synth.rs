@@ -7,7 +7,7 @@ use super::help::PlainEnum;
 use crate::cli::output::write_atomic;
 use anyhow::Context;
 use touchc::display::Shortest;
-use touchc_synth::{self as synth, Gesture, Mask, Sensor, SynthSpec, Tuning};
+use touchc_synth::{self as synth, Fabric, Gesture, Mask, Sensor, SynthSpec, Tuning};
 
 /// Most noise-only frames before and after the gestures: about 1.4 h at 20 Hz, a
 /// recording of 130 MB. More would ask for memory no test recording needs.
@@ -61,6 +61,11 @@ pub struct Args {
     /// End the recording in the middle of the last contact.
     #[arg(long)]
     end_mid_touch: bool,
+    /// Read the touch as a fabric grid does: `bare` (cells of uneven, wandering
+    /// sensitivity that each drop out for a frame or two now and then) or `fur` (the
+    /// same through fur: spread over more cells, more dropouts).
+    #[arg(long, value_parser = ["bare", "fur"])]
+    fabric: Option<String>,
     /// Also write where each contact really was, frame by frame (JSON).
     #[arg(long)]
     truth: Option<PathBuf>,
@@ -183,6 +188,10 @@ fn spec(args: &Args) -> SynthSpec {
         begin_mid_touch: args.begin_mid_touch,
         end_mid_touch: args.end_mid_touch,
         rate_hz: None,
+        fabric: args.fabric.as_deref().map(|f| match f {
+            "fur" => Fabric::FUR,
+            _ => Fabric::BARE,
+        }),
     }
 }
 

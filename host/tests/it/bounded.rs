@@ -98,8 +98,15 @@ fn a_saturated_sensor_tracks_with_bounded_work() {
                 .windows(2)
                 .map(|w| w[1] - w[0])
                 .max();
-            assert!(most.unwrap_or(0) <= LATTICE, "{name}, {preset:?}: {most:?}");
-            assert!(out.detections.all.len() <= frames * LATTICE);
+            // A region's detections are the sensor's cells (8 x 21 at most); the
+            // lattice's, at most its points.
+            let bound = if cfg.track.regions.is_some() {
+                8 * 21
+            } else {
+                LATTICE
+            };
+            assert!(most.unwrap_or(0) <= bound, "{name}, {preset:?}: {most:?}");
+            assert!(out.detections.all.len() <= frames * bound);
             assert!(!out.flow_budget_reached, "{name}, {preset:?}");
             assert!(
                 out.flow_work < 5_000_000,
@@ -117,7 +124,9 @@ fn the_tracking_graph_stops_at_its_edge_limit() {
     use touchc::tracking::flow::FlowError;
     use touchc::tracking::track::link_within;
     let rec = Recording::from_array("patch", saturated(240, 20..220, 1..7, 5..15).view()).unwrap();
-    let cfg = Config::default();
+    // The flow's graph: the default without regions (its lattice of flat contacts).
+    let mut cfg = Config::default();
+    cfg.track.regions = None;
     let out = track(&rec, &cfg).unwrap();
     let sampling = Sampling::new(
         &Metadata::resolve(&MetadataOverrides::default(), &rec.file_metadata(), &cfg),

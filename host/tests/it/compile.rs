@@ -359,9 +359,10 @@ fn a_fitted_long_touch_still_encodes() {
     for (share, refits) in [(0.96, false), (1.0, true)] {
         let mut config = Config::default();
         config.signal.fit_thermal_share = share;
-        // The touch whose played codes tripped the limit: the default with contact
-        // splitting on the top of each contact only (below it, the signal differs and
-        // the player's rounding happens to stay within the limit).
+        // The touch whose played codes tripped the limit: the lattice of flat contacts
+        // (the default without regions) on the top of each contact only (below it, the
+        // signal differs and the player's rounding happens to stay within the limit).
+        config.track.regions = None;
         if let Some(split) = config.detect.split.as_mut() {
             split.extent = None;
         }
@@ -401,12 +402,19 @@ fn dense_noise_tracks_well_within_the_flow_budget() {
     let bytes = std::fs::read(manifest.join("fuzz/seeds/compile/placement-timeout")).unwrap();
     let noise = crate::fuzz_input::recording(&bytes).unwrap();
     let rec = Recording::from_array("noise", noise.view()).unwrap();
-    let c = compile(&rec, &CompileOptions::default()).unwrap();
+    // The flow's budget: the default without regions (which link without a flow).
+    let mut config = Config::default();
+    config.track.regions = None;
+    let opts = CompileOptions {
+        config,
+        ..CompileOptions::default()
+    };
+    let c = compile(&rec, &opts).unwrap();
     assert!(!c.report.flow_budget_reached);
     assert!(c.report.flow_work < 1_000_000, "{}", c.report.flow_work);
     for name in ["combination.npy", "squeeze.npy", "tap_pat.npy"] {
         let rec = Recording::load(manifest.join("../examples").join(name)).unwrap();
-        let c = compile(&rec, &CompileOptions::default()).unwrap();
+        let c = compile(&rec, &opts).unwrap();
         assert!(!c.report.flow_budget_reached, "{name}");
         assert!(c.report.flow_work > 0, "{name}");
     }

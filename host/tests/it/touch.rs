@@ -238,8 +238,19 @@ fn fifteen_strokes_stay_fifteen_trajectories_under_the_default() {
 fn a_broad_contacts_rim_does_not_pull_the_placement_off_its_pressure() {
     let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let rec = Recording::load(manifest.join("../examples/emoji/sadness.npy")).unwrap();
-    let default = compile(&rec, &CompileOptions::default()).unwrap().report;
-    let mut top_only = Config::default();
+    // The lattice: the default without regions (whose footprints need no lattice).
+    let mut lattice = Config::default();
+    lattice.track.regions = None;
+    let default = compile(
+        &rec,
+        &CompileOptions {
+            config: lattice.clone(),
+            ..CompileOptions::default()
+        },
+    )
+    .unwrap()
+    .report;
+    let mut top_only = lattice;
     if let Some(split) = top_only.detect.split.as_mut() {
         split.extent = None;
     }

@@ -7,7 +7,8 @@ use serde::Serialize;
 use touchc_input::recording::{Recording, RecordingError};
 use touchc_model::config::{Config, MetadataOverrides, Preset};
 use touchc_pipeline::compile::{compile, CompileError, CompileOptions};
-use touchc_synth::{self as synth, cases::Case, SynthSpec};
+use touchc_synth::cases::{Bar, Case};
+use touchc_synth::{self as synth, SynthSpec};
 
 use crate::evaluate::evaluate_compiled;
 
@@ -42,19 +43,35 @@ pub struct CaseRow {
     pub rendered: f64,
     /// The stimulus's length, seconds.
     pub duration_s: f64,
+    /// Bytes per second of the stimulus.
+    pub bytes_per_s: f64,
     /// Wall seconds of the compile.
     pub seconds: f64,
+    /// The bar the case is held to.
+    #[serde(skip)]
+    pub bar: Bar,
 }
 
 impl CaseRow {
-    /// The bar for real touch: recall >= 0.95, coverage >= 0.9, splits at most
-    /// a tenth of the true contacts, no merges, no false contacts.
+    /// The case's bar ([`Bar`]). Smooth cases: recall >= 0.95, coverage >= 0.9, splits
+    /// at most a tenth of the true contacts, no merges, no false contacts. Real-like
+    /// cases: recall >= 0.95, coverage >= 0.9, at most 1.5 trajectories per true
+    /// contact and at most the case's bytes per second.
     pub fn passes(&self) -> bool {
-        self.recall >= 0.95
-            && self.coverage >= 0.9
-            && 10 * self.splits <= self.contacts
-            && self.merges == 0
-            && self.false_contacts == 0
+        let tracked = self.recall >= 0.95 && self.coverage >= 0.9;
+        match self.bar {
+            Bar::Tracking => {
+                tracked
+                    && 10 * self.splits <= self.contacts
+                    && self.merges == 0
+                    && self.false_contacts == 0
+            }
+            Bar::RealLike { max_bytes_per_s } => {
+                tracked
+                    && 2 * self.trajectories <= 3 * self.contacts
+                    && self.bytes_per_s <= max_bytes_per_s
+            }
+        }
     }
 }
 
@@ -137,7 +154,9 @@ pub fn run_case(
                 coverage: e.coverage.ratio(),
                 rendered: r.rendered_coverage,
                 duration_s: r.duration_s,
+                bytes_per_s: r.bytes_per_second,
                 seconds: r.seconds.total(),
+                bar: case.bar,
             })
         })
         .collect()

@@ -228,9 +228,18 @@ fn contact_result(
     let follows = |p: &ContactPoint| {
         life.contains(&(p.frame as i64)) && at(p.frame).is_some_and(|q| dist2(p, q) <= follow2)
     };
+    // Frames, not points: a region has a point per cell of its footprint.
     let followed = tracks
         .iter()
-        .map(|track| track.iter().filter(|p| follows(p)).count())
+        .map(|track| {
+            let mut frames: Vec<usize> = track
+                .iter()
+                .filter(|p| follows(p))
+                .map(|p| p.frame)
+                .collect();
+            frames.dedup();
+            frames.len()
+        })
         .max()
         .unwrap_or(0);
     // Which trajectories follow it in each frame of its life, in frame order.

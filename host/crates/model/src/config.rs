@@ -18,6 +18,7 @@
 use serde::{Deserialize, Serialize};
 
 mod bounds;
+mod contacts;
 mod sampling;
 mod knob;
 mod validate;
@@ -25,6 +26,7 @@ mod validate;
 pub use bounds::{
     grid_size, MAX_GRID_STEPS, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE, RATE_HZ_RANGE,
 };
+pub use contacts::{Bridge, Regions, Split};
 pub use knob::{Knob, Unit};
 pub use sampling::{FileMetadata, Metadata, MetadataOverrides, Sampling, Source, Sourced};
 pub use validate::{ConfigError, DerivedLimit, SamplingKnob};
@@ -172,6 +174,7 @@ impl Config {
                         max_missing_s: 0.06,
                         cost_per_missing: 0.5,
                     }),
+                    regions: None,
                 },
                 signal: SignalConfig {
                     ring_out: RingOut::Seconds,
@@ -354,6 +357,10 @@ pub struct TrackConfig {
     pub max_trajectories: usize,
     /// Links across frames where a contact is unseen (`touch`; the paper: none).
     pub bridge: Option<Bridge>,
+    /// Track contacts as moving regions instead of linking local maxima (`touch`; the
+    /// paper: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub regions: Option<Regions>,
 }
 
 impl Default for TrackConfig {
@@ -364,6 +371,7 @@ impl Default for TrackConfig {
             max_speed_mm_s: PAPER_MAX_SPEED_MM_S,
             max_trajectories: 200,
             bridge: None,
+            regions: None,
         }
     }
 }
@@ -524,73 +532,3 @@ impl Default for KeyframeConfig {
         }
     }
 }
-
-/// Contact splitting: a flat contact (a palm) is one blob with a broad top and one local
-/// maximum, so one trajectory would stand for all of it and render it at one point.
-/// Splitting adds detections on a lattice of cells inside such a contact, so that the
-/// actuators it covers each get a trajectory to render.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Split {
-    /// A contact is flat when at least this many cells read `level` of its peak or more.
-    pub min_cells: usize,
-    /// Share of the contact's peak that makes its top.
-    pub level: f64,
-    /// Lattice pitch, in cells: cells whose row and column are multiples of it. With 2,
-    /// every cell of the top lies within 1.5 cells of a lattice cell.
-    pub spacing_cells: usize,
-    /// Share of a flat contact's peak down to which the lattice covers it (absent: its
-    /// top, `level`). Below `level` it reaches the broad, weaker regions a flat hand
-    /// presses beside its top (the heel), which are touch the actuators there should play.
-    /// Such a point is scored by its contact's peak, weighted by its share of the top.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub extent: Option<f64>,
-}
-
-/// Links across missing frames: a contact that reads below detection for a frame or two
-/// (sensor flicker) stays one trajectory instead of breaking into pieces.
-///
-/// A detection in frame `t` also links from detections of frames `t - g` for
-/// `g = 2 ..= m + 1`, where `m` frames last at most `max_missing_s`, within `g` times the
-/// one-frame gate radius (the contact may keep moving while unseen), at the one-frame
-/// link cost of the scaled gate plus `cost_per_missing` per frame skipped. A flow that
-/// can take the frames in between keeps them: skipping a strong detection forgoes its
-/// negative cost. 60 ms bridges one frame at 20 Hz and three at 54 Hz (real flicker
-/// lasts one or two frames at 54 Hz); a lift of 150 ms between two strokes never.
-///
-/// With bridging, a detection that costs `cost_per_missing` or more is treated as a
-/// missing frame and left out of the graph. That gives up nothing the bridge can
-/// replace: if a path runs `a -> v -> b` over gaps of `g1` and `g2` frames with
-/// `g1 + g2 - 1` within the bridge, the link `a -> b` exists (the gate radius grows
-/// with the gap, so `|ab| <= |av| + |vb|` stays inside it) and costs at most
-/// `cost_per_missing` more than the two links through `v`, because the link cost
-/// `-ln(1 - x)` is convex and increasing in the squared speed `x`; so skipping `v`
-/// saves `cost(v) - cost_per_missing >= 0`. A weak detection at either end of a path
-/// only adds cost. Only a path that needs `v` to span more than the bridge allows
-/// loses it, and then the contact was unseen for longer than a flicker. On real
-/// recordings this leaves out the noise maxima (19 of 20 detections on
-/// `examples/combination.npy`), which otherwise join every contact within the wide
-/// gate and make the flow graph 20 times larger.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Bridge {
-    /// Longest time a contact may go unseen, seconds.
-    pub max_missing_s: f64,
-    /// Cost added per frame skipped.
-    pub cost_per_missing: f64,
-}
-
-impl Bridge {
-    /// The most frames a link may skip at `rate_hz`.
-    pub fn missing_frames(&self, rate_hz: f64) -> usize {
-        let m = (self.max_missing_s * rate_hz + 1e-9).floor();
-        if m.is_finite() && m > 0.0 {
-            (m as usize).min(MAX_MISSING_FRAMES)
-        } else {
-            0
-        }
-    }
-}
-
-/// However fast the sensor, a link skips at most this many frames (graph size).
-pub(crate) const MAX_MISSING_FRAMES: usize = 16;

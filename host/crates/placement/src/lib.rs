@@ -27,6 +27,7 @@
 
 mod bnb;
 
+mod footprint;
 mod grid;
 mod scoring;
 mod search;
@@ -150,7 +151,9 @@ pub enum PlacementError {
         /// The cost.
         cost: f64,
     },
-    /// Frames must increase, or one trajectory would sit twice in one frame.
+    /// Points must follow in frame order, and within one frame (the cells of a
+    /// region's footprint) in increasing row-major order, or one trajectory would sit
+    /// twice on one pixel of one frame.
     #[error("trajectory {trajectory}, detection {detection}: frame {frame} does not follow frame {previous}")]
     FramesNotIncreasing {
         /// Trajectory index.

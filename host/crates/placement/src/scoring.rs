@@ -8,6 +8,7 @@
 //! transform meets about a thousand).
 
 use super::*;
+use crate::footprint::{footprint_hits, Footprint};
 
 /// A trajectory point in mm, with what scoring and conflicts need.
 #[derive(Debug, Clone, Copy)]
@@ -40,6 +41,9 @@ pub(super) struct Scene {
     pub(super) row_y: Vec<f64>,
     /// The x of each pixel column's centre up to the last column of any point.
     pub(super) col_x: Vec<f64>,
+    /// Per trajectory with several points in a frame (a region): its distinct pixels
+    /// ([`Footprint`]), scored in their place.
+    pub(super) footprints: Vec<Option<Footprint>>,
 }
 
 /// An in-circle point of a trajectory that can be chosen, chained with the others of
@@ -63,9 +67,9 @@ pub(super) struct Scratch {
     /// The circles (x, radius) that `near` was built for.
     near_for: Option<[(f64, f64); CHANNELS]>,
     /// Per pixel column: the circles whose x range (with slack) holds its centre.
-    col_mask: Vec<u32>,
+    pub(super) col_mask: Vec<u32>,
     /// Per pixel row: the circles whose y range (with slack) holds its centre.
-    row_mask: Vec<u32>,
+    pub(super) row_mask: Vec<u32>,
     /// Trajectories whose x extent meets a circle's, ascending, with the bitmask of those
     /// circles: all a transform with these circle x positions may touch. Grid transforms
     /// share x across 210 transforms, so this is rebuilt once per x.
@@ -88,6 +92,8 @@ pub(super) struct Scratch {
     pub(super) inexact: bool,
     /// Nodes each transform's subset search may visit ([`super::bnb::transform_budget`]).
     pub(super) node_budget: u64,
+    /// Per distinct pixel of a footprint: the circles it is in ([`footprint_hits`]).
+    pub(super) pixel_masks: Vec<u32>,
 }
 
 impl Scene {
@@ -122,6 +128,21 @@ impl Scene {
         start.push(points.len());
         // The published objective: maximise the summed -total_cost of the chosen set.
         let gains = trajs.iter().map(|t| -t.total_cost()).collect();
+        // Trajectories present per frame: a footprint's frames that no other
+        // trajectory shares can conflict with nothing, so they need no hit.
+        let mut present = vec![0u32; frames];
+        for traj in trajs {
+            let mut last = None;
+            for p in &traj.points {
+                if last != Some(p.frame) {
+                    present[p.frame] += 1;
+                    last = Some(p.frame);
+                }
+            }
+        }
+        let footprints = (0..trajs.len())
+            .map(|t| Footprint::of(&points[start[t]..start[t + 1]], |f| present[f] > 1))
+            .collect();
         Scene {
             points,
             start,
@@ -134,6 +155,7 @@ impl Scene {
             col_x: (0..cols)
                 .map(|c| pixel_centre_mm(0, c, pitch_mm).0)
                 .collect(),
+            footprints,
         }
     }
 }
@@ -154,7 +176,31 @@ impl Scratch {
             chosen: Vec::new(),
             inexact: false,
             node_budget,
+            pixel_masks: Vec::new(),
         }
+    }
+
+    /// Chains an in-circle hit of the current candidate (the next in `candidates`) in
+    /// `frame`; another of its hits in the same frame (the cells of one footprint)
+    /// takes its circles instead.
+    #[inline]
+    pub(super) fn push_hit(&mut self, frame: usize, mask: u32) {
+        let local = self.candidates.len();
+        let next = self.head[frame];
+        if next != NONE && self.hits[next].local == local {
+            self.hits[next].mask |= mask;
+            return;
+        }
+        if next != NONE && self.hits[next].next == NONE {
+            self.shared.push(frame);
+        }
+        self.head[frame] = self.hits.len();
+        self.hits.push(Hit {
+            frame,
+            local,
+            mask,
+            next,
+        });
     }
 
     /// Makes `near` the trajectories that circles at these x positions may contain.
@@ -261,7 +307,7 @@ pub(super) fn score_transform(
 }
 
 /// A transform's circles with what the exact in-circle test needs.
-struct InCircle<'a> {
+pub(super) struct InCircle<'a> {
     circles: &'a [Circle; CHANNELS],
     /// Per circle: its radius squared.
     r2: [f64; CHANNELS],
@@ -272,7 +318,7 @@ struct InCircle<'a> {
 impl InCircle<'_> {
     /// The circles among `bits` that contain `pt`, and the point's weight.
     #[inline]
-    fn test(&self, pt: &Point, mut bits: u32) -> (u32, f64) {
+    pub(super) fn test(&self, pt: &Point, mut bits: u32) -> (u32, f64) {
         let mut mask = 0u32;
         let mut weight = 0.0;
         // Channel order, later circles overwriting the weight, as the published code does.
@@ -323,7 +369,10 @@ fn collect_hits(test: &InCircle, scene: &Scene, s: &mut Scratch) -> bool {
         }
         let candidate = scene.gains[t] > 0.0;
         let points = &scene.points[scene.start[t]..scene.start[t + 1]];
-        let (inside, sum) = trajectory_hits(test, points, near, per_point, candidate, s);
+        let (inside, sum) = match &scene.footprints[t] {
+            Some(fp) => footprint_hits(test, fp, near, per_point, candidate, s),
+            None => trajectory_hits(test, points, near, per_point, candidate, s),
+        };
         touched |= inside;
         if candidate && inside {
             s.candidates.push(t);
@@ -360,7 +409,6 @@ fn trajectory_hits(
     candidate: bool,
     s: &mut Scratch,
 ) -> (bool, f64) {
-    let local = s.candidates.len();
     let mut inside = false;
     let mut sum = 0.0;
     for pt in points {
@@ -376,17 +424,7 @@ fn trajectory_hits(
         inside = true;
         sum += pt.cost * weight;
         if candidate {
-            let next = s.head[pt.frame];
-            if next != NONE && s.hits[next].next == NONE {
-                s.shared.push(pt.frame);
-            }
-            s.head[pt.frame] = s.hits.len();
-            s.hits.push(Hit {
-                frame: pt.frame,
-                local,
-                mask,
-                next,
-            });
+            s.push_hit(pt.frame, mask);
         }
     }
     (inside, sum)

@@ -58,8 +58,10 @@ pub(super) fn check_inputs(
                     cost,
                 });
             }
-            if let Some(before) = d.checked_sub(1).map(|b| traj.points[b].frame) {
-                if p.frame <= before {
+            if let Some(before) = d.checked_sub(1).map(|b| &traj.points[b]) {
+                // A footprint's cells share a frame, in row-major order.
+                if (p.frame, p.row, p.col) <= (before.frame, before.row, before.col) {
+                    let before = before.frame;
                     return Err(PlacementError::FramesNotIncreasing {
                         trajectory: t,
                         detection: d,

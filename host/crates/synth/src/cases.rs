@@ -3,7 +3,7 @@
 //! scenes do not (a flat hand with a weaker heel, rubs up to a vigorous 1 m/s, many
 //! strokes in quick succession, fast swipes), each on both sensors and at both rates.
 
-use super::{Gesture, Sensor, SynthSpec, Tuning};
+use super::{Fabric, Gesture, Sensor, SynthSpec, Tuning};
 
 /// Rates every case is sampled at, Hz: the paper's sleeve and the other lab's grid.
 pub const RATES_HZ: [f64; 2] = [20.0, 54.0];
@@ -22,6 +22,23 @@ pub struct Case {
     pub rate_hz: f64,
     /// The spec (seed 1; vary `seed` for more draws of the same case).
     pub spec: SynthSpec,
+    /// What the case must show to pass.
+    pub bar: Bar,
+}
+
+/// The bar a case is held to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Bar {
+    /// Tracking against the truth: recall, coverage, few splits, no merge, no false
+    /// contact (the smooth cases).
+    Tracking,
+    /// Real-like touch on a fabric grid: recall and coverage, trajectories within 1.5
+    /// times the true contacts (one per hand), and at most this many bytes per second
+    /// of stimulus.
+    RealLike {
+        /// The most bytes per second the stimulus may take.
+        max_bytes_per_s: f64,
+    },
 }
 
 /// `gestures` with `tuning` on `sensor` at `rate_hz`, [`QUIET_S`] of quiet on each side.
@@ -51,6 +68,7 @@ pub fn cases_on(sensor: Sensor, rate_hz: f64) -> Vec<Case> {
             sensor,
             rate_hz,
             spec,
+            bar: Bar::Tracking,
         })
     };
     add(
@@ -92,11 +110,105 @@ pub fn cases_on(sensor: Sensor, rate_hz: f64) -> Vec<Case> {
     out
 }
 
-/// Every case on both sensors at both rates ([`RATES_HZ`]).
-pub fn cases() -> Vec<Case> {
-    [Sensor::Sleeve, Sensor::Grid10]
-        .into_iter()
-        .flat_map(|s| RATES_HZ.into_iter().map(move |r| cases_on(s, r)))
-        .flatten()
+/// The real-like touches of one sensor at one rate, read through a fabric grid
+/// ([`Fabric`]): a flat hand held, a rub, pats, strokes, 15 separate strokes, a tickle
+/// and a scratch on the bare grid, and strokes through fur. The held hand and the rub
+/// begin with the hand already on the sensor, as most real captures do.
+pub fn real_like_on(sensor: Sensor, rate_hz: f64) -> Vec<Case> {
+    let bare = Some(Fabric::BARE);
+    let held = Tuning {
+        hold_s: Some(6.0),
+        ..Tuning::default()
+    };
+    let rub = Tuning {
+        hold_s: Some(6.0),
+        stroke_speed_mps: Some(0.45),
+        ..Tuning::default()
+    };
+    let fifteen = Tuning {
+        stroke_speed_mps: Some(0.3),
+        strokes: Some(15),
+        gap_s: Some(0.15),
+        gap_max_s: Some(0.4),
+        ..Tuning::default()
+    };
+    let list = [
+        ("held hand, fabric", Gesture::Hand, held, bare, true, 150.0),
+        ("rub, fabric", Gesture::Rub, rub, bare, true, 150.0),
+        (
+            "pats, fabric",
+            Gesture::Pat,
+            Tuning::default(),
+            bare,
+            false,
+            150.0,
+        ),
+        (
+            "strokes, fabric",
+            Gesture::Strokes,
+            Tuning::default(),
+            bare,
+            false,
+            150.0,
+        ),
+        (
+            "15 strokes, fabric",
+            Gesture::Strokes,
+            fifteen,
+            bare,
+            false,
+            150.0,
+        ),
+        (
+            "tickle, fabric",
+            Gesture::Tickle,
+            Tuning::default(),
+            bare,
+            false,
+            150.0,
+        ),
+        (
+            "scratch, fabric",
+            Gesture::Scratch,
+            Tuning::default(),
+            bare,
+            false,
+            200.0,
+        ),
+        (
+            "strokes through fur",
+            Gesture::Strokes,
+            Tuning::default(),
+            Some(Fabric::FUR),
+            false,
+            150.0,
+        ),
+    ];
+    list.into_iter()
+        .map(
+            |(name, g, tuning, fabric, on_at_start, max_bytes_per_s)| Case {
+                name: name.into(),
+                sensor,
+                rate_hz,
+                spec: SynthSpec {
+                    fabric,
+                    begin_mid_touch: on_at_start,
+                    ..spec(sensor, rate_hz, &[g], tuning)
+                },
+                bar: Bar::RealLike { max_bytes_per_s },
+            },
+        )
         .collect()
+}
+
+/// Every case on both sensors at both rates ([`RATES_HZ`]): the smooth ones
+/// ([`cases_on`]), then the real-like ones ([`real_like_on`]).
+pub fn cases() -> Vec<Case> {
+    let each = |f: fn(Sensor, f64) -> Vec<Case>| {
+        [Sensor::Sleeve, Sensor::Grid10]
+            .into_iter()
+            .flat_map(move |s| RATES_HZ.into_iter().map(move |r| f(s, r)))
+            .flatten()
+    };
+    each(cases_on).chain(each(real_like_on)).collect()
 }

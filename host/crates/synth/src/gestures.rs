@@ -26,6 +26,8 @@ pub(super) fn gesture(
         Gesture::Rub => rub(&mut contacts, t0, rng, tuning, fr),
         Gesture::Strokes => strokes(&mut contacts, t0, rng, tuning, fr),
         Gesture::Rest => 2.0,
+        Gesture::Tickle => tickle(&mut contacts, t0, rng, fr),
+        Gesture::Scratch => scratch(&mut contacts, t0, rng, fr),
     };
     (contacts, length)
 }
@@ -336,4 +338,71 @@ fn strokes(contacts: &mut Vec<Contact>, t0: f64, rng: &mut Rng, tuning: &Tuning,
         }
     }
     t - t0
+}
+
+/// A light fingertip wandering over a few cells: three sines of 0.7-2.3 Hz in each
+/// direction (at most about 0.3 m/s), pressing 0.15-0.35 psi and dipping by two thirds
+/// 3-5 times a second.
+fn tickle(contacts: &mut Vec<Contact>, t0: f64, rng: &mut Rng, fr: Frame) -> f64 {
+    let length = 3.0;
+    let (x, y) = (
+        fr.cols / 2.0 + rng.range(-1.0, 1.0),
+        fr.rows / 2.0 + rng.range(-0.5, 0.5),
+    );
+    let waves: Vec<(f64, f64, f64, f64)> = (0..3)
+        .map(|_| {
+            (
+                rng.range(0.7, 2.3),
+                rng.range(0.0, std::f64::consts::TAU),
+                rng.range(0.0, std::f64::consts::TAU),
+                rng.range(0.3, 0.6),
+            )
+        })
+        .collect();
+    let mut c = blob(
+        Gesture::Tickle,
+        t0,
+        length,
+        rng.range(0.15, 0.35),
+        (0.8, 0.8),
+        Box::new(move |u| {
+            let t = u * length;
+            let (mut dx, mut dy) = (0.0, 0.0);
+            for &(hz, px, py, a) in &waves {
+                let w = std::f64::consts::TAU * hz * t;
+                dx += a * (w + px).sin();
+                dy += 0.6 * a * (w + py).cos();
+            }
+            (x + dx, y + dy)
+        }),
+    );
+    c.ramp_s = Some(0.1);
+    c.waver = Some((0.65, rng.range(3.0, 5.0)));
+    contacts.push(c);
+    length
+}
+
+/// Fingernails scratching: a contact narrow along the arm and long across it, back and
+/// forth over 2.5 cells either side at 4 Hz (1.6 m/s mid-sweep), for 3 s.
+fn scratch(contacts: &mut Vec<Contact>, t0: f64, rng: &mut Rng, fr: Frame) -> f64 {
+    let (length, hz, amp) = (3.0, 4.0, 2.5);
+    let (x, y) = (
+        fr.cols / 2.0 + rng.range(-0.5, 0.5),
+        fr.rows / 2.0 + rng.range(-0.5, 0.5),
+    );
+    let phase0 = rng.range(0.0, std::f64::consts::TAU);
+    let mut c = blob(
+        Gesture::Scratch,
+        t0,
+        length,
+        rng.range(0.4, 0.8),
+        (0.5, 1.3),
+        Box::new(move |u| {
+            let phase = std::f64::consts::TAU * hz * length * u + phase0;
+            (x + amp * (phase.sin() - phase0.sin()), y)
+        }),
+    );
+    c.ramp_s = Some(0.1);
+    contacts.push(c);
+    length
 }

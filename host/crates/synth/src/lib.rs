@@ -23,7 +23,10 @@ use serde::{Deserialize, Serialize};
 
 pub mod cases;
 mod contacts;
+pub mod fabric;
 mod gestures;
+
+pub use fabric::Fabric;
 
 use contacts::*;
 use gestures::gesture;
@@ -64,6 +67,12 @@ pub enum Gesture {
     Rub,
     /// Two seconds of nothing but sensor noise.
     Rest,
+    /// A light fingertip wandering to and fro over a few cells for 3 s, its pressure
+    /// coming and going.
+    Tickle,
+    /// Fingernails scratching back and forth along the arm at 4 Hz for 3 s: a narrow
+    /// contact across the arm, up to 1.6 m/s mid-sweep.
+    Scratch,
 }
 
 impl Gesture {
@@ -80,6 +89,8 @@ impl Gesture {
             Gesture::Hand => "hand",
             Gesture::Rub => "rub",
             Gesture::Rest => "rest",
+            Gesture::Tickle => "tickle",
+            Gesture::Scratch => "scratch",
         }
     }
 }
@@ -213,6 +224,9 @@ pub struct SynthSpec {
     /// Sample the touch at this rate instead of the sensor's own, Hz (the same touch at
     /// another rate: the gestures and their random draws do not change).
     pub rate_hz: Option<f64>,
+    /// Read the touch as a fabric grid does ([`Fabric`]: uneven, wandering cells that
+    /// drop out now and then); `None`: smooth blobs, as the shipped examples.
+    pub fabric: Option<Fabric>,
 }
 
 impl Default for SynthSpec {
@@ -229,6 +243,7 @@ impl Default for SynthSpec {
             begin_mid_touch: false,
             end_mid_touch: false,
             rate_hz: None,
+            fabric: None,
         }
     }
 }
@@ -328,16 +343,29 @@ pub fn generate_with_truth(spec: &SynthSpec) -> (Array3<f64>, Truth) {
     // Flicker draws from its own stream, so a spec without it keeps its bytes.
     let dim = flicker_frames(&contacts, frames, rate, spec);
     let amplitude = |k: usize, f: usize| if dim[k][f] { FLICKER_FACTOR } else { 1.0 };
+    let touch_at = |f: usize, r: usize, c: usize| -> f64 {
+        let t = f as f64 / rate;
+        contacts
+            .iter()
+            .enumerate()
+            .map(|(k, contact)| contact.pressure(t, r, c) * amplitude(k, f))
+            .sum()
+    };
+    // The fabric reads the touch before the noise, from its own stream, so the noise
+    // draws (and a spec without a fabric, byte for byte) do not change.
+    let fabric_touch = spec.fabric.map(|fabric| {
+        let mut touch = Array3::from_shape_fn((frames, rows, cols), |(f, r, c)| touch_at(f, r, c));
+        fabric.apply(&mut touch, rate, spec.seed);
+        touch
+    });
     let mut data = Array3::from_shape_fn((frames, rows, cols), |(f, r, c)| {
         if !spec.has_cell(r, c) {
             return f64::NAN;
         }
-        let t = f as f64 / rate;
-        let touch: f64 = contacts
-            .iter()
-            .enumerate()
-            .map(|(k, contact)| contact.pressure(t, r, c) * amplitude(k, f))
-            .sum();
+        let touch = match &fabric_touch {
+            Some(t) => t[[f, r, c]],
+            None => touch_at(f, r, c),
+        };
         touch + spec.noise_psi * rng.normal()
     });
     let mid = |c: &Contact| ((c.start + c.length / 2.0) * rate).round() as usize;

@@ -11,5 +11,6 @@
 pub mod detect;
 pub mod flow;
 pub mod preprocess;
+pub mod regions;
 pub mod scene;
 pub mod track;

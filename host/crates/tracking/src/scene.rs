@@ -25,7 +25,8 @@ use ndarray::{s, Array3, ArrayView2, ArrayView3, Axis};
 use crate::detect::{detection_cost, frame_candidates, score_candidates, Candidates, Detections};
 use crate::flow::FlowError;
 use crate::preprocess::{blur_chunks, Blur, BlurOperator, Blurred};
-use crate::track::{link, TrackError, TrackOutput};
+use crate::regions::{cell_points, link_regions};
+use crate::track::{link, Linked, TrackError, TrackOutput};
 use touchc_model::config::{Config, Sampling};
 use touchc_model::crop::Crop;
 use touchc_model::stage::{Shares, Stage};
@@ -176,12 +177,10 @@ pub fn track_cropped(
                 movie.index_axis_mut(Axis(0), f - run.first).assign(&frame);
             }
             let clock = Instant::now();
-            run.candidates.push_frame_with(frame_candidates(
-                frame,
-                &cfg.detect,
-                cfg.detect.split.as_ref(),
-                k,
-            ));
+            run.candidates.push_frame_with(match &cfg.track.regions {
+                Some(regions) => cell_points(frame, k, regions.footprint_psi),
+                None => frame_candidates(frame, &cfg.detect, cfg.detect.split.as_ref(), k),
+            });
             run.detecting += clock.elapsed();
         },
         |run, took| {
@@ -211,13 +210,7 @@ pub fn track_cropped(
     let detections = score_candidates(&candidates, stats.mean, stats.std, &cfg.detect);
     drop(candidates);
     lap(&[(Stage::Detect, 1.0)]);
-    let linked = link(&detections, &cfg.track, sampling).map_err(|e| match e {
-        FlowError::TooManyEdges { limit } => TrackError::TooDense {
-            detections: detections.all.len(),
-            limit,
-        },
-        e => TrackError::Flow(e),
-    })?;
+    let linked = link_detections(&detections, cfg, sampling)?;
     lap(&[(Stage::Track, 1.0)]);
     let detection_count = detections.all.len();
     let detections = if keep_scene {
@@ -240,6 +233,29 @@ pub fn track_cropped(
         flow_budget_reached: linked.budget_reached,
     };
     Ok((tracked, crop))
+}
+
+/// Stage 3 on the scored detections: contacts as regions with `track.regions`, else
+/// the min-cost flow.
+fn link_detections(
+    detections: &Detections,
+    cfg: &Config,
+    sampling: &Sampling,
+) -> Result<Linked, TrackError> {
+    Ok(match &cfg.track.regions {
+        Some(regions) => Linked {
+            trajectories: link_regions(detections, regions, &cfg.track, sampling),
+            work: 0,
+            budget_reached: false,
+        },
+        None => link(detections, &cfg.track, sampling).map_err(|e| match e {
+            FlowError::TooManyEdges { limit } => TrackError::TooDense {
+                detections: detections.all.len(),
+                limit,
+            },
+            e => TrackError::Flow(e),
+        })?,
+    })
 }
 
 /// What the pass of [`track_cropped`] finds in one run of frames, from its first.

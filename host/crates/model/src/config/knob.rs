@@ -113,6 +113,12 @@ knobs! {
         |c| count(c.track.max_trajectories), counts(1..=MAX_TRAJECTORIES);
     TrackBridgeMaxMissingS => "track", "bridge.max_missing_s", |_c| None, Range::Free;
     TrackBridgeCostPerMissing => "track", "bridge.cost_per_missing", |_c| None, Range::Free;
+    TrackRegionsSeedPsi => "track", "regions.seed_psi",
+        |c| c.track.regions.map(|r| Value::Real(r.seed_psi)), reals(0.0..=1e300, Unit::Psi);
+    TrackRegionsFootprintPsi => "track", "regions.footprint_psi",
+        |c| c.track.regions.map(|r| Value::Real(r.footprint_psi)), reals(0.0..=1e300, Unit::Psi);
+    TrackRegionsJoinCells => "track", "regions.join_cells",
+        |c| c.track.regions.map(|r| Value::Count(r.join_cells)), counts(1..=8);
     // With the grid's size: see `Config::validate`.
     PlacementGridX => "placement", "grid_x",
         |c| count(c.placement.grid_x), counts(1..=MAX_GRID_STEPS);
@@ -252,7 +258,7 @@ mod tests {
     use std::collections::BTreeSet;
 
     use super::*;
-    use crate::config::{Bridge, CoarseToFine, ConfigError, Preset, Split};
+    use crate::config::{Bridge, CoarseToFine, ConfigError, Preset, Regions, Split};
 
     /// Every preset, and one config holding every optional table (the split's extent
     /// is set in no preset), so that every key appears in some config.
@@ -265,6 +271,11 @@ mod tests {
         full.track.bridge = Some(Bridge {
             max_missing_s: 0.1,
             cost_per_missing: 0.5,
+        });
+        full.track.regions = Some(Regions {
+            seed_psi: 0.08,
+            footprint_psi: 0.03,
+            join_cells: 2,
         });
         full.placement.coarse_to_fine = Some(CoarseToFine {
             stride: 2,
