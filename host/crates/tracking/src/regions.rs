@@ -2,7 +2,7 @@
 //! is the cells a hand presses, one trajectory per hand, whose points in a frame are the
 //! cells of its footprint.
 //!
-//! Detections here are sensor cells (their centre pixels, [`cell_points`]) above the
+//! Detections here are sensor cells (their centre pixels, `cell_points`) above the
 //! footprint threshold, scored as any detection. Per frame the cells fall into regions
 //! (cells within [`Regions::join_cells`] of each other); a region continues the contact
 //! nearest to it, and a contact survives frames without a region up to the bridge
@@ -110,7 +110,7 @@ fn gap2(a: &[(i64, i64)], b: &[(i64, i64)]) -> i64 {
     best
 }
 
-/// The trajectories of `detections` (cells, [`cell_points`]) as moving regions, in
+/// The trajectories of `detections` (cells, `cell_points`) as moving regions, in
 /// order of their first frame (ties: their first cell's row-major order).
 pub fn link_regions(
     detections: &Detections,

@@ -132,7 +132,7 @@ impl<T: Transport> Client<T> {
     /// Waits for a restarted device to answer (`hello`), for at most the restart
     /// timeout. The device restarts after its reply to a commit went out: the first
     /// moments are left to it, so that the old firmware cannot answer. A hello sent
-    /// while it boots is lost: it is asked again every [`RESTART_POLL`], not after a
+    /// while it boots is lost: it is asked again every 50 ms, not after a
     /// whole reply timeout.
     pub fn reconnect(&mut self) -> Result<String, ClientError> {
         let start = self.transport.now();
