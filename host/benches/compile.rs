@@ -7,14 +7,14 @@ use std::hint::black_box;
 use touchc_testkit as common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use touchc::compile::{compile, CompileOptions};
-use touchc::config::{Config, Preset};
-use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
-use touchc::input::recording::Recording;
-use touchc::layout::Layout;
-use touchc::placement::place;
-use touchc::rendering::condition;
-use touchc::tracking::{detect, preprocess, track};
+use touchc_encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
+use touchc_input::recording::Recording;
+use touchc_model::config::{Config, Preset};
+use touchc_model::layout::Layout;
+use touchc_pipeline::compile::{compile, CompileOptions};
+use touchc_placement::place;
+use touchc_rendering::condition;
+use touchc_tracking::{detect, preprocess, track};
 
 /// The 698-frame combination ([`common::combination_698`]).
 fn long_recording() -> Recording {
@@ -49,13 +49,13 @@ fn bench(c: &mut Criterion) {
 
     // Stage by stage, on the inputs the paper preset's compile hands each stage.
     let opts = CompileOptions {
-        config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+        config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
         // The detect stage below runs on the blurred movie the compile otherwise drops.
         keep_scene: true,
         ..CompileOptions::default()
     };
     let cfg = &opts.config;
-    let paper = touchc::config::Sampling::PAPER;
+    let paper = touchc_model::config::Sampling::PAPER;
     let compiled = compile(&rec, &opts).expect("compiles");
     let (tracked, placement, signals) = (
         compiled.tracked.as_ref().expect("touch"),
@@ -116,7 +116,7 @@ fn bench(c: &mut Criterion) {
     }
     c.bench_function("stage/signals", |b| {
         b.iter(|| {
-            touchc::rendering::signals::recomputed_actuator_signals(
+            touchc_rendering::signals::recomputed_actuator_signals(
                 black_box(tracked),
                 placement,
                 tared.view(),

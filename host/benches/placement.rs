@@ -6,11 +6,11 @@ use touchc_testkit as common;
 use common::Reference;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use touchc::layout::Layout;
-use touchc::placement::place;
+use touchc_model::layout::Layout;
+use touchc_placement::place;
 
 fn bench(c: &mut Criterion) {
-    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
+    let cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
     let k = cfg.preprocess.upsample;
     let pitch = cfg.input.pitch_mm / k as f64;
     let layout = Layout::paper();

@@ -7,15 +7,15 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use ndarray_npy::WriteNpyExt;
-use touchc::input::recording::Recording;
-use touchc::track::track;
-use touchc::tracking::detect::detect;
-use touchc::tracking::preprocess::preprocess;
-use touchc::tracking::track::link;
+use touchc_input::recording::Recording;
+use touchc_pipeline::track::track;
+use touchc_tracking::detect::detect;
+use touchc_tracking::preprocess::preprocess;
+use touchc_tracking::track::link;
 
 fn stages(c: &mut Criterion) {
-    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
-    let paper = touchc::config::Sampling::PAPER;
+    let cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
+    let paper = touchc_model::config::Sampling::PAPER;
     let data = common::moving_blobs(705, 4, 42);
     let mut bytes = Vec::new();
     data.write_npy(&mut bytes).expect("in-memory npy");

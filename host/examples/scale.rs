@@ -19,9 +19,9 @@ use std::process::Command;
 
 use touchc_testkit as common;
 
-use touchc::compile::{compile, compile_owned, CompileOptions};
-use touchc::config::{Config, Preset};
-use touchc::input::recording::Recording;
+use touchc_input::recording::Recording;
+use touchc_model::config::{Config, Preset};
+use touchc_pipeline::compile::{compile, compile_owned, CompileOptions};
 
 /// One case: a recording (the shipped example repeated, or the bench's synthetic one)
 /// under one preset.

@@ -27,10 +27,10 @@ use touchc_testkit as common;
 
 use ndarray::Array3;
 use touch_protocol::{Limits, CHANNELS};
-use touchc::compile::{compile, stimulus_name, CompileOptions};
-use touchc::config::{Config, MetadataOverrides, Preset};
-use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
-use touchc::input::recording::Recording;
+use touchc_encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
+use touchc_input::recording::Recording;
+use touchc_model::config::{Config, MetadataOverrides, Preset};
+use touchc_pipeline::compile::{compile, stimulus_name, CompileOptions};
 use touchc_synth::{self as synth, Gesture, Sensor, SynthSpec};
 
 /// One recording: its name, its frames and the sensor's rate and pitch when they are

@@ -33,14 +33,14 @@ impl std::ops::Sub for Instant {
 }
 
 use ndarray_npy::WriteNpyExt;
-use touchc::input::recording::Recording;
-use touchc::track::track;
-use touchc::tracking::detect::detect;
-use touchc::tracking::preprocess::preprocess;
-use touchc::tracking::track::link;
+use touchc_input::recording::Recording;
+use touchc_pipeline::track::track;
+use touchc_tracking::detect::detect;
+use touchc_tracking::preprocess::preprocess;
+use touchc_tracking::track::link;
 
 fn main() -> anyhow::Result<()> {
-    let cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
+    let cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
     let dir = tempfile::tempdir()?;
     let path = match std::env::args().nth(1) {
         Some(p) => p.into(),
@@ -51,7 +51,7 @@ fn main() -> anyhow::Result<()> {
         }
     };
     let reps = 20;
-    let paper = touchc::config::Sampling::PAPER;
+    let paper = touchc_model::config::Sampling::PAPER;
     let mut t_track = 0.0;
     let (mut t_load, mut t_tare, mut t_blur, mut t_detect, mut t_flow) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let mut summary = String::new();

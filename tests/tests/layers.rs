@@ -162,3 +162,70 @@ fn no_stage_of_the_pipeline_builds_the_synthesiser() {
         "these stages depend on touchc-synth: {building:?}"
     );
 }
+
+/// Every `.rs` file under `dir`, recursively.
+fn rust_files(dir: &Path, found: &mut Vec<std::path::PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() && !path.ends_with("target") {
+            rust_files(&path, found);
+        } else if path.extension().is_some_and(|ext| ext == "rs") {
+            found.push(path);
+        }
+    }
+}
+
+#[test]
+fn every_layer_is_imported_by_its_own_crate_name() {
+    // The `touchc` library is the command line's pictures and sound, not a second name
+    // for the layers: an item reached as `touchc::config` and as `touchc_model::config`
+    // is one fact with two names, and the old one outlives every move.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let lib = std::fs::read_to_string(root.join("host/src/lib.rs")).unwrap();
+    let reexports: Vec<_> = lib
+        .lines()
+        .filter(|line| line.trim_start().starts_with("pub use"))
+        .collect();
+    assert!(
+        reexports.is_empty(),
+        "host/src/lib.rs re-exports {reexports:?}"
+    );
+
+    let mut files = Vec::new();
+    for dir in [
+        "host/src",
+        "host/tests",
+        "host/benches",
+        "host/examples",
+        "host/fuzz",
+        "tests",
+    ] {
+        rust_files(&root.join(dir), &mut files);
+    }
+    let mut through_touchc = Vec::new();
+    // This file names the old paths to look for them.
+    files.retain(|file| !file.ends_with("tests/tests/layers.rs"));
+    for file in files {
+        let text = std::fs::read_to_string(&file).unwrap();
+        for (number, line) in text.lines().enumerate() {
+            let mut rest = line;
+            while let Some(at) = rest.find("touchc::") {
+                let after = &rest[at + "touchc::".len()..];
+                let boundary = at == 0
+                    || !rest.as_bytes()[at - 1].is_ascii_alphanumeric()
+                        && rest.as_bytes()[at - 1] != b'_';
+                if boundary && !after.starts_with("viz") {
+                    through_touchc.push(format!("{}:{}", file.display(), number + 1));
+                }
+                rest = after;
+            }
+        }
+    }
+    assert!(
+        through_touchc.is_empty(),
+        "these lines reach a layer through `touchc::`: {through_touchc:?}"
+    );
+}

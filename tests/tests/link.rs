@@ -1,4 +1,4 @@
-//! The link end to end: the host's client (`touchc::link`) against the firmware's
+//! The link end to end: the host's client (`touchc_link`) against the firmware's
 //! link server (`sleeve_firmware::link::sim`, the engine, controller, bank writer and
 //! server as the firmware wires them) over an in-memory transport, in device time.
 //!
@@ -15,7 +15,7 @@ use touch_protocol::link::{
 };
 use touch_protocol::stimulus;
 use touch_protocol::{bank, Bank, Limits, Player, Status, Stimulus, CHANNELS};
-use touchc::link::{Client, ClientError, Transport};
+use touchc_link::{Client, ClientError, Transport};
 
 const EMOJI: &[u8] = include_bytes!("../../examples/emoji/emoji.bank");
 

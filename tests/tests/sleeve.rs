@@ -14,8 +14,8 @@ use sleeve_firmware::engine::{Engine, Watchdog};
 use sleeve_firmware::output::{device_config, Frame, IDLE_FRAME};
 use touch_protocol::player::code_to_amps;
 use touch_protocol::{bank, OutputSink, Player, Status, Stimulus};
-use touchc::compile::{compile, CompileOptions, Compiled};
-use touchc::input::recording::Recording;
+use touchc_input::recording::Recording;
+use touchc_pipeline::compile::{compile, CompileOptions, Compiled};
 
 struct Recorder(Vec<Frame>);
 

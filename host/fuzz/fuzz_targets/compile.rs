@@ -6,8 +6,8 @@
 
 use libfuzzer_sys::fuzz_target;
 use touch_protocol::{DeviceConfig, Player, Stimulus};
-use touchc::compile::{compile, CompileOptions};
-use touchc::input::recording::Recording;
+use touchc_pipeline::compile::{compile, CompileOptions};
+use touchc_input::recording::Recording;
 use touchc_testkit::fuzz_input;
 
 fuzz_target!(|data: &[u8]| {

@@ -3,8 +3,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use touchc::config::Config;
-use touchc::layout::Layout;
+use touchc_model::config::Config;
+use touchc_model::layout::Layout;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {

@@ -4,8 +4,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use touchc::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
-use touchc::input::recording::Recording;
+use touchc_model::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+use touchc_input::recording::Recording;
 use touchc_testkit::poison::{self, Entry};
 
 fuzz_target!(|data: &[u8]| {

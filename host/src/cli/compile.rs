@@ -14,7 +14,7 @@ use crate::cli::params::{OUTPUT, PRESET_AND_KNOBS};
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use touchc::compile::{compile_owned, CompileOptions, Report};
+use touchc_pipeline::compile::{compile_owned, CompileOptions, Report};
 
 /// What `touchc compile --help` adds after the options.
 const AFTER_HELP: &str = "\

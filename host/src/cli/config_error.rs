@@ -1,8 +1,8 @@
 //! A knob out of range in words: the library's [`ConfigError`] holds the knob, the
 //! value and the range as values; here they become the message a person reads.
 
-use touchc::config::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
-use touchc::display::Shortest;
+use touchc_model::config::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
+use touchc_model::display::Shortest;
 
 /// The message `touchc` prints for `e` (after `config: `).
 pub fn describe(e: &ConfigError) -> String {
@@ -135,7 +135,7 @@ fn unit_suffix(unit: Unit) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use touchc::config::Sampling;
+    use touchc_model::config::Sampling;
 
     /// Each error in the words `touchc` has always printed for it.
     #[test]

@@ -1,11 +1,11 @@
 //! `touchc export FILE --to hjif|haptic|ahap|tact [-o OUT]`: a stimulus as the sleeve
-//! plays it, in another haptics format (see `touchc::export` and docs/export.md).
+//! plays it, in another haptics format (see `touchc_export` and docs/export.md).
 
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use touchc::export::{self, ExportOptions, Format, Pick};
+use touchc_export::{ExportOptions, Format, Pick};
 
 use crate::cli::output::{is_stdio, named, refuse_overwrites, shown, write_atomic};
 
@@ -87,11 +87,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
     super::input::warn_if_unplayable(&args.file, &stimulus);
     let name = super::input_name(&args.file);
-    let playback = export::play(&stimulus, &layout).with_context(|| name.clone())?;
+    let playback = touchc_export::play(&stimulus, &layout).with_context(|| name.clone())?;
     if let Some(f) = playback.fault {
         super::warn(&args.file, &touchc::viz::describe_fault(f));
     }
-    let exported = export::export(
+    let exported = touchc_export::export(
         &playback,
         format,
         &ExportOptions {
@@ -141,8 +141,8 @@ fn checked_pick(args: &Args, format: Format) -> anyhow::Result<Option<Pick>> {
         if !(1.0..=MAX_RESONANCE_HZ).contains(&hz) {
             return Err(super::usage(format!(
                 "--resonance-hz {}: give the resonance in Hz, 1 to {}",
-                touchc::display::Shortest(hz),
-                touchc::display::Shortest(MAX_RESONANCE_HZ)
+                touchc_model::display::Shortest(hz),
+                touchc_model::display::Shortest(MAX_RESONANCE_HZ)
             )));
         }
     }
@@ -221,8 +221,8 @@ fn check_output_name(out: &Path, format: Format, per_channel: bool) -> anyhow::R
 fn summary(
     name: &str,
     outputs: &[PathBuf],
-    playback: &export::Playback,
-    exported: &export::Exported,
+    playback: &touchc_export::Playback,
+    exported: &touchc_export::Exported,
     format: Format,
 ) -> String {
     let f = exported.fidelity;

@@ -7,9 +7,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use touch_protocol::{DeviceConfig, Limits};
-use touchc::config::KeyframeConfig;
-use touchc::encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
-use touchc::export::hjif;
+use touchc_encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
+use touchc_export::hjif;
+use touchc_model::config::KeyframeConfig;
 
 use crate::cli::output::{is_stdio, named, refuse_overwrites, shown, write_atomic};
 

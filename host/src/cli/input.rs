@@ -74,8 +74,8 @@ fn read_up_to(reader: &mut dyn Read, bytes: &mut Vec<u8>, total: u64) -> std::io
 }
 
 /// Loads a recording, `-` being standard input (`touchc synth ... -o - | touchc compile -`).
-pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc::input::recording::Recording> {
-    use touchc::input::recording::Recording;
+pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc_input::recording::Recording> {
+    use touchc_input::recording::Recording;
     if crate::cli::output::is_stdio(path) {
         let name = input_name(path);
         return Ok(Recording::read_from(name, &mut std::io::stdin().lock())?);
@@ -89,11 +89,11 @@ pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc::input::recor
 /// on the command line is wrong, the file is. Values from the command line or the
 /// config are left to the library's usage error.
 pub(crate) fn check_file_sampling(
-    recording: &touchc::input::recording::Recording,
-    config: &touchc::config::Config,
-    overrides: &touchc::config::MetadataOverrides,
+    recording: &touchc_input::recording::Recording,
+    config: &touchc_model::config::Config,
+    overrides: &touchc_model::config::MetadataOverrides,
 ) -> anyhow::Result<()> {
-    use touchc::config::{Metadata, Sampling, Source};
+    use touchc_model::config::{Metadata, Sampling, Source};
     let metadata = Metadata::resolve(overrides, &recording.file_metadata(), config);
     if metadata.rate_hz.source != Source::File && metadata.pitch_mm.source != Source::File {
         return Ok(());

@@ -146,11 +146,11 @@ pub(crate) struct Usage(pub String);
 /// The actuator layout of a `--layout FILE` option, or the paper's sleeve without one.
 /// A layout file that cannot be read or is not a layout is a usage error, like a
 /// `--config` file: both are how the command was called.
-pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc::layout::Layout> {
+pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc_model::layout::Layout> {
     Ok(match path {
-        Some(path) => touchc::layout::Layout::load(path)
+        Some(path) => touchc_model::layout::Layout::load(path)
             .map_err(|e| usage(message(&anyhow::Error::new(e))))?,
-        None => touchc::layout::Layout::paper(),
+        None => touchc_model::layout::Layout::paper(),
     })
 }
 
@@ -177,7 +177,7 @@ pub fn report(err: &anyhow::Error) -> ExitCode {
     if err.chain().any(|c| {
         matches!(
             c.downcast_ref(),
-            Some(touchc::select::SelectError::Cancelled)
+            Some(touchc_select::SelectError::Cancelled)
         )
     }) {
         eprintln!("touchc: interrupted: nothing written");
@@ -188,7 +188,7 @@ pub fn report(err: &anyhow::Error) -> ExitCode {
     // only once the recording's sampling is known (a blur wider than the frame).
     if err
         .chain()
-        .any(|cause| cause.is::<Usage>() || cause.is::<touchc::config::ConfigError>())
+        .any(|cause| cause.is::<Usage>() || cause.is::<touchc_model::config::ConfigError>())
     {
         ExitCode::from(2)
     } else {
@@ -213,7 +213,7 @@ fn message(err: &anyhow::Error) -> String {
         // outer error quoted it.
         let words = if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
             Some(toml_message(e))
-        } else if let Some(e) = cause.downcast_ref::<touchc::config::ConfigError>() {
+        } else if let Some(e) = cause.downcast_ref::<touchc_model::config::ConfigError>() {
             Some(config_error::describe(e))
         } else {
             advice(cause).map(|advice| format!("{text}{advice}"))
@@ -236,9 +236,9 @@ fn message(err: &anyhow::Error) -> String {
 /// What to try, after the library's account of an error that a flag, a knob or another
 /// file can put right.
 fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
-    use touchc::compile::CompileError;
-    use touchc::input::recording::RecordingError;
-    use touchc::tracking::track::TrackError;
+    use touchc_input::recording::RecordingError;
+    use touchc_pipeline::compile::CompileError;
+    use touchc_tracking::track::TrackError;
     if let Some(touch_protocol::Error::BadMagic { found, .. }) = cause.downcast_ref() {
         if found[..] == [0x93, b'N', b'U', b'M'] || found[..] == *b"PK\x03\x04" {
             return Some(
@@ -273,8 +273,8 @@ fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
         )),
         RecordingError::TooShort { .. } => Some(format!(
             " ({}, {})",
-            touchc::config::Knob::InputTareS,
-            touchc::config::Knob::InputTrimS
+            touchc_model::config::Knob::InputTareS,
+            touchc_model::config::Knob::InputTrimS
         )),
         _ => None,
     }
@@ -517,10 +517,10 @@ mod tests {
     /// the words `touchc` has always printed, however the error was wrapped.
     #[test]
     fn errors_a_flag_puts_right_name_the_flag() {
-        use touchc::compile::CompileError;
-        use touchc::input::recording::RecordingError;
-        use touchc::rendering::condition::LimitViolation;
-        use touchc::tracking::track::TrackError;
+        use touchc_input::recording::RecordingError;
+        use touchc_pipeline::compile::CompileError;
+        use touchc_rendering::condition::LimitViolation;
+        use touchc_tracking::track::TrackError;
         let thermal = LimitViolation::Thermal {
             channel: 5,
             sample: 30_000,

@@ -14,8 +14,8 @@ use std::sync::OnceLock;
 
 use anyhow::Context;
 use clap::{Arg, ArgMatches, FromArgMatches};
-use touchc::config::{CoarseToFine, Config, Knob, MetadataOverrides, Preset};
-use touchc::display::Shortest;
+use touchc_model::config::{CoarseToFine, Config, Knob, MetadataOverrides, Preset};
+use touchc_model::display::Shortest;
 
 /// `--help` heading of the recording's sampling flags.
 pub const INPUT_AND_SENSOR: &str = "Input and sensor";
@@ -84,7 +84,7 @@ fn sampling_help(what: &str, knob: Knob) -> String {
     )
 }
 
-/// How a knob flag's value is read, and the knobs of [`touchc::config::Knob`]'s table
+/// How a knob flag's value is read, and the knobs of [`touchc_model::config::Knob`]'s table
 /// it writes (so a flag names its keys only through that table).
 #[derive(Debug, Clone, Copy)]
 enum Kind {
@@ -408,7 +408,7 @@ impl ConfigArgs {
 
     /// `--rate` and `--pitch-mm` against the ranges a recording's own values must meet.
     fn check_sampling(&self) -> anyhow::Result<()> {
-        use touchc::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
+        use touchc_model::config::{PITCH_MM_RANGE, RATE_HZ_RANGE};
         for (flag, value, range, unit) in [
             ("--rate", self.rate, RATE_HZ_RANGE, "Hz"),
             ("--pitch-mm", self.pitch_mm, PITCH_MM_RANGE, "mm"),

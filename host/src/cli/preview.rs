@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use crate::cli::output::write_atomic;
 use anyhow::Context;
-use touchc::compile::{compile, CompileOptions};
 use touchc::viz::preview;
+use touchc_pipeline::compile::{compile, CompileOptions};
 
 /// Arguments of `touchc preview`.
 #[derive(Debug, clap::Args)]

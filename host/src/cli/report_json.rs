@@ -2,7 +2,7 @@
 //! on stderr and the input stage's also as values.
 
 use serde::ser::{Serialize, SerializeStruct, Serializer};
-use touchc::compile::Report;
+use touchc_pipeline::compile::Report;
 
 /// [`Report`] as the `--report` file holds it.
 pub struct ReportJson<'a>(pub &'a Report);

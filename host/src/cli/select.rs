@@ -11,9 +11,9 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use touchc::select::dataset::{self, Dataset, Listing};
-use touchc::select::model::Settings;
-use touchc::select::{
+use touchc_select::dataset::{self, Dataset, Listing};
+use touchc_select::model::Settings;
+use touchc_select::{
     cross_validate, metrics, Control, Folds, Model, ScorerKind, SelectError, Selection,
 };
 
@@ -187,7 +187,7 @@ fn train(
         vec![args.model.into()]
     };
     let bar = Bar::new(kinds.iter().map(|&k| steps(k, folds.k, args.epochs)).sum());
-    let progress = |p: touchc::select::Progress| bar.tick(p, folds.k);
+    let progress = |p: touchc_select::Progress| bar.tick(p, folds.k);
     let control = Control {
         cancel,
         progress: &progress,
@@ -259,7 +259,7 @@ impl Bar {
         Bar(bar)
     }
 
-    fn tick(&self, p: touchc::select::Progress, folds: usize) {
+    fn tick(&self, p: touchc_select::Progress, folds: usize) {
         let fold = match p.fold {
             Some(f) => format!("fold {}/{folds}", f + 1),
             None => "all data".into(),
@@ -294,8 +294,8 @@ fn compile_best(
     data: &Dataset,
     top: &[Vec<usize>],
 ) -> anyhow::Result<Vec<(PathBuf, Vec<u8>)>> {
-    use touchc::compile::{compile_owned, CompileOptions};
-    use touchc::input::recording::Recording;
+    use touchc_input::recording::Recording;
+    use touchc_pipeline::compile::{compile_owned, CompileOptions};
     let opts = CompileOptions {
         config: args.config.resolve()?,
         metadata: args.config.overrides(),

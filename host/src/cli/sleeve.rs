@@ -12,8 +12,8 @@ use anyhow::{anyhow, bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use touch_protocol::link::{Limit, LinkError, Source, StreamStop, STREAM_DEADLINE_MS};
-use touchc::link::serial::{self, Candidate, SerialTransport};
-use touchc::link::{Client, ClientError};
+use touchc_link::serial::{self, Candidate, SerialTransport};
+use touchc_link::{Client, ClientError};
 
 mod info;
 mod playback;

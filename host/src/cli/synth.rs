@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use super::help::PlainEnum;
 use crate::cli::output::write_atomic;
 use anyhow::Context;
-use touchc::display::Shortest;
+use touchc_model::display::Shortest;
 use touchc_synth::{self as synth, Fabric, Gesture, Mask, Sensor, SynthSpec, Tuning};
 
 /// Most noise-only frames before and after the gestures: about 1.4 h at 20 Hz, a
@@ -206,7 +206,7 @@ fn report(args: &Args, recording: &ndarray::Array3<f64>, contacts: usize, npz: b
         contacts
     );
     // What `compile` assumes of a file that does not say (the published sleeve's).
-    let assumed = touchc::config::InputConfig::default();
+    let assumed = touchc_model::config::InputConfig::default();
     if !npz && (rate_hz != assumed.rate_hz || pitch_mm != assumed.pitch_mm) {
         eprintln!(
             "touchc: note: a .npy holds no rate: compile it with --rate {rate_hz} \

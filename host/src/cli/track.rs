@@ -4,10 +4,10 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use serde::Serialize;
-use touchc::input::recording::Recording;
-use touchc::track::track_streaming;
-use touchc::tracking::track::TrackOutput;
-use touchc::trajectory::Columns;
+use touchc_input::recording::Recording;
+use touchc_model::trajectory::Columns;
+use touchc_pipeline::track::track_streaming;
+use touchc_tracking::track::TrackOutput;
 
 /// Arguments of `touchc track`.
 #[derive(Debug, clap::Args)]

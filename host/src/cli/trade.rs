@@ -1,17 +1,17 @@
 //! `touchc trade REC.npy... [--csv FILE] [--svg FILE]`: every preset on every recording, compared
-//! with `exact` (see [`touchc::measure::trade`]).
+//! with `exact` (see [`touchc_eval::trade`]).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::cli::output::write_atomic;
 use anyhow::Context;
-use touchc::compile::CompileOptions;
-use touchc::config::Preset;
-use touchc::measure::cases::{run_case, CaseRow};
-use touchc::measure::trade::{trade, TradeRow};
-use touchc::stage::Stage;
 use touchc::viz::trade::plot_svg;
+use touchc_eval::cases::{run_case, CaseRow};
+use touchc_eval::trade::{trade, TradeRow};
+use touchc_model::config::Preset;
+use touchc_model::stage::Stage;
+use touchc_pipeline::compile::CompileOptions;
 use touchc_synth::cases::Bar;
 use touchc_synth::Truth;
 
@@ -165,7 +165,7 @@ fn truths(args: &Args) -> anyhow::Result<Vec<Truth>> {
 }
 
 /// Each preset compared, with its config: `--preset` and `exact`, or every preset.
-fn configs(args: &Args) -> anyhow::Result<Vec<(Preset, touchc::config::Config)>> {
+fn configs(args: &Args) -> anyhow::Result<Vec<(Preset, touchc_model::config::Config)>> {
     let presets: Vec<Preset> = match args.config.preset {
         Some(p) if p != Preset::Exact => vec![p, Preset::Exact],
         Some(p) => vec![p],
@@ -180,7 +180,7 @@ fn configs(args: &Args) -> anyhow::Result<Vec<(Preset, touchc::config::Config)>>
 fn configs_of(
     args: &Args,
     presets: Vec<Preset>,
-) -> anyhow::Result<Vec<(Preset, touchc::config::Config)>> {
+) -> anyhow::Result<Vec<(Preset, touchc_model::config::Config)>> {
     let mut configs = Vec::new();
     for p in presets {
         let config = if args.config.preset == Some(p) {
@@ -241,7 +241,7 @@ fn far_from_exact(rows: &[TradeRow]) -> Vec<String> {
     }
     let apart: Vec<String> = rows
         .iter()
-        .filter(|r| r.tracks_agree_pct == 0.0 && r.preset != touchc::config::Preset::Exact)
+        .filter(|r| r.tracks_agree_pct == 0.0 && r.preset != touchc_model::config::Preset::Exact)
         .map(|r| format!("{} under {}", super::escaped(&r.input), r.preset.name()))
         .collect();
     if !apart.is_empty() {

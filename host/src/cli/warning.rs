@@ -3,11 +3,11 @@
 
 use std::fmt::Write;
 
-use touchc::compile::Warning;
-use touchc::config::{Baseline, Knob};
-use touchc::coverage::{MissCause, UntrackedBy};
-use touchc::input::sanity::SanityWarning;
-use touchc::input::warning::{ErasedBy, InputWarning, TransposedBy};
+use touchc_input::sanity::SanityWarning;
+use touchc_input::warning::{ErasedBy, InputWarning, TransposedBy};
+use touchc_model::config::{Baseline, Knob};
+use touchc_pipeline::compile::Warning;
+use touchc_pipeline::coverage::{MissCause, UntrackedBy};
 
 /// The sentence `touchc` prints for `w` (after the recording's name).
 pub fn describe(w: &Warning) -> String {
@@ -328,7 +328,7 @@ fn input(w: &InputWarning) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use touchc::rendered::Shortfall;
+    use touchc_pipeline::rendered::Shortfall;
 
     /// Each warning in the words `touchc` has always printed for it, figure for figure.
     #[test]

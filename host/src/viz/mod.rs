@@ -19,7 +19,7 @@ use std::sync::OnceLock;
 use touch_protocol::player::{code_to_amps, Fault};
 use touch_protocol::{DeviceConfig, Player, Status, Stimulus, CHANNELS};
 
-use crate::rendering::condition::OUTPUT_RATE_HZ;
+use touchc_rendering::condition::OUTPUT_RATE_HZ;
 
 /// Why a picture or sound could not be made.
 #[derive(Debug, thiserror::Error)]

@@ -15,7 +15,7 @@ use touch_protocol::player::Fault;
 use touch_protocol::{DeviceConfig, Stimulus, CHANNELS};
 
 use super::{describe_fault, play, register_font, VizError, FAMILY};
-use crate::rendering::condition::OUTPUT_RATE_HZ;
+use touchc_rendering::condition::OUTPUT_RATE_HZ;
 
 /// Actuator rows on the sleeve (`channel = row * COLUMNS + column`).
 const ROWS: usize = 2;

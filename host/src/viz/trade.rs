@@ -1,9 +1,9 @@
 //! The trade's chart (`touchc trade --svg`): time against error, from the rows
-//! [`trade`](crate::measure::trade::trade) measures.
+//! [`trade`](touchc_eval::trade::trade) measures.
 
 use super::{register_font, VizError, FAMILY};
-use crate::config::Preset;
-use crate::measure::trade::TradeRow;
+use touchc_eval::trade::TradeRow;
+use touchc_model::config::Preset;
 
 /// Tick values for a log axis over `lo..hi`: 1, 2 and 5 times the powers of ten
 /// inside it, or every whole multiple of them (1 to 9) when that gives fewer than

@@ -2,11 +2,11 @@
 //! saturated sensor) is one contact, not a detection at every pixel.
 
 use ndarray::{Array2, Array3};
-use touchc::config::{Config, Metadata, MetadataOverrides, Preset, Sampling};
-use touchc::input::recording::Recording;
-use touchc::track::track;
-use touchc::tracking::detect::{frame_points, local_maxima};
-use touchc::tracking::preprocess::{Blur, BlurOperator};
+use touchc_input::recording::Recording;
+use touchc_model::config::{Config, Metadata, MetadataOverrides, Preset, Sampling};
+use touchc_pipeline::track::track;
+use touchc_tracking::detect::{frame_points, local_maxima};
+use touchc_tracking::preprocess::{Blur, BlurOperator};
 
 /// The touch preset's lattice on 8 x 21 cells: every second row and column.
 const LATTICE: usize = 4 * 11;
@@ -121,8 +121,8 @@ fn a_saturated_sensor_tracks_with_bounded_work() {
 /// the graph takes the memory.
 #[test]
 fn the_tracking_graph_stops_at_its_edge_limit() {
-    use touchc::tracking::flow::FlowError;
-    use touchc::tracking::track::link_within;
+    use touchc_tracking::flow::FlowError;
+    use touchc_tracking::track::link_within;
     let rec = Recording::from_array("patch", saturated(240, 20..220, 1..7, 5..15).view()).unwrap();
     // The flow's graph: the default without regions (its lattice of flat contacts).
     let mut cfg = Config::default();
@@ -144,7 +144,7 @@ fn the_tracking_graph_stops_at_its_edge_limit() {
 #[test]
 fn an_npz_entry_beyond_the_budget_is_refused_from_its_header() {
     use crate::poison::{npy, zip, Entry};
-    use touchc::input::recording::{RecordingError, MEMBER_BUDGET_BYTES};
+    use touchc_input::recording::{RecordingError, MEMBER_BUDGET_BYTES};
     // float64 frames of 8 x 21: one frame more than the budget holds.
     let frames = MEMBER_BUDGET_BYTES / (8 * 21 * 8) + 1;
     let header = npy("<f8", false, &format!("({frames}, 8, 21)"), &[]);
@@ -264,7 +264,7 @@ fn a_batch_with_a_plateau_and_bombs_compiles_its_good_files() {
 /// (an hour's is 4.7 GB) or the detections.
 #[test]
 fn tracking_streams_like_the_compile() {
-    use touchc::track::{track_streaming, track_with};
+    use touchc_pipeline::track::{track_streaming, track_with};
     let rec =
         Recording::from_array("blobs", crate::common::moving_blobs(400, 3, 5).view()).unwrap();
     for preset in [Preset::Touch, Preset::Paper] {
@@ -289,8 +289,8 @@ fn tracking_streams_like_the_compile() {
 /// compile that kept it, byte for byte: each frame is blurred again as it is drawn.
 #[test]
 fn a_preview_draws_a_streamed_compile_as_the_kept_one() {
-    use touchc::compile::{compile, CompileOptions};
     use touchc::viz::preview;
+    use touchc_pipeline::compile::{compile, CompileOptions};
     let rec =
         Recording::from_array("blobs", crate::common::moving_blobs(160, 2, 9).view()).unwrap();
     let run = |keep_scene| {
@@ -306,7 +306,8 @@ fn a_preview_draws_a_streamed_compile_as_the_kept_one() {
         .unwrap()
     };
     let (kept, streamed) = (run(true), run(false));
-    let movie = |c: &touchc::compile::Compiled| c.tracked.as_ref().unwrap().blurred.frames.dim().0;
+    let movie =
+        |c: &touchc_pipeline::compile::Compiled| c.tracked.as_ref().unwrap().blurred.frames.dim().0;
     assert_eq!((movie(&kept) > 0, movie(&streamed)), (true, 0));
     let rate = kept.report.metadata.rate_hz.value;
     assert_eq!(

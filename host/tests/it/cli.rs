@@ -84,12 +84,12 @@ fn help_prints_the_defaults_of_config_default() {
     let out = touchc().args(["compile", "--help"]).output().unwrap();
     assert!(out.status.success());
     let help = String::from_utf8(out.stdout).unwrap();
-    let d = touchc::config::Config::default();
+    let d = touchc_model::config::Config::default();
     // The default preset (touch) differs from the paper in these two; the help must
     // show the default's values, read here from the library.
     assert_ne!(
         d.track.max_speed_mm_s,
-        touchc::config::Config::preset(touchc::config::Preset::Paper)
+        touchc_model::config::Config::preset(touchc_model::config::Preset::Paper)
             .track
             .max_speed_mm_s
     );

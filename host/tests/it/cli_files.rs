@@ -229,7 +229,7 @@ fn bank_refuses_too_many_slots_and_too_many_bytes_with_the_limits() {
 #[test]
 fn bank_refuses_a_mirrored_layout_that_kept_the_sleeves_name() {
     let dir = tempfile::tempdir().unwrap();
-    let paper = touchc::layout::Layout::paper();
+    let paper = touchc_model::layout::Layout::paper();
     let mut toml = String::from("id = \"paper-2x4\"\n");
     for w in paper.workspaces() {
         toml += &format!(

@@ -325,8 +325,8 @@ fn one_touch_at_20_and_54_hz_lasts_as_long() {
     // one silent frame under the default preset's signal config.
     let conditioning = |rate: f64| {
         let psi: [Vec<f64>; 8] = std::array::from_fn(|_| vec![0.0; 1]);
-        let signal = touchc::config::Config::default().signal;
-        let c = touchc::rendering::condition::condition(&psi, &signal, rate).unwrap();
+        let signal = touchc_model::config::Config::default().signal;
+        let c = touchc_rendering::condition::condition(&psi, &signal, rate).unwrap();
         (c.output.len() - 1) as f64 / 1000.0 - 1.0 / rate
     };
     let kept = |r: &serde_json::Value, rate: f64| d(r) - conditioning(rate);

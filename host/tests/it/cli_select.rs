@@ -6,7 +6,7 @@ use std::path::Path;
 
 use crate::bin;
 use bin::{command, ok, s, touchc};
-use touchc::select::synthetic::{labelled_set, write, SetSpec};
+use touchc_select::synthetic::{labelled_set, write, SetSpec};
 use touchc_synth::Sensor;
 
 /// A data set of `classes` x `per_class` recordings by 6 people in `dir`.

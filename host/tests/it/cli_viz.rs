@@ -4,7 +4,7 @@ use crate::bin;
 
 use bin::{ok, refused, touchc};
 use std::path::{Path, PathBuf};
-use touchc::trajectory::Columns;
+use touchc_model::trajectory::Columns;
 
 use touch_protocol::bank;
 
@@ -257,9 +257,9 @@ fn decode_gif(path: &Path) -> (u16, u16, Vec<Vec<u8>>, Vec<u16>) {
 
 #[test]
 fn preview_animates_every_frame_with_the_trajectories() {
-    use touchc::compile::{compile, CompileOptions};
-    use touchc::input::recording::Recording;
     use touchc::viz::preview;
+    use touchc_input::recording::Recording;
+    use touchc_pipeline::compile::{compile, CompileOptions};
 
     let dir = tempfile::tempdir().unwrap();
     let rec_path = dir.path().join("stroke.npy");
@@ -290,7 +290,7 @@ fn preview_animates_every_frame_with_the_trajectories() {
     };
     let compiled = compile(&rec, &opts).unwrap();
     let layout = preview::layout(&compiled).unwrap();
-    let tare = touchc::config::Sampling::PAPER.frames(opts.config.input.trim_s);
+    let tare = touchc_model::config::Sampling::PAPER.frames(opts.config.input.trim_s);
     assert_eq!(
         frames.len(),
         rec.dim().0 - 2 * tare,
@@ -385,14 +385,14 @@ fn preview_png_shows_one_frame_and_refuses_frames_past_the_end() {
     // The colour bar runs from the heat scale's 0 psi end (bottom row) to its maximum
     // (top row), brightening all the way.
     use touchc::viz::{palette::heat, preview};
-    let rec = touchc::input::recording::Recording::load(&rec_path).unwrap();
-    let opts = touchc::compile::CompileOptions {
+    let rec = touchc_input::recording::Recording::load(&rec_path).unwrap();
+    let opts = touchc_pipeline::compile::CompileOptions {
         fit: true,
         crop: false,
         keep_scene: true,
         ..Default::default()
     };
-    let layout = preview::layout(&touchc::compile::compile(&rec, &opts).unwrap()).unwrap();
+    let layout = preview::layout(&touchc_pipeline::compile::compile(&rec, &opts).unwrap()).unwrap();
     let px = |x: u32, y: u32| {
         let i = 3 * (y * w + x) as usize;
         [rgb[i], rgb[i + 1], rgb[i + 2]]
@@ -457,8 +457,8 @@ fn preview_gif_and_compile(
 ) -> (
     u16,
     Vec<Vec<u8>>,
-    touchc::input::recording::Recording,
-    touchc::compile::Compiled,
+    touchc_input::recording::Recording,
+    touchc_pipeline::compile::Compiled,
     touchc::viz::preview::FrameLayout,
 ) {
     let gif_path = rec_path.with_extension("gif");
@@ -471,15 +471,15 @@ fn preview_gif_and_compile(
         gif_path.to_str().unwrap(),
     ]));
     let (w, _, frames, _) = decode_gif(&gif_path);
-    let rec = touchc::input::recording::Recording::load(rec_path).unwrap();
-    let opts = touchc::compile::CompileOptions {
+    let rec = touchc_input::recording::Recording::load(rec_path).unwrap();
+    let opts = touchc_pipeline::compile::CompileOptions {
         fit: true,
         crop: false,
         keep_scene: true,
-        config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+        config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
         ..Default::default()
     };
-    let compiled = touchc::compile::compile(&rec, &opts).unwrap();
+    let compiled = touchc_pipeline::compile::compile(&rec, &opts).unwrap();
     let layout = touchc::viz::preview::layout(&compiled).unwrap();
     (w, frames, rec, compiled, layout)
 }
@@ -503,8 +503,8 @@ fn press_and_blip() -> ndarray::Array3<f64> {
 
 #[test]
 fn preview_marks_touch_no_contact_explains_and_only_that() {
-    use touchc::coverage::{self, Cell};
     use touchc::viz::preview;
+    use touchc_pipeline::coverage::{self, Cell};
 
     let dir = tempfile::tempdir().unwrap();
     let rec_path = dir.path().join("blip.npy");
@@ -515,7 +515,7 @@ fn preview_marks_touch_no_contact_explains_and_only_that() {
     // trajectories (the module is tested on its own in `coverage.rs`).
     let input = &compiled.report.config.input;
     let sampling =
-        touchc::config::Sampling::new(&compiled.report.metadata, &compiled.report.config);
+        touchc_model::config::Sampling::new(&compiled.report.metadata, &compiled.report.config);
     let tared = rec.tare(input, &sampling).unwrap();
     let points = coverage::contact_points(
         &compiled.tracked.as_ref().unwrap().trajectories,

@@ -5,10 +5,10 @@ use crate::common;
 
 use bin::{ok, refused, touchc};
 
-use touchc::compile::{compile, CompileOptions, Compiled, Warning};
-use touchc::config::Config;
-use touchc::input::recording::Recording;
-use touchc::layout::Layout;
+use touchc_input::recording::Recording;
+use touchc_model::config::Config;
+use touchc_model::layout::Layout;
+use touchc_pipeline::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc_synth::{self as synth, Gesture, SynthSpec};
 
 fn synth_recording(gestures: &[Gesture], seed: u64) -> Recording {
@@ -24,7 +24,7 @@ fn compile_default(rec: &Recording) -> Compiled {
     compile(
         rec,
         &CompileOptions {
-            config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+            config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
             ..CompileOptions::default()
         },
     )
@@ -149,7 +149,7 @@ fn cropping_does_not_change_the_result() {
         let cropped = compile(
             rec,
             &CompileOptions {
-                config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+                config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
                 ..CompileOptions::default()
             },
         )
@@ -158,7 +158,7 @@ fn cropping_does_not_change_the_result() {
             rec,
             &CompileOptions {
                 crop: false,
-                config: touchc::config::Config::preset(touchc::config::Preset::Paper),
+                config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
                 ..CompileOptions::default()
             },
         )
@@ -187,7 +187,7 @@ fn cropping_does_not_change_the_result() {
         // lead-in and tail are longer than the margins).
         let crop = cropped.report.crop.as_ref().unwrap();
         let frames = rec
-            .tare(&Default::default(), &touchc::config::Sampling::PAPER)
+            .tare(&Default::default(), &touchc_model::config::Sampling::PAPER)
             .unwrap()
             .dim()
             .0;
@@ -286,7 +286,7 @@ fn reaching_the_trajectory_limit_is_a_warning_with_the_figure() {
         "/../tests/data/reference/tap_pat_200.npy"
     ))
     .unwrap();
-    let mut config = touchc::config::Config::preset(touchc::config::Preset::Paper);
+    let mut config = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
     let roomy = compile(
         &rec,
         &CompileOptions {
@@ -425,14 +425,17 @@ fn compiling_an_owned_recording_gives_the_same_stimulus() {
     // `compile_owned` (what the CLI runs) frees the raw frames once tared; nothing
     // after the tare may read them, so the result is `compile`'s, byte for byte.
     let rec = synth_recording(&[Gesture::Stroke, Gesture::Pat, Gesture::Squeeze], 9);
-    for preset in [touchc::config::Preset::Touch, touchc::config::Preset::Paper] {
+    for preset in [
+        touchc_model::config::Preset::Touch,
+        touchc_model::config::Preset::Paper,
+    ] {
         let opts = CompileOptions {
-            config: touchc::config::Config::preset(preset),
+            config: touchc_model::config::Config::preset(preset),
             fit: true,
             ..CompileOptions::default()
         };
         let borrowed = compile(&rec, &opts).unwrap();
-        let owned = touchc::compile::compile_owned(rec.clone(), &opts).unwrap();
+        let owned = touchc_pipeline::compile::compile_owned(rec.clone(), &opts).unwrap();
         assert_eq!(borrowed.stimulus, owned.stimulus, "{preset:?}");
         assert_eq!(borrowed.signal, owned.signal);
         assert_eq!(borrowed.report.input, owned.report.input);
@@ -447,7 +450,7 @@ fn compiling_an_owned_recording_gives_the_same_stimulus() {
 /// encoder that costs bytes, fails here before it reaches a user's file.
 #[test]
 fn the_densest_scenes_encode_within_150_bytes_per_second() {
-    use touchc::config::{MetadataOverrides, Preset};
+    use touchc_model::config::{MetadataOverrides, Preset};
     use touchc_synth::Sensor;
     let blobs = Recording::from_array(
         "moving_blobs(705, 4, 42)",

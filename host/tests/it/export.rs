@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
-use touchc::layout::Layout;
+use touchc_model::layout::Layout;
 
 use crate::bin::{ok, refused, s, stderr, touchc};
 

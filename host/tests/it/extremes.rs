@@ -3,11 +3,11 @@
 use crate::common;
 
 use ndarray::{s, Array3};
-use touchc::config::Config;
-use touchc::input::recording::{Recording, RecordingError};
-use touchc::track::track;
-use touchc::tracking::track::{TrackError, TrackOutput};
-use touchc::trajectory::Columns;
+use touchc_input::recording::{Recording, RecordingError};
+use touchc_model::config::Config;
+use touchc_model::trajectory::Columns;
+use touchc_pipeline::track::track;
+use touchc_tracking::track::{TrackError, TrackOutput};
 
 fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
     track(&Recording::from_array("synthetic", a.view()).unwrap(), cfg).unwrap()
@@ -16,7 +16,7 @@ fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
 fn run(a: &Array3<f64>) -> TrackOutput {
     run_cfg(
         a,
-        &touchc::config::Config::preset(touchc::config::Preset::Paper),
+        &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
     )
 }
 
@@ -70,7 +70,7 @@ fn scaling_by_1e30_and_1e_minus_30() {
     assert!((big.std() / (base.std() * 1e30) - 1.0).abs() < 1e-12);
     assert_costs_finite(&big);
     // With the psi threshold scaled too, the problem is the same one.
-    let mut cfg = touchc::config::Config::preset(touchc::config::Preset::Paper);
+    let mut cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
     cfg.detect.min_value_psi *= 1e30;
     let big_same = run_cfg(&a.mapv(|v| v * 1e30), &cfg);
     assert_eq!(big_same.trajectories.len(), base.trajectories.len());
@@ -143,7 +143,7 @@ fn shorter_than_the_tare_buffer_is_an_error() {
     let rec = Recording::from_array("short", a.view()).unwrap();
     let err = track(
         &rec,
-        &touchc::config::Config::preset(touchc::config::Preset::Paper),
+        &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
     )
     .unwrap_err();
     assert!(matches!(

@@ -3,10 +3,10 @@
 
 use crate::common;
 
-use touchc::compile::{compile, CompileError, CompileOptions, Compiled};
-use touchc::config::grid_size;
-use touchc::config::{CoarseToFine, Config, ConfigError, DerivedLimit, Knob, Preset};
-use touchc::input::recording::Recording;
+use touchc_input::recording::Recording;
+use touchc_model::config::grid_size;
+use touchc_model::config::{CoarseToFine, Config, ConfigError, DerivedLimit, Knob, Preset};
+use touchc_pipeline::compile::{compile, CompileError, CompileOptions, Compiled};
 
 /// 100 frames, one contact sliding along the arm: short enough for debug builds.
 fn recording() -> Recording {
@@ -27,7 +27,7 @@ fn run(cfg: Config) -> Result<Compiled, CompileError> {
 fn config_error(err: &CompileError) -> &ConfigError {
     match err {
         CompileError::Config(e) => e,
-        CompileError::Track(touchc::tracking::track::TrackError::Config(e)) => e,
+        CompileError::Track(touchc_tracking::track::TrackError::Config(e)) => e,
         other => panic!("not a knob out of range: {other}"),
     }
 }
@@ -46,7 +46,7 @@ fn assert_finite(what: &str, c: &Compiled) {
 }
 
 fn with(f: impl FnOnce(&mut Config)) -> Config {
-    let mut c = touchc::config::Config::preset(touchc::config::Preset::Paper);
+    let mut c = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
     f(&mut c);
     c
 }
@@ -56,8 +56,10 @@ fn upsample_1_and_15() {
     for k in [1, 15] {
         // Blur and gate are in mm, so they keep their size: the same touch, tracked as
         // the same one contact.
-        let c = run(touchc::config::Config::preset(touchc::config::Preset::Paper).upsampled(k))
-            .unwrap();
+        let c = run(
+            touchc_model::config::Config::preset(touchc_model::config::Preset::Paper).upsampled(k),
+        )
+        .unwrap();
         assert_finite(&format!("upsample {k}"), &c);
         assert_eq!(c.report.trajectories, 1, "upsample {k}");
     }
@@ -156,8 +158,8 @@ fn grid_of_one_and_of_a_hundred_thousand_transforms() {
 
     let big = with(|c| (c.placement.grid_x, c.placement.grid_y) = (100, 44));
     assert_eq!(grid_size(&big.placement), Some(99_000));
-    let paper = run(touchc::config::Config::preset(
-        touchc::config::Preset::Paper,
+    let paper = run(touchc_model::config::Config::preset(
+        touchc_model::config::Preset::Paper,
     ))
     .unwrap();
     let c = run(big).unwrap();

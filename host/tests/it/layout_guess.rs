@@ -3,8 +3,8 @@
 
 use crate::bin::{ok, s, stderr, touchc};
 use ndarray::Array3;
-use touchc::input::sanity::transposed;
-use touchc::input::warning::{InputWarning, TransposedBy};
+use touchc_input::sanity::transposed;
+use touchc_input::warning::{InputWarning, TransposedBy};
 use touchc_synth::{self as synth, SynthSpec};
 
 fn compile(dir: &std::path::Path, name: &str, rec: &Array3<f64>) -> String {

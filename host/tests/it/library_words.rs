@@ -4,11 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
-use touchc::compile::CompileError;
-use touchc::config::Knob;
-use touchc::input::recording::RecordingError;
-use touchc::rendering::condition::LimitViolation;
-use touchc::tracking::track::TrackError;
+use touchc_input::recording::RecordingError;
+use touchc_model::config::Knob;
+use touchc_pipeline::compile::CompileError;
+use touchc_rendering::condition::LimitViolation;
+use touchc_tracking::track::TrackError;
 
 /// The library crates' folder.
 fn crates() -> PathBuf {

@@ -3,10 +3,10 @@
 //! actuator strips have axes and legend entries, and its heat map shows typical
 //! frames, not black.
 
-use touchc::config::Preset;
-use touchc::measure::trade::TradeRow;
-use touchc::stage::{Stage, StageSeconds};
 use touchc::viz::trade::{log_ticks, plot_svg};
+use touchc_eval::trade::TradeRow;
+use touchc_model::config::Preset;
+use touchc_model::stage::{Stage, StageSeconds};
 
 fn row(input: &str, preset: Preset, ms: f64, rms: f64) -> TradeRow {
     let mut seconds = StageSeconds::default();
@@ -92,9 +92,9 @@ fn log_ticks_label_any_range() {
 }
 
 mod preview {
-    use touchc::compile::{compile, CompileOptions, Compiled};
-    use touchc::input::recording::Recording;
     use touchc::viz::preview::{self, png_frame, FrameLayout};
+    use touchc_input::recording::Recording;
+    use touchc_pipeline::compile::{compile, CompileOptions, Compiled};
 
     fn example(name: &str) -> (Recording, Compiled) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -9,9 +9,9 @@ use std::path::{Path, PathBuf};
 
 use touch_protocol::player::code_to_amps;
 use touch_protocol::{DeviceConfig, Player, Status, Stimulus, CHANNELS};
-use touchc::compile::{compile, CompileOptions, Compiled};
-use touchc::config::{Config, Preset};
-use touchc::input::recording::Recording;
+use touchc_input::recording::Recording;
+use touchc_model::config::{Config, Preset};
+use touchc_pipeline::compile::{compile, CompileOptions, Compiled};
 
 /// The errors of `bytes` played on the sleeve against `signal` (amperes at 1 kHz), as
 /// fractions of the full scale: over every tick until the player is finished and the

@@ -1,11 +1,11 @@
 //! The published Python reference's outputs on its two synthetic recordings.
 
 use crate::common;
-use touchc::trajectory::Columns;
+use touchc_model::trajectory::Columns;
 
-use touchc::input::recording::Recording;
-use touchc::track::track;
-use touchc::tracking::detect::detect;
+use touchc_input::recording::Recording;
+use touchc_pipeline::track::track;
+use touchc_tracking::detect::detect;
 
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs().max(f64::MIN_POSITIVE)
@@ -17,14 +17,14 @@ fn check(name: &str) {
     let reference = common::Reference::load(name);
     let out = track(
         &rec,
-        &touchc::config::Config::preset(touchc::config::Preset::Paper),
+        &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
     )
     .unwrap();
     // The pipeline finds maxima during the blur; the standalone stage must agree.
     assert_eq!(
         detect(
             &out.blurred,
-            &touchc::config::Config::preset(touchc::config::Preset::Paper).detect
+            &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper).detect
         ),
         out.detections
     );

@@ -59,7 +59,7 @@ fn a_synthetic_npz_carries_its_rate_and_compiles_at_it() {
     let pitch = Array0::<f64>::read_npy(&members[2].1[..]).unwrap();
     assert_eq!((rate.into_scalar(), pitch.into_scalar()), (54.0, 25.4));
 
-    let rec = touchc::input::recording::Recording::load(&npz).unwrap();
+    let rec = touchc_input::recording::Recording::load(&npz).unwrap();
     assert_eq!(rec.file_rate_hz(), Some(54.0));
     assert_eq!(rec.file_pitch_mm(), Some(25.4));
     let from_npz = report(dir.path(), &npz, &[]);

@@ -3,11 +3,11 @@
 //! under the paper's baseline, and a touch held longer than half the recording.
 
 use ndarray::Array3;
-use touchc::compile::{compile, CompileOptions, Compiled, Warning};
-use touchc::config::{Config, Preset};
-use touchc::input::recording::Recording;
-use touchc::input::sanity::SanityWarning;
-use touchc::input::warning::{ErasedBy, InputWarning};
+use touchc_input::recording::Recording;
+use touchc_input::sanity::SanityWarning;
+use touchc_input::warning::{ErasedBy, InputWarning};
+use touchc_model::config::{Config, Preset};
+use touchc_pipeline::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc_synth::{self as synth, Gesture, SynthSpec};
 
 fn compiled(data: &Array3<f64>, preset: Preset) -> Compiled {

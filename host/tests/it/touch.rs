@@ -1,12 +1,12 @@
 //! Real touch, measured: every case of issue 12 on both sensors, under each preset,
-//! against the truth of where each contact was (`touchc::measure::evaluate`).
+//! against the truth of where each contact was (`touchc_eval::evaluate`).
 
 use crate::common;
-use touchc::compile::{compile, CompileOptions, Compiled, Warning};
-use touchc::config::{Config, MetadataOverrides, Preset};
-use touchc::input::recording::Recording;
-use touchc::measure::evaluate::{evaluate_compiled, Evaluation};
-use touchc::rendering::signals::Source;
+use touchc_eval::evaluate::{evaluate_compiled, Evaluation};
+use touchc_input::recording::Recording;
+use touchc_model::config::{Config, MetadataOverrides, Preset};
+use touchc_pipeline::compile::{compile, CompileOptions, Compiled, Warning};
+use touchc_rendering::signals::Source;
 use touchc_synth::{self as synth, Gesture, Sensor, SynthSpec};
 
 /// One synthetic case: a name and its spec on `sensor`.
@@ -215,7 +215,7 @@ fn the_report_says_how_much_of_the_touch_the_sleeve_plays() {
 /// cuts them into pieces, which the splits count.
 #[test]
 fn fifteen_strokes_stay_fifteen_trajectories_under_the_default() {
-    use touchc::measure::cases::run_case;
+    use touchc_eval::cases::run_case;
     let case = synth::cases::cases_on(Sensor::Sleeve, 54.0)
         .into_iter()
         .find(|c| c.name.starts_with("15 strokes"))
@@ -286,7 +286,7 @@ fn a_broad_contacts_rim_does_not_pull_the_placement_off_its_pressure() {
 /// for theirs at every turn of the rub.
 #[test]
 fn fast_swipes_and_a_vigorous_rub_stay_whole_under_the_default() {
-    use touchc::measure::cases::run_case;
+    use touchc_eval::cases::run_case;
     let configs = [(Preset::Touch, Config::preset(Preset::Touch))];
     let mut failures = Vec::new();
     for sensor in [Sensor::Sleeve, Sensor::Grid10] {

@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde_json::json;
-use touchc::select::{Dataset, Selection};
+use touchc_select::{Dataset, Selection};
 
 /// A CSV field, quoted when it holds a comma, a quote or a line break.
 pub(super) fn csv_field(text: &str) -> String {
@@ -70,7 +70,7 @@ pub(super) fn files(
     )?;
     let mut rows = Vec::new();
     for (i, item) in data.listing.items.iter().enumerate() {
-        let predicted = &classes[touchc::select::metrics::argmax(&sel.scores[i])];
+        let predicted = &classes[touchc_select::metrics::argmax(&sel.scores[i])];
         let cells: Vec<String> = sel.scores[i].iter().map(|v| format!("{v:.6}")).collect();
         writeln!(
             csv,

@@ -7,8 +7,8 @@ use std::path::Path;
 use anyhow::Context;
 use serde_json::json;
 use touch_protocol::link::BankState;
-use touchc::link::serial;
-use touchc::link::{DeviceInfo, SlotEntry};
+use touchc_link::serial;
+use touchc_link::{DeviceInfo, SlotEntry};
 
 use super::{connect, describe, open, running_twin, USB_IDS};
 use crate::cli::escaped;

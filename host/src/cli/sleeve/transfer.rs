@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::{bail, Context};
 use touch_protocol::link::{Event, LinkError, Source, StreamStop};
 use touch_protocol::{bank, Stimulus};
-use touchc::link::{ClientError, Progress};
+use touchc_link::{ClientError, Progress};
 
 use super::{bar, connect, describe, limit_name, open, Link, Sleeve};
 use crate::cli::{escaped, usage};
@@ -101,11 +101,7 @@ pub(super) fn upload(
 }
 
 /// Refuses a stimulus compiled for another layout than the sleeve's, naming both.
-fn same_layout(
-    s: &Stimulus<'_>,
-    info: &touchc::link::DeviceInfo,
-    what: &str,
-) -> anyhow::Result<()> {
+fn same_layout(s: &Stimulus<'_>, info: &touchc_link::DeviceInfo, what: &str) -> anyhow::Result<()> {
     let h = s.header();
     if h.layout_hash != info.layout_hash {
         bail!(
@@ -122,7 +118,7 @@ fn same_layout(
 
 /// Opens `port` again after the sleeve restarted, for as long as a restart takes.
 fn reopen(port: &Path) -> anyhow::Result<Sleeve> {
-    let limit = touchc::link::Timeouts::default().restart;
+    let limit = touchc_link::Timeouts::default().restart;
     let start = std::time::Instant::now();
     loop {
         match open(port) {

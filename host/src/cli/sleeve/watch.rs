@@ -7,7 +7,7 @@ use std::time::{Duration, SystemTime};
 
 use serde_json::json;
 use touch_protocol::link::{Event, Gesture, Source, StreamStop};
-use touchc::link::Stamped;
+use touchc_link::Stamped;
 
 use super::{connect, describe, limit_name, source_json, unix_s, Link};
 use crate::cli::usage;

@@ -12,8 +12,8 @@ use anyhow::{anyhow, bail, Context};
 use serde::Deserialize;
 use serde_json::json;
 use touch_protocol::link::{Event, Source};
-use touchc::link::serial::{self, SerialTransport};
-use touchc::link::{Client, ClientError};
+use touchc_link::serial::{self, SerialTransport};
+use touchc_link::{Client, ClientError};
 use touchc_study::log::{self, EventRecord, Record, Session, TrialRecord};
 
 use super::http::{Request, Response, Server};
