@@ -40,6 +40,14 @@ cargo test --locked -p touchc-model -p touchc-wide -p touchc-test-rng -p touchc-
     -p touchc-tracking -p touchc-placement -p touchc-rendering -p touchc-encoding \
     -p touchc-pipeline -p touchc-eval -p touchc-export -p touchc-link -p touchc-study -p touchc-select \
     -p touchc-testkit
+step "build: each layer crate alone, with only its own features"
+# Tested together above, Cargo unifies their dependencies' features, which hides a crate
+# that builds only beside another (touchc-synth once lacked zip's deflate backend).
+for crate in touchc-model touchc-wide touchc-test-rng touchc-input touchc-synth \
+    touchc-tracking touchc-placement touchc-rendering touchc-encoding touchc-pipeline \
+    touchc-eval touchc-export touchc-link touchc-study touchc-select touchc-testkit; do
+    cargo check --locked -q -p "$crate" --all-targets
+done
 step "tests: touchc alone"
 cargo test --locked -p touchc
 step "tests: end-to-end alone"
