@@ -229,3 +229,29 @@ fn every_layer_is_imported_by_its_own_crate_name() {
         "these lines reach a layer through `touchc::`: {through_touchc:?}"
     );
 }
+
+#[test]
+fn no_module_imports_a_sibling_or_its_parent_by_glob() {
+    // `use super::*` hides which items a module needs and makes every split a
+    // dependency of everything beside it; a test module (`mod tests`, `tests.rs`) may.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = Vec::new();
+    for dir in ["host/src", "host/crates", "protocol/src", "firmware/src"] {
+        rust_files(&root.join(dir), &mut files);
+    }
+    let mut globs = Vec::new();
+    for file in files {
+        if file.ends_with("tests.rs") || file.components().any(|c| c.as_os_str() == "tests") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&file).unwrap();
+        for (number, line) in text.lines().enumerate() {
+            // Module level only: an indented glob sits in an inline `mod tests`.
+            let glob = line.starts_with("use ") || line.starts_with("pub use ");
+            if glob && line.ends_with("::*;") && !line.contains("prelude::*") {
+                globs.push(format!("{}:{}: {line}", file.display(), number + 1));
+            }
+        }
+    }
+    assert!(globs.is_empty(), "glob imports: {globs:#?}");
+}

@@ -1,7 +1,10 @@
 //! The published transform grid: every placement of the layout that stage 4 scores,
 //! in the published order.
 
-use super::*;
+use touchc_model::config::{grid_size, PlacementConfig};
+use touchc_model::layout::Layout;
+
+use crate::Transform;
 
 /// `numpy.linspace(start, stop, num)` value for value, so that grid points match the
 /// published code bit for bit (the last point is `stop` exactly).

@@ -35,18 +35,16 @@ mod validation;
 
 pub use grid::transform_grid;
 
-use grid::*;
-use scoring::*;
-use search::*;
-use validation::*;
-
 use thiserror::Error;
 
-use crate::bnb::SubsetProblem;
-use touchc_model::config::{grid_size, PlacementConfig, MAX_TRANSFORMS};
-use touchc_model::geometry::{pixel_centre_mm, Circle};
+use touchc_model::config::PlacementConfig;
+use touchc_model::geometry::Circle;
 use touchc_model::layout::{Layout, CHANNELS};
 use touchc_model::trajectory::Trajectory;
+
+use crate::scoring::{score_transform, Scene, Scratch};
+use crate::search::{coarse_to_fine, Scores, Search};
+use crate::validation::check_inputs;
 
 /// One placement of the layout on the frame.
 ///
@@ -268,6 +266,8 @@ pub fn place(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::grid::{grid_indices, grid_position, linspace};
+    use touchc_model::config::grid_size;
     use touchc_model::trajectory::Columns;
 
     #[test]

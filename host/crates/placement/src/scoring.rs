@@ -7,7 +7,12 @@
 //! transform's circles meet (a one-hour recording has 8,008 trajectories, of which a
 //! transform meets about a thousand).
 
-use super::*;
+use touchc_model::config::PlacementConfig;
+use touchc_model::geometry::{pixel_centre_mm, Circle};
+use touchc_model::layout::CHANNELS;
+use touchc_model::trajectory::Trajectory;
+
+use crate::bnb::SubsetProblem;
 use crate::footprint::{footprint_hits, Footprint};
 
 /// A trajectory point in mm, with what scoring and conflicts need.

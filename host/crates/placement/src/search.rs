@@ -1,6 +1,11 @@
 //! The search over the grid: every transform (in parallel chunks), or coarse to fine.
 
-use super::*;
+use touchc_model::config::PlacementConfig;
+use touchc_model::layout::Layout;
+
+use crate::grid::{grid_indices, grid_position};
+use crate::scoring::{score_transform, Scene, Scratch};
+use crate::Transform;
 
 /// The coarse-to-fine search: the sub-grid of every `stride`-th point, then the full
 /// grid within `stride - 1` steps of its `keep` best, then steepest descent over the

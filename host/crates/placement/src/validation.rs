@@ -1,7 +1,10 @@
 //! What [`super::place`] refuses before searching: inputs that would make the grid or
 //! the scores meaningless.
 
-use super::*;
+use touchc_model::config::{grid_size, PlacementConfig, MAX_TRANSFORMS};
+use touchc_model::trajectory::Trajectory;
+
+use crate::PlacementError;
 
 pub(super) fn check_inputs(
     trajs: &[Trajectory],

@@ -28,7 +28,7 @@ mod gestures;
 
 pub use fabric::Fabric;
 
-use contacts::*;
+use contacts::{flicker_frames, Contact, Frame, Rng, FLICKER_FACTOR, PAUSE_S};
 use gestures::gesture;
 
 /// Rows of the published sensor frame.

@@ -22,6 +22,6 @@ pub mod recordings;
 pub mod reference;
 pub mod stimuli;
 
-pub use recordings::*;
+pub use recordings::{combination_698, cpu_seconds, moving_blobs, sleeve_mask, touch_cases};
 pub use reference::{reference_dir, RefTrajectory, Reference};
 pub use touchc_test_rng::{self as rng, Xorshift};

@@ -2,7 +2,19 @@
 //! touch, the overlay of trajectories and workspaces, the colour bar, the arm's
 //! orientation, the legend and the actuator panel.
 
-use super::*;
+use ndarray::Axis;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use touch_protocol::CHANNELS;
+use touchc_pipeline::coverage::{Cell, DEFAULT_RADIUS_CELLS};
+use touchc_rendering::signals::Source;
+
+use super::{
+    rgb_of, Canvas, FrameLayout, Scene, ACTIVE, BAR_PX, BOX, BOX_PX, CURSOR, IDLE, LEGEND_ROWS,
+    LEGEND_ROW_PX, OTHER, OUTLINE_PX, PAD_PX, SPARK_AHEAD, SPARK_PAST, TRAIL_FRAMES,
+    TRAJECTORY_COLOURS, UNEXPLAINED,
+};
+use crate::viz::palette::heat;
 
 /// Hatches every unexplained sensor cell of one frame and outlines each unexplained
 /// region (an edge is drawn where the neighbouring cell is not unexplained), so a

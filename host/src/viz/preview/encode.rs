@@ -1,7 +1,18 @@
 //! The preview's files: the GIF (one palette, only the changed rectangle after the
 //! first frame) and a single PNG frame.
 
-use super::*;
+use std::borrow::Cow;
+
+use touchc_input::recording::Recording;
+use touchc_pipeline::compile::Compiled;
+
+use super::{
+    draw_frame, FrameLayout, PreviewError, Scene, ACTIVE, BOX, CURSOR, IDLE, OTHER, SPARK_AHEAD,
+    SPARK_PAST, TRAJECTORY_COLOURS, UNEXPLAINED,
+};
+use crate::viz::palette::{Palette, UNCHANGED};
+use crate::viz::plot::encode_png;
+use crate::viz::{register_font, VizError};
 
 /// The animation of `compiled` (run on `recording` without the crop): one GIF frame per
 /// recording frame (every `every`-th, at least 1), played at the recording's rate,

@@ -26,28 +26,25 @@
 //! so colours do not flicker from frame to frame; after the first, each frame holds only
 //! the rectangle that changed, with the pixels that stayed the same transparent.
 
-use std::borrow::Cow;
-
 use ndarray::{Array3, Axis};
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::palette::{heat, Palette, UNCHANGED};
-use super::plot::{draw_error, encode_png};
-use super::{register_font, VizError};
+use super::palette::heat;
+use super::plot::draw_error;
+use super::VizError;
 use touch_protocol::CHANNELS;
 use touchc_input::recording::{Recording, RecordingError};
 use touchc_model::config::Sampling;
 use touchc_model::geometry::Circle;
 use touchc_pipeline::compile::Compiled;
 use touchc_pipeline::coverage::{self, Cell, Coverage, DEFAULT_RADIUS_CELLS};
-use touchc_rendering::signals::Source;
 use touchc_tracking::preprocess::{Blur, BlurOperator, PreprocessError};
 
 mod draw;
 mod encode;
 
-use draw::*;
+use draw::{legend_band, mark_unexplained, overlay, swatch_rect, traces};
+
 pub use encode::{gif, png_frame};
 
 /// Frames of trail drawn behind a trajectory's current point (1 s at 20 Hz).
@@ -491,6 +488,8 @@ fn rgb_of(c: RGBColor) -> [u8; 3] {
 mod tests {
     use super::encode::changes;
     use super::*;
+    use crate::viz::palette::UNCHANGED;
+    use draw::scale_bar;
 
     #[test]
     fn layout_scales_the_paper_map_and_makes_room_for_circles() {

@@ -1,7 +1,15 @@
 //! Stage 7, the keyframe encoding, and the compile's [`Report`].
 
-use super::*;
-use touchc_encoding::keyframes::{self, HeaderFields, KeyframeOptions};
+use touch_protocol::CHANNELS;
+use touchc_encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
+use touchc_input::warning::InputWarning;
+use touchc_model::config::Metadata;
+use touchc_model::stage::Stage;
+use touchc_rendering::condition;
+
+use super::clock::Clock;
+use super::{stimulus_name, CompileError, CompileOptions, Compiled, Report, Scene, Warning};
+use crate::coverage::Coverage;
 
 /// With `--fit`: the factor by which a fitted signal is scaled again when its encoding
 /// still trips a limit in the player, and how many times at most (0.99^20 = 0.82).
