@@ -201,28 +201,27 @@ pub(crate) fn print_error(err: &anyhow::Error) {
     eprintln!("touchc: error: {}", readable(&message(err)));
 }
 
-/// The error's chain joined by ": ", leaving out every cause whose text an outer error
-/// already quoted: library errors often include their source's text and name it as the
-/// source too, and a message should say each thing once. A TOML error is told in one
-/// line (where, then what) instead of its multi-line picture of the offending line.
+/// The error's chain joined by ": ", each cause in the command line's words where it
+/// has them: a knob out of range as `config_error` words it, a TOML error in one line
+/// (where, then what) instead of its multi-line picture of the offending line, and,
+/// after all of it, the advice that puts a cause right. The project's errors never repeat
+/// their source's text (the chain carries it), so each cause is said once, in its
+/// place; a cause from another crate whose text its outer error already ended with is
+/// left out.
 fn message(err: &anyhow::Error) -> String {
     let mut out = String::new();
+    // A cause's advice follows the account of it, which its sources end.
+    let mut advised = String::new();
     for cause in err.chain() {
-        let mut text = cause.to_string();
-        // Worded here rather than by the library, in place of its text wherever an
-        // outer error quoted it.
-        let words = if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
-            Some(toml_message(e))
+        let text = if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
+            toml_message(e)
         } else if let Some(e) = cause.downcast_ref::<touchc_model::config::ConfigError>() {
-            Some(config_error::describe(e))
+            config_error::describe(e)
         } else {
-            advice(cause).map(|advice| format!("{text}{advice}"))
+            advised.extend(advice(cause));
+            cause.to_string()
         };
-        if let Some(words) = words {
-            out = out.replace(&text, &words);
-            text = words;
-        }
-        if text.is_empty() || out.contains(&text) {
+        if text.is_empty() || out.ends_with(&text) {
             continue;
         }
         if !out.is_empty() {
@@ -230,7 +229,7 @@ fn message(err: &anyhow::Error) -> String {
         }
         out.push_str(&text);
     }
-    out
+    out + &advised
 }
 
 /// What to try, after the library's account of an error that a flag, a knob or another
@@ -258,7 +257,7 @@ fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
         (_, Some(TrackError::TooDense { .. })) => {
             return Some("; check the tare, or narrow the link gate with --max-speed-mm-s".into())
         }
-        (Some(CompileError::Recording(e)), _) | (_, Some(TrackError::Recording(e))) => Some(e),
+        (Some(CompileError::Recording(e)), _) => Some(e),
         _ => cause.downcast_ref::<RecordingError>(),
     };
     match recording? {
@@ -556,7 +555,6 @@ mod tests {
         for err in [
             anyhow::Error::new(short()),
             anyhow::Error::new(CompileError::Recording(short())),
-            anyhow::Error::new(CompileError::Track(TrackError::Recording(short()))),
         ] {
             assert_eq!(message(&err), want);
         }

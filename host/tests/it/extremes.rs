@@ -6,8 +6,9 @@ use ndarray::{s, Array3};
 use touchc_input::recording::{Recording, RecordingError};
 use touchc_model::config::Config;
 use touchc_model::trajectory::Columns;
+use touchc_pipeline::compile::CompileError;
 use touchc_pipeline::track::track;
-use touchc_tracking::track::{TrackError, TrackOutput};
+use touchc_tracking::track::TrackOutput;
 
 fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
     track(&Recording::from_array("synthetic", a.view()).unwrap(), cfg).unwrap()
@@ -148,7 +149,7 @@ fn shorter_than_the_tare_buffer_is_an_error() {
     .unwrap_err();
     assert!(matches!(
         err,
-        TrackError::Recording(RecordingError::TooShort { min: 41, .. })
+        CompileError::Recording(RecordingError::TooShort { min: 41, .. })
     ));
 }
 

@@ -27,7 +27,6 @@ fn run(cfg: Config) -> Result<Compiled, CompileError> {
 fn config_error(err: &CompileError) -> &ConfigError {
     match err {
         CompileError::Config(e) => e,
-        CompileError::Track(touchc_tracking::track::TrackError::Config(e)) => e,
         other => panic!("not a knob out of range: {other}"),
     }
 }

@@ -66,7 +66,7 @@ pub enum ExportError {
         reason: String,
     },
     /// A JSON document could not be parsed or written.
-    #[error("JSON: {0}")]
+    #[error("JSON")]
     Json(#[from] serde_json::Error),
 }
 

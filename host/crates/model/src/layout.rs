@@ -185,7 +185,7 @@ pub enum LayoutError {
         value: f64,
     },
     /// The layout could not be written as TOML.
-    #[error("cannot write layout as TOML: {0}")]
+    #[error("cannot write layout as TOML")]
     Serialize(#[from] toml::ser::Error),
 }
 

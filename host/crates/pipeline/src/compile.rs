@@ -20,6 +20,7 @@ use touchc_model::stage::{Stage, StageSeconds};
 use touchc_placement::{self as placement, Placement, PlacementError};
 use touchc_rendering::condition::{self, ConditionError, LimitViolation};
 use touchc_rendering::signals::{self, ChannelSignals};
+use touchc_tracking::preprocess::PreprocessError;
 use touchc_tracking::scene;
 use touchc_tracking::track::{TrackError, TrackOutput};
 
@@ -77,26 +78,29 @@ impl Default for CompileOptions {
 #[non_exhaustive]
 pub enum CompileError {
     /// A knob is out of its range (names the knob, the value and the range).
-    #[error("config: {0}")]
+    #[error("config")]
     Config(#[from] ConfigError),
     /// The recording is unusable (the message names the file).
     #[error(transparent)]
     Recording(#[from] RecordingError),
-    /// Tracking failed.
+    /// Tracking failed (stages 1-3).
     #[error(transparent)]
     Track(#[from] TrackError),
+    /// The actuator signals could not be recomputed from the tared frames (stage 5).
+    #[error("actuator signals")]
+    Signals(#[from] PreprocessError),
     /// Placement failed.
-    #[error("placement: {0}")]
+    #[error("placement")]
     Placement(#[from] PlacementError),
     /// Conditioning failed.
-    #[error("conditioning: {0}")]
+    #[error("conditioning")]
     Condition(#[from] ConditionError),
     /// The signal breaks the actuator profile's limits (and `fit` was not asked for:
     /// [`CompileOptions::fit`] would scale it down).
-    #[error("the signal breaks the safety limits: {0}")]
+    #[error("the signal breaks the safety limits")]
     Limits(#[from] LimitViolation),
     /// No encoding met the fidelity bounds, or the protocol refused the header.
-    #[error("encoding: {0}")]
+    #[error("encoding")]
     Keyframes(#[from] KeyframeError),
 }
 

@@ -5,11 +5,13 @@ use touchc_input::recording::Recording;
 use touchc_model::config::{Config, Metadata, MetadataOverrides, Sampling};
 use touchc_model::crop::Crop;
 use touchc_tracking::scene::track_cropped;
-use touchc_tracking::track::{TrackError, TrackOutput};
+use touchc_tracking::track::TrackOutput;
+
+use crate::compile::CompileError;
 
 /// Stages 0-3: tare, upsample and blur, detect, track, at the rate and pitch of the file
 /// or the config (see [`track_with`]).
-pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, TrackError> {
+pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, CompileError> {
     track_with(rec, cfg, &MetadataOverrides::default())
 }
 
@@ -19,7 +21,7 @@ pub fn track_with(
     rec: &Recording,
     cfg: &Config,
     overrides: &MetadataOverrides,
-) -> Result<TrackOutput, TrackError> {
+) -> Result<TrackOutput, CompileError> {
     // The compile's driver on the whole recording, keeping the blurred movie.
     track_whole(rec, cfg, overrides, true)
 }
@@ -32,7 +34,7 @@ pub fn track_streaming(
     rec: &Recording,
     cfg: &Config,
     overrides: &MetadataOverrides,
-) -> Result<TrackOutput, TrackError> {
+) -> Result<TrackOutput, CompileError> {
     track_whole(rec, cfg, overrides, false)
 }
 
@@ -42,7 +44,7 @@ fn track_whole(
     cfg: &Config,
     overrides: &MetadataOverrides,
     keep_scene: bool,
-) -> Result<TrackOutput, TrackError> {
+) -> Result<TrackOutput, CompileError> {
     let sampling = Sampling::new(
         &Metadata::resolve(overrides, &rec.file_metadata(), cfg),
         cfg,

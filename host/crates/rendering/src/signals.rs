@@ -18,8 +18,8 @@ use touchc_model::config::{Config, Sampling};
 use touchc_model::geometry::{pixel_centre_mm, Circle};
 use touchc_model::trajectory::Trajectory;
 use touchc_placement::Placement;
-use touchc_tracking::preprocess::{Blur, BlurOperator};
-use touchc_tracking::track::{TrackError, TrackOutput};
+use touchc_tracking::preprocess::{Blur, BlurOperator, PreprocessError};
+use touchc_tracking::track::TrackOutput;
 
 /// Actuator rows, columns per row (column 0 nearest the elbow) and channels, numbered
 /// `row * COLUMNS + column` (docs/hardware.md): the layout's, which are the protocol's.
@@ -241,7 +241,7 @@ pub fn recomputed_actuator_signals(
     tared: ArrayView3<f64>,
     cfg: &Config,
     sampling: &Sampling,
-) -> Result<ChannelSignals, TrackError> {
+) -> Result<ChannelSignals, PreprocessError> {
     let (t, r, c) = tared.dim();
     let op = BlurOperator::new(r, c, &Blur::new(&cfg.preprocess, sampling))?;
     let (h, w) = op.out_dim();

@@ -18,7 +18,6 @@ use ndarray::Array3;
 use crate::detect::{Detection, Detections};
 use crate::flow::{min_cost_flow_by_parts, FlowError, FlowGraph};
 use crate::preprocess::{Blurred, PreprocessError};
-use touchc_input::recording::RecordingError;
 use touchc_model::config::{Sampling, TrackConfig};
 use touchc_model::trajectory::{Point, Trajectory};
 
@@ -26,18 +25,12 @@ use touchc_model::trajectory::{Point, Trajectory};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum TrackError {
-    /// The recording is unusable (names the file).
-    #[error(transparent)]
-    Recording(#[from] RecordingError),
     /// The preprocessing parameters are unusable.
-    #[error("preprocess config: {0}")]
+    #[error("preprocess config")]
     Preprocess(#[from] PreprocessError),
     /// The tracking parameters produced an unsolvable graph (e.g. a NaN entry cost).
-    #[error("tracking config: {0}")]
+    #[error("tracking config")]
     Flow(#[from] FlowError),
-    /// A knob is out of its range (names the knob, the value and the range).
-    #[error("config: {0}")]
-    Config(#[from] touchc_model::config::ConfigError),
     /// The detections link into a flow graph above `MAX_FLOW_EDGES` (a tare that left
     /// noise, or a link gate wider than the touch needs).
     #[error(

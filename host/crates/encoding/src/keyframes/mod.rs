@@ -111,7 +111,7 @@ pub enum KeyframeError {
     #[error("the player hit its {0} limit playing the signal")]
     LimitHit(&'static str),
     /// The protocol crate refused the header (name too long, ...).
-    #[error("cannot encode: {0}")]
+    #[error("cannot encode")]
     Protocol(#[from] touch_protocol::Error),
 }
 
