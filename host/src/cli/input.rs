@@ -119,7 +119,7 @@ pub(crate) fn check_file_sampling(
          value with --rate or --pitch-mm)",
         recording.name(),
         declared.join(" and "),
-        super::config_error::describe(&e)
+        e
     )
 }
 

@@ -4,7 +4,6 @@
 
 mod bank;
 mod compile;
-mod config_error;
 mod export;
 mod help;
 mod import;
@@ -202,7 +201,7 @@ pub(crate) fn print_error(err: &anyhow::Error) {
 }
 
 /// The error's chain joined by ": ", each cause in the command line's words where it
-/// has them: a knob out of range as `config_error` words it, a TOML error in one line
+/// has them: a TOML error in one line
 /// (where, then what) instead of its multi-line picture of the offending line, and,
 /// after all of it, the advice that puts a cause right. The project's errors never repeat
 /// their source's text (the chain carries it), so each cause is said once, in its
@@ -215,8 +214,6 @@ fn message(err: &anyhow::Error) -> String {
     for cause in err.chain() {
         let text = if let Some(e) = cause.downcast_ref::<toml::de::Error>() {
             toml_message(e)
-        } else if let Some(e) = cause.downcast_ref::<touchc_model::config::ConfigError>() {
-            config_error::describe(e)
         } else {
             advised.extend(advice(cause));
             cause.to_string()
@@ -236,6 +233,7 @@ fn message(err: &anyhow::Error) -> String {
 /// file can put right.
 fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
     use touchc_input::recording::RecordingError;
+    use touchc_model::config::{ConfigError, SamplingKnob};
     use touchc_pipeline::compile::CompileError;
     use touchc_tracking::track::TrackError;
     if let Some(touch_protocol::Error::BadMagic { found, .. }) = cause.downcast_ref() {
@@ -246,6 +244,12 @@ fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
                     .into(),
             );
         }
+    }
+    if let Some(ConfigError::SamplingOutOfRange { knob, .. }) = cause.downcast_ref() {
+        return Some(match knob {
+            SamplingKnob::RateHz => " (--rate)".into(),
+            SamplingKnob::PitchMm => " (--pitch-mm)".into(),
+        });
     }
     let compile = cause.downcast_ref::<CompileError>();
     let track = match compile {

@@ -496,7 +496,7 @@ fn layered(
     };
     config
         .validate()
-        .map_err(|e| anyhow::anyhow!("config: {}", super::config_error::describe(&e)))?;
+        .map_err(|e| anyhow::Error::new(e).context("config"))?;
     Ok(config)
 }
 

@@ -22,6 +22,7 @@ mod contacts;
 mod sampling;
 mod knob;
 mod validate;
+mod words;
 
 pub use bounds::{
     grid_size, MAX_GRID_STEPS, MAX_TRANSFORMS, MAX_UPSAMPLE, PITCH_MM_RANGE, RATE_HZ_RANGE,

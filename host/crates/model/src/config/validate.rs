@@ -78,13 +78,12 @@ pub enum DerivedLimit {
     },
 }
 
-/// A knob outside its range: the knob, the value and the range as values (the command
-/// line words them).
+/// A knob outside its range: the knob, the value and the range as values, worded by its
+/// `Display` (`config/words.rs`) in the terms of the config file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ConfigError {
     /// A real-valued knob is not finite or outside `[min, max]`.
-    #[error("{knob} = {value} is out of range [{min}, {max}]")]
     OutOfRange {
         /// The knob.
         knob: Knob,
@@ -98,7 +97,6 @@ pub enum ConfigError {
         unit: Unit,
     },
     /// A whole-number knob is outside `[min, max]`.
-    #[error("{knob} = {value} is out of range [{min}, {max}]")]
     CountOutOfRange {
         /// The knob.
         knob: Knob,
@@ -110,7 +108,6 @@ pub enum ConfigError {
         max: usize,
     },
     /// A list knob has too few or too many entries.
-    #[error("{knob} has {len} entries, out of range [{min}, {max}]")]
     LengthOutOfRange {
         /// The knob.
         knob: Knob,
@@ -122,7 +119,6 @@ pub enum ConfigError {
         max: usize,
     },
     /// The placement grid has more transforms than the search takes.
-    #[error("placement grid {grid_x} x {grid_y} has more than {max} transforms")]
     TooManyTransforms {
         /// `placement.grid_x`.
         grid_x: usize,
@@ -132,7 +128,6 @@ pub enum ConfigError {
         max: usize,
     },
     /// The recording's rate or pitch is outside the range any recording may have.
-    #[error("the recording's {knob} = {value} is out of range [{min}, {max}]")]
     SamplingOutOfRange {
         /// Which.
         knob: SamplingKnob,
@@ -144,7 +139,6 @@ pub enum ConfigError {
         max: f64,
     },
     /// The value is in range, but what it becomes at this recording's sampling is not.
-    #[error("{knob} = {value} is out of range at this recording's sampling")]
     Derived {
         /// The knob.
         knob: Knob,

@@ -1,80 +1,90 @@
-//! A knob out of range in words: the library's [`ConfigError`] holds the knob, the
-//! value and the range as values; here they become the message a person reads.
+//! A knob out of range in words: [`ConfigError`]'s `Display`, in the terms of the config
+//! file (`section.key`, the range and its unit). The command line adds the flag that sets
+//! a knob where one does.
 
-use touchc_model::config::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
-use touchc_model::display::Shortest;
+use std::fmt;
 
-/// The message `touchc` prints for `e` (after `config: `).
-pub fn describe(e: &ConfigError) -> String {
-    match e {
-        ConfigError::OutOfRange {
-            knob,
-            value,
-            min,
-            max,
-            unit,
-        } => format!(
-            "{knob} = {} is out of range: must be finite, in [{}, {}]{}",
-            Shortest(*value),
-            Shortest(*min),
-            Shortest(*max),
-            unit_suffix(*unit)
-        ),
-        ConfigError::CountOutOfRange {
-            knob,
-            value,
-            min,
-            max,
-        } => format!("{knob} = {value} is out of range: must be in [{min}, {max}]"),
-        ConfigError::LengthOutOfRange {
-            knob,
-            len,
-            min,
-            max,
-        } => format!("{knob} (count) = {len} is out of range: must be in [{min}, {max}]"),
-        ConfigError::TooManyTransforms {
-            grid_x,
-            grid_y,
-            max,
-        } => format!(
-            "{} * grid_y * (grid_y + 1) / 2 = {grid_x} x {grid_y} is out of range: must be at \
-             most {max} transforms",
-            Knob::PlacementGridX
-        ),
-        ConfigError::SamplingOutOfRange {
-            knob,
-            value,
-            min,
-            max,
-        } => {
-            let (flag, unit) = match knob {
-                SamplingKnob::RateHz => ("--rate", Unit::Hz),
-                SamplingKnob::PitchMm => ("--pitch-mm", Unit::Mm),
-            };
-            format!(
-                "{knob} ({flag}) = {} is out of range: must be finite, in [{}, {}]{}",
+use super::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
+use crate::display::Shortest;
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::OutOfRange {
+                knob,
+                value,
+                min,
+                max,
+                unit,
+            } => write!(
+                f,
+                "{knob} = {} is out of range: must be finite, in [{}, {}]{}",
                 Shortest(*value),
                 Shortest(*min),
                 Shortest(*max),
-                unit_suffix(unit)
-            )
-        }
-        ConfigError::Derived {
-            knob,
-            value,
-            sampling,
-            limit,
-        } => {
-            let (derived, range) = derived_words(*limit);
-            format!(
-                "{knob} = {} is {derived} at {} Hz, {} mm cells, x{}: must be {range}",
+                unit_suffix(*unit)
+            ),
+            ConfigError::CountOutOfRange {
+                knob,
+                value,
+                min,
+                max,
+            } => write!(
+                f,
+                "{knob} = {value} is out of range: must be in [{min}, {max}]"
+            ),
+            ConfigError::LengthOutOfRange {
+                knob,
+                len,
+                min,
+                max,
+            } => write!(
+                f,
+                "{knob} (count) = {len} is out of range: must be in [{min}, {max}]"
+            ),
+            ConfigError::TooManyTransforms {
+                grid_x,
+                grid_y,
+                max,
+            } => write!(
+                f,
+                "{} * grid_y * (grid_y + 1) / 2 = {grid_x} x {grid_y} is out of range: must be \
+                 at most {max} transforms",
+                Knob::PlacementGridX
+            ),
+            ConfigError::SamplingOutOfRange {
+                knob,
+                value,
+                min,
+                max,
+            } => write!(
+                f,
+                "{knob} = {} is out of range: must be finite, in [{}, {}]{}",
                 Shortest(*value),
-                sampling.rate_hz,
-                sampling.pitch_mm,
-                sampling.upsample
-            )
+                Shortest(*min),
+                Shortest(*max),
+                unit_suffix(match knob {
+                    SamplingKnob::RateHz => Unit::Hz,
+                    SamplingKnob::PitchMm => Unit::Mm,
+                })
+            ),
+            ConfigError::Derived {
+                knob,
+                value,
+                sampling,
+                limit,
+            } => {
+                let (derived, range) = derived_words(*limit);
+                write!(
+                    f,
+                    "{knob} = {} is {derived} at {} Hz, {} mm cells, x{}: must be {range}",
+                    Shortest(*value),
+                    sampling.rate_hz,
+                    sampling.pitch_mm,
+                    sampling.upsample
+                )
+            }
         }
-        other => other.to_string(),
     }
 }
 
@@ -110,14 +120,13 @@ fn derived_words(limit: DerivedLimit) -> (String, String) {
             "the low-pass cut-off".to_string(),
             format!("below the Nyquist frequency, {nyquist_hz} Hz"),
         ),
-        // A bound this command line does not know yet still names its figures.
-        other => (format!("{other:?}"), String::new()),
     }
 }
 
 /// A range's unit as it follows the range (`[0, 60] s`).
 fn unit_suffix(unit: Unit) -> &'static str {
     match unit {
+        Unit::None => "",
         Unit::Hz => " Hz",
         Unit::Mm => " mm",
         Unit::S => " s",
@@ -128,18 +137,17 @@ fn unit_suffix(unit: Unit) -> &'static str {
         Unit::A => " A",
         Unit::FullScale => " of full scale",
         Unit::BytesPerS => " B/s",
-        _ => "",
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use touchc_model::config::Sampling;
+    use crate::config::Sampling;
 
-    /// Each error in the words `touchc` has always printed for it.
+    /// Each error in its words.
     #[test]
-    fn every_config_error_reads_as_the_command_line_words_it() {
+    fn every_config_error_reads_in_the_config_files_words() {
         let at = Sampling {
             upsample: 32,
             ..Sampling::PAPER
@@ -200,7 +208,7 @@ mod tests {
                     min: 1.0,
                     max: 1000.0,
                 },
-                "rate_hz (--rate) = 5000 is out of range: must be finite, in [1, 1000] Hz",
+                "rate_hz = 5000 is out of range: must be finite, in [1, 1000] Hz",
             ),
             (
                 ConfigError::Derived {
@@ -246,7 +254,7 @@ mod tests {
             ),
         ];
         for (e, want) in cases {
-            assert_eq!(describe(&e), want, "{e:?}");
+            assert_eq!(e.to_string(), want, "{e:?}");
         }
     }
 }
