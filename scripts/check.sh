@@ -48,6 +48,16 @@ for crate in touchc-model touchc-wide touchc-test-rng touchc-input touchc-synth 
     touchc-eval touchc-export touchc-link touchc-study touchc-select touchc-testkit; do
     cargo check --locked -q -p "$crate" --all-targets
 done
+step "MSRV: the workspace's rust-version (1.89) builds the host, the protocol and the firmware"
+# Cargo.toml's rust-version is a promise to whoever builds with an older toolchain; a
+# check build on exactly that toolchain keeps it (own target dir: other rustc, other
+# artefacts).
+msrv=$(sed -n 's/^rust-version = "\(.*\)"/\1/p' Cargo.toml)
+rustup toolchain list | grep -q "^$msrv-" || rustup toolchain install "$msrv" --profile minimal
+rustup target list --toolchain "$msrv" --installed | grep -qx thumbv7em-none-eabihf \
+    || rustup target add --toolchain "$msrv" thumbv7em-none-eabihf
+CARGO_TARGET_DIR=target/msrv cargo "+$msrv" check --locked -q --workspace --exclude sleeve-firmware
+(cd firmware && CARGO_TARGET_DIR=../target/msrv cargo "+$msrv" check --locked -q)
 step "tests: touchc alone"
 cargo test --locked -p touchc
 step "tests: end-to-end alone"

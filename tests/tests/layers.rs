@@ -255,3 +255,114 @@ fn no_module_imports_a_sibling_or_its_parent_by_glob() {
     }
     assert!(globs.is_empty(), "glob imports: {globs:#?}");
 }
+
+/// The identifiers that follow each occurrence of `prefix` in `text`.
+fn names_after<'a>(text: &'a str, prefix: &str) -> Vec<&'a str> {
+    let mut names = Vec::new();
+    let mut rest = text;
+    while let Some(at) = rest.find(prefix) {
+        let after = &rest[at + prefix.len()..];
+        let end = after
+            .find(|c: char| !c.is_ascii_alphanumeric() && c != '_')
+            .unwrap_or(after.len());
+        let before_ok = at == 0 || {
+            let b = rest.as_bytes()[at - 1];
+            !b.is_ascii_alphanumeric() && b != b'_' && b != b':'
+        };
+        if before_ok && end > 0 {
+            names.push(&after[..end]);
+        }
+        rest = after;
+    }
+    names
+}
+
+#[test]
+fn no_subcommand_reaches_back_into_the_router() {
+    // `cli/mod.rs` routes; what subcommands share (reporting, reading inputs, writing
+    // outputs) lives in modules beside them, so none depends on the router.
+    let cli = Path::new(env!("CARGO_MANIFEST_DIR")).join("../host/src/cli");
+    let router = std::fs::read_to_string(cli.join("mod.rs")).unwrap();
+    let modules: Vec<&str> = router
+        .lines()
+        .filter_map(|l| l.strip_prefix("mod ").and_then(|m| m.strip_suffix(';')))
+        .collect();
+    let mut files = Vec::new();
+    rust_files(&cli, &mut files);
+    let mut back = Vec::new();
+    for file in files.iter().filter(|f| !f.ends_with("cli/mod.rs")) {
+        let whole = std::fs::read_to_string(file).unwrap();
+        // Up to the first inline module (`mod tests {`), whose `super` is this file.
+        let text = whole
+            .find("\nmod ")
+            .filter(|&at| {
+                whole[at + 1..]
+                    .lines()
+                    .next()
+                    .is_some_and(|l| l.ends_with('{'))
+            })
+            .map_or(whole.as_str(), |at| &whole[..at]);
+        // `super` from a file directly in cli/ is the router; from cli/sleeve/ it is
+        // `super::super`.
+        let nested = file.parent() != Some(cli.as_path());
+        let mut names = names_after(text, "crate::cli::");
+        if nested {
+            names.extend(names_after(text, "super::super::"));
+        } else if !file.ends_with("mod.rs") {
+            names.extend(names_after(text, "super::"));
+        }
+        for name in names {
+            if name != "super" && !modules.contains(&name) {
+                back.push(format!("{}: {name}", file.display()));
+            }
+        }
+    }
+    assert!(
+        back.is_empty(),
+        "items of cli/mod.rs used by subcommands: {back:#?}"
+    );
+}
+
+#[test]
+fn the_architecture_doc_draws_the_graph_cargo_builds() {
+    // docs/architecture.md's block: `touchc-x  what it does  -> a, b` (or `-> nothing`),
+    // each crate's normal dependencies among the host's crates, without the prefix.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let doc = std::fs::read_to_string(root.join("docs/architecture.md")).unwrap();
+    let block = doc
+        .split("```text\n")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .expect("docs/architecture.md has a ```text block");
+    let graph = workspace_graph();
+    let mut drawn = Vec::new();
+    for line in block.lines() {
+        let name = line.split_whitespace().next().unwrap_or_default();
+        let (_, deps) = line
+            .rsplit_once("-> ")
+            .expect("every line names its dependencies");
+        let mut deps: Vec<String> = if deps.starts_with("nothing") {
+            Vec::new()
+        } else {
+            deps.split(", ").map(str::to_string).collect()
+        };
+        deps.sort();
+        let mut built: Vec<String> = graph[name]
+            .iter()
+            .filter(|(dep, kind)| kind == "normal" && dep.starts_with("touchc-"))
+            .map(|(dep, _)| dep.trim_start_matches("touchc-").to_string())
+            .collect();
+        built.sort();
+        assert_eq!(
+            deps, built,
+            "docs/architecture.md draws {name}'s dependencies wrong"
+        );
+        drawn.push(name.to_string());
+    }
+    for (name, _) in LAYERS {
+        assert!(
+            drawn.iter().any(|d| d == name),
+            "docs/architecture.md leaves out {name}"
+        );
+    }
+}

@@ -41,7 +41,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     write_atomic(&args.output, &image)?;
     eprintln!(
         "touchc: wrote {} ({} slots, {} of {} bytes of the bank region)",
-        super::escaped(&crate::cli::output::shown(&args.output)),
+        super::report::escaped(&crate::cli::output::shown(&args.output)),
         slots,
         image.len(),
         bank::REGION_LEN
@@ -57,10 +57,10 @@ pub(crate) fn build(
     layout: Option<&Path>,
     bank_name: &Path,
 ) -> anyhow::Result<(Vec<u8>, usize)> {
-    let layout = super::layout(layout)?;
+    let layout = super::input::layout(layout)?;
     let target = layout.geometry_hash();
     if stimuli.len() > usize::from(bank::MAX_SLOTS) {
-        return Err(super::usage(format!(
+        return Err(super::report::usage(format!(
             "{}: {} stimuli, but a bank holds at most {} slots",
             bank_name.display(),
             stimuli.len(),
@@ -70,7 +70,7 @@ pub(crate) fn build(
     let files = stimuli
         .iter()
         .map(|path| {
-            let bytes = super::read_input(path)?;
+            let bytes = super::input::read_input(path)?;
             check_fits(&bytes, path, target, layout.id())?;
             Ok(bytes)
         })
@@ -91,9 +91,9 @@ fn check_fits(bytes: &[u8], path: &Path, target: u32, target_name: &str) -> anyh
             anyhow::anyhow!(
                 "{name}: compiled for layout \"{}\" (geometry {:#010x}), but the bank is for \
                  layout \"{}\" (geometry {target:#010x}); compile it with that layout (--layout)",
-                super::escaped(h.layout),
+                super::report::escaped(h.layout),
                 h.layout_hash,
-                super::escaped(target_name)
+                super::report::escaped(target_name)
             )
         }),
         Err(Error::InvalidField("channels")) => {

@@ -72,7 +72,7 @@ pub struct Args {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     check_outputs(args)?;
     let config = args.config.resolve()?;
-    let layout = super::layout(args.layout.as_deref())?;
+    let layout = super::input::layout(args.layout.as_deref())?;
     let opts = CompileOptions {
         config,
         layout,
@@ -86,17 +86,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let out = default_output(args, one)?;
             let r = compile_one(one, &out, args.report.as_deref(), args, &opts)?;
             for w in &r.warnings {
-                super::warn(one, &super::warning::describe(w));
+                super::report::warn(one, &super::warning::describe(w));
             }
             // Named as in every message (`-` is standard input or output).
             let (input, output) = (
-                PathBuf::from(super::input_name(one)),
+                PathBuf::from(super::input::input_name(one)),
                 PathBuf::from(crate::cli::output::shown(&out)),
             );
-            eprintln!("{}", super::escaped(&summary_line(&input, &output, &r)));
+            eprintln!(
+                "{}",
+                super::report::escaped(&summary_line(&input, &output, &r))
+            );
             Ok(())
         }
-        (None, _) => Err(super::usage(format!(
+        (None, _) => Err(super::report::usage(format!(
             "{} recordings given: use --out-dir DIR to compile several",
             args.recordings.len()
         ))),
@@ -108,7 +111,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 fn default_output(args: &Args, recording: &Path) -> anyhow::Result<PathBuf> {
     match &args.output {
         Some(out) => Ok(out.clone()),
-        None if crate::cli::output::is_stdio(recording) => Err(super::usage(
+        None if crate::cli::output::is_stdio(recording) => Err(super::report::usage(
             "reading the recording from standard input: give -o FILE (or -o - for standard output)",
         )),
         None => Ok(recording.with_extension("touch")),
@@ -142,7 +145,7 @@ fn check_outputs(args: &Args) -> anyhow::Result<()> {
         (None, _) => Ok(()),
         (Some(dir), recordings) => {
             if recordings.iter().any(|r| crate::cli::output::is_stdio(r)) {
-                return Err(super::usage(
+                return Err(super::report::usage(
                     "standard input (-) cannot be part of a batch: compile it alone with -o",
                 ));
             }
@@ -169,7 +172,7 @@ fn check_stems(recordings: &[PathBuf], dir: &Path) -> anyhow::Result<()> {
     let mut stems: BTreeMap<String, &Path> = BTreeMap::new();
     for r in recordings {
         if let Some(first) = stems.insert(stem(r), r) {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "{} and {} would both compile to {}",
                 first.display(),
                 r.display(),
@@ -192,7 +195,7 @@ fn compile_one(
         name: args.name.clone().unwrap_or_else(|| stem(input)),
         ..opts.clone()
     };
-    let recording = super::load_recording(input)?;
+    let recording = super::input::load_recording(input)?;
     super::input::check_file_sampling(&recording, &opts.config, &opts.metadata)?;
     let compiled = compile_owned(recording, &opts)
         .with_context(|| format!("{}: cannot compile", input.display()))?;
@@ -247,7 +250,7 @@ fn batch(
     let results: Vec<anyhow::Result<Report>> = recordings
         .par_iter()
         .map(|input| {
-            bar.set_message(super::escaped(&input.display().to_string()));
+            bar.set_message(super::report::escaped(&input.display().to_string()));
             let name = stem(input);
             let out = dir.join(format!("{name}.touch"));
             let report = args
@@ -270,7 +273,7 @@ fn batch(
         .collect();
     bar.finish_and_clear();
     for (input, w) in warnings.into_inner().unwrap_or_default() {
-        super::warn(&input, &w);
+        super::report::warn(&input, &w);
     }
     let mut w = crate::cli::output::Output::stdout();
     write_summary(&mut w, recordings, &results)?;
@@ -278,7 +281,7 @@ fn batch(
     let failed = results.iter().filter(|r| r.is_err()).count();
     // Every error names its file (the recording, or the output that failed).
     for e in results.iter().filter_map(|r| r.as_ref().err()) {
-        super::print_error(e);
+        super::report::print_error(e);
     }
     anyhow::ensure!(
         failed == 0,
@@ -299,7 +302,7 @@ fn write_summary(
         "recording", "status", "seconds", "bytes", "rms % fs", "tracks", "coverage", "played", "ms"
     )?;
     for (input, r) in recordings.iter().zip(results) {
-        let name = super::escaped(&input.display().to_string());
+        let name = super::report::escaped(&input.display().to_string());
         match r {
             Ok(r) => writeln!(
                 w,

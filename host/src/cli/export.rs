@@ -82,14 +82,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let outs: Vec<_> = outputs.iter().map(|p| named("-o", p)).collect();
         refuse_overwrites(&inputs, &outs)?;
     }
-    let layout = super::layout(args.layout.as_deref())?;
-    let bytes = super::read_input(&args.file)?;
-    let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    let layout = super::input::layout(args.layout.as_deref())?;
+    let bytes = super::input::read_input(&args.file)?;
+    let stimulus = super::input::stimulus_in(&bytes, &args.file, args.slot)?;
     super::input::warn_if_unplayable(&args.file, &stimulus);
-    let name = super::input_name(&args.file);
+    let name = super::input::input_name(&args.file);
     let playback = touchc_export::play(&stimulus, &layout).with_context(|| name.clone())?;
     if let Some(f) = playback.fault {
-        super::warn(&args.file, &touchc::viz::describe_fault(f));
+        super::report::warn(&args.file, &touchc::viz::describe_fault(f));
     }
     let exported = touchc_export::export(
         &playback,
@@ -105,7 +105,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_atomic(path, &file.bytes)?;
     }
     let line = summary(&name, &outputs, &playback, &exported, format);
-    eprintln!("{}", super::escaped(&line));
+    eprintln!("{}", super::report::escaped(&line));
     Ok(())
 }
 
@@ -118,14 +118,14 @@ fn checked_pick(args: &Args, format: Format) -> anyhow::Result<Option<Pick>> {
         (None, false) => None,
     };
     if pick.is_some() && !format.single_signal() {
-        return Err(super::usage(format!(
+        return Err(super::report::usage(format!(
             "--channel and --mix are for --to haptic and --to ahap: a .{} file holds every channel",
             format.extension()
         )));
     }
     if let Some(c) = args.channel {
         if c >= touch_protocol::CHANNELS {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "--channel {c}: the sleeve has channels 0 to {}",
                 touch_protocol::CHANNELS - 1
             )));
@@ -133,13 +133,13 @@ fn checked_pick(args: &Args, format: Format) -> anyhow::Result<Option<Pick>> {
     }
     if let Some(hz) = args.resonance_hz {
         if format != Format::Hjif {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "--resonance-hz is for --to hjif: a .{} file has no device description",
                 format.extension()
             )));
         }
         if !(1.0..=MAX_RESONANCE_HZ).contains(&hz) {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "--resonance-hz {}: give the resonance in Hz, 1 to {}",
                 touchc_model::display::Shortest(hz),
                 touchc_model::display::Shortest(MAX_RESONANCE_HZ)
@@ -163,7 +163,7 @@ fn output_paths(args: &Args, format: Format, every_channel: bool) -> anyhow::Res
     let base = match &args.output {
         Some(p) => p.clone(),
         None if is_stdio(&args.file) => {
-            return Err(super::usage(
+            return Err(super::report::usage(
                 "the stimulus comes from standard input: name the output with -o",
             ))
         }
@@ -173,7 +173,7 @@ fn output_paths(args: &Args, format: Format, every_channel: bool) -> anyhow::Res
         check_output_name(&base, format, suffixes.len() > 1)?;
     }
     if is_stdio(&base) && suffixes.len() > 1 {
-        return Err(super::usage(format!(
+        return Err(super::report::usage(format!(
             "--to {}: one file per actuator cannot go to standard output: give -o FILE, \
              --channel N or --mix",
             format.extension()
@@ -199,7 +199,7 @@ fn check_output_name(out: &Path, format: Format, per_channel: bool) -> anyhow::R
     if let Some(ext) = out.extension().and_then(|e| e.to_str()) {
         let ext = ext.to_ascii_lowercase();
         if ext != want && KNOWN_EXTENSIONS.contains(&ext.as_str()) {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "-o {}: a .{ext} name for a --to {want} file; name it .{want}",
                 out.display()
             )));
@@ -207,7 +207,7 @@ fn check_output_name(out: &Path, format: Format, per_channel: bool) -> anyhow::R
     }
     let special = std::fs::metadata(out).is_ok_and(|m| !m.is_file() && !m.is_dir());
     if per_channel && special {
-        return Err(super::usage(format!(
+        return Err(super::report::usage(format!(
             "-o {}: --to {want} writes one file per actuator beside it, and it is a device \
              or a pipe: give --channel N or --mix for one file",
             out.display()

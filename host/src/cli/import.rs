@@ -41,8 +41,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         inputs.extend(args.layout.as_deref().map(|p| named("--layout", p)));
         refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
     }
-    let layout = super::layout(args.layout.as_deref())?;
-    let input = super::input_name(&args.file);
+    let layout = super::input::layout(args.layout.as_deref())?;
+    let input = super::input::input_name(&args.file);
     // As `compile` names what it reads from standard input.
     let name = args.name.clone().unwrap_or_else(|| match &args.file {
         f if is_stdio(f) => "stdin".into(),
@@ -56,7 +56,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .take_while(|(i, c)| i + c.len_utf8() <= touch_protocol::stimulus::MAX_NAME_LEN)
         .map(|(_, c)| c)
         .collect();
-    let bytes = super::read_input(&args.file)?;
+    let bytes = super::input::read_input(&args.file)?;
     let device = DeviceConfig::default();
     let full_scale_a = f64::from(device.full_scale_ma) / 1000.0;
     let imported = hjif::import(&bytes, full_scale_a).with_context(|| input.clone())?;
@@ -90,7 +90,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let seconds = imported.signal.len() as f64 / 1000.0;
     eprintln!(
         "{}",
-        super::escaped(&format!(
+        super::report::escaped(&format!(
             "touchc: {input} -> {}: {seconds:.2} s, {} bytes ({:.0} B/s), keyframes every {} ms, \
              error {:.3}% RMS / {:.3}% max of full scale against the file's curves",
             shown(&args.output),

@@ -6,7 +6,9 @@ use std::path::Path;
 
 use anyhow::Context;
 
-use super::input_name;
+use touch_protocol::{Bank, Stimulus};
+
+use super::report::{message, usage};
 
 /// The most bytes read from a stream (standard input, a pipe, a device) for one
 /// stimulus, bank or `.hjif` file: 512 MiB, far beyond what `touchc` writes (a bank
@@ -132,7 +134,7 @@ pub(crate) fn warn_if_unplayable(path: &Path, stimulus: &touch_protocol::Stimulu
         return;
     }
     let limits = stimulus.limits().min(device.limits);
-    super::warn(
+    super::report::warn(
         path,
         &format!(
             "the stimulus can never play: its limits (peak {} mA, slew {} mA/ms, with the \
@@ -167,5 +169,58 @@ pub(crate) fn rounded(text: String) -> String {
     match text.parse::<f64>() {
         Ok(v) if text.len() > 8 => format!("{v:.3}, rounded"),
         _ => text,
+    }
+}
+
+/// The actuator layout of a `--layout FILE` option, or the paper's sleeve without one.
+/// A layout file that cannot be read or is not a layout is a usage error, like a
+/// `--config` file: both are how the command was called.
+pub(crate) fn layout(path: Option<&Path>) -> anyhow::Result<touchc_model::layout::Layout> {
+    Ok(match path {
+        Some(path) => touchc_model::layout::Layout::load(path)
+            .map_err(|e| usage(message(&anyhow::Error::new(e))))?,
+        None => touchc_model::layout::Layout::paper(),
+    })
+}
+
+/// How an input path is named in messages (`-` is standard input).
+pub(crate) fn input_name(path: &Path) -> String {
+    if crate::cli::output::is_stdio(path) {
+        "standard input".into()
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// The stimulus in `bytes`: the file itself, or slot `slot` (`--slot`, 0 when not
+/// given) when it is a bank. A `--slot` above 0 on a stimulus is a usage error: a
+/// stimulus is its own only slot, and ignoring it would let a mistake pass.
+pub(crate) fn stimulus_in<'a>(
+    bytes: &'a [u8],
+    path: &Path,
+    slot: Option<usize>,
+) -> anyhow::Result<Stimulus<'a>> {
+    let name = input_name(path);
+    if bytes.starts_with(&touch_protocol::bank::MAGIC) {
+        let bank = Bank::decode(bytes).with_context(|| format!("{name}: not a valid bank"))?;
+        let slot = slot.unwrap_or(0);
+        if slot >= bank.len() {
+            anyhow::bail!(
+                "{name}: no slot {slot}: the bank has {} slot(s), 0 to {} (--slot)",
+                bank.len(),
+                bank.len() - 1
+            );
+        }
+        bank.slot(slot)
+            .with_context(|| format!("{name}: slot {slot}"))
+    } else if let Some(slot) =
+        slot.filter(|&s| s > 0 && bytes.starts_with(&touch_protocol::stimulus::MAGIC))
+    {
+        Err(usage(format!(
+            "--slot {slot}: {name} is a stimulus, not a bank; --slot picks a stimulus out of \
+             a bank"
+        )))
+    } else {
+        Stimulus::decode(bytes).with_context(|| format!("{name}: not a valid stimulus"))
     }
 }

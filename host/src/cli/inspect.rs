@@ -83,8 +83,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         &[named("the file", &args.file)],
         &[named("-o", &args.output)],
     )?;
-    let bytes = super::read_input(&args.file)?;
-    let name = super::input_name(&args.file);
+    let bytes = super::input::read_input(&args.file)?;
+    let name = super::input::input_name(&args.file);
     let report = if bytes.starts_with(&bank::MAGIC) {
         let bank = Bank::decode(&bytes).with_context(|| format!("{name}: not a valid bank"))?;
         Report::Bank(BankReport {
@@ -170,7 +170,7 @@ fn write_stimulus(w: &mut impl Write, s: &StimulusReport) -> std::io::Result<()>
     writeln!(
         w,
         "{} (stimulus v{}): {:.3} s of keyframes (plays {:.3} s with the {} ms ramp down), {} keyframes every {} ms, {} bytes ({} B/s), CRC {}",
-        super::escaped(&s.name),
+        super::report::escaped(&s.name),
         s.version,
         s.duration_s,
         s.duration_s + f64::from(s.ramp_ms) / 1000.0,
@@ -188,7 +188,7 @@ fn write_stimulus(w: &mut impl Write, s: &StimulusReport) -> std::io::Result<()>
         s.full_scale_ma,
         s.resolution_ma,
         s.ramp_ms,
-        super::escaped(&s.layout),
+        super::report::escaped(&s.layout),
         s.layout_hash,
         l.peak_ma,
         l.slew_ma_per_ms,

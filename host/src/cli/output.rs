@@ -323,17 +323,17 @@ pub fn refuse_overwrites(inputs: &[Named<'_>], outputs: &[Named<'_>]) -> anyhow:
             continue;
         };
         if let Some(input) = by_id.get(&out_id) {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "{} {} is the same file as {} {}: writing it would destroy that input; \
                  choose another output",
                 out.label,
                 shown(out.path),
                 input.label,
-                super::input_name(input.path),
+                super::input::input_name(input.path),
             )));
         }
         if let Some(other) = written.get(&out_id) {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "{} {} and {} {} are the same file: one output would overwrite the other",
                 other.label,
                 shown(other.path),

@@ -377,7 +377,7 @@ impl ConfigArgs {
             .map(|t| {
                 format!(
                     "--set {} is not applied to --preset {}: `{}` is off there",
-                    super::clip(&self.set[t.set]),
+                    super::report::clip(&self.set[t.set]),
                     preset.name(),
                     t.table
                 )
@@ -401,7 +401,7 @@ impl ConfigArgs {
     /// [`Self::resolve_on`] with `sets` in place of the `--set`s given.
     fn resolve_with(&self, preset: Preset, sets: &[String]) -> anyhow::Result<Config> {
         let config = layered(preset, self.config.as_deref(), sets, &self.knobs)
-            .map_err(|e| super::usage(super::message(&e)))?;
+            .map_err(|e| super::report::usage(super::report::message(&e)))?;
         self.check_sampling()?;
         Ok(config)
     }
@@ -414,7 +414,7 @@ impl ConfigArgs {
             ("--pitch-mm", self.pitch_mm, PITCH_MM_RANGE, "mm"),
         ] {
             if let Some(v) = value.filter(|v| !range.contains(v)) {
-                return Err(super::usage(format!(
+                return Err(super::report::usage(format!(
                     "{flag} {} is out of range: must be {} to {} {unit}",
                     Shortest(v),
                     Shortest(*range.start()),
@@ -464,16 +464,21 @@ fn layered(
         checked.with_context(|| format!("{}: invalid config", p.display()))?;
     }
     for set in sets {
-        let (key, value) = set
-            .split_once('=')
-            .with_context(|| format!("--set {}: expected SECTION.KEY=VALUE", super::clip(set)))?;
-        let (section, field) = key
-            .trim()
-            .split_once('.')
-            .with_context(|| format!("--set {}: expected SECTION.KEY=VALUE", super::clip(set)))?;
+        let (key, value) = set.split_once('=').with_context(|| {
+            format!(
+                "--set {}: expected SECTION.KEY=VALUE",
+                super::report::clip(set)
+            )
+        })?;
+        let (section, field) = key.trim().split_once('.').with_context(|| {
+            format!(
+                "--set {}: expected SECTION.KEY=VALUE",
+                super::report::clip(set)
+            )
+        })?;
         let doc = format!("[{section}]\n{field} = {value}\n");
         let over: toml::Table = toml::from_str(&doc)
-            .with_context(|| format!("--set {}: not a TOML value", super::clip(set)))?;
+            .with_context(|| format!("--set {}: not a TOML value", super::report::clip(set)))?;
         merge(&mut table, over);
     }
     for assignment in &knobs.0 {
@@ -483,7 +488,7 @@ fn layered(
         if sets.is_empty() {
             "invalid parameter".to_string()
         } else {
-            let sets: Vec<String> = sets.iter().map(|s| super::clip(s)).collect();
+            let sets: Vec<String> = sets.iter().map(|s| super::report::clip(s)).collect();
             format!("--set {}: invalid parameter", sets.join(" --set "))
         }
     });
@@ -491,7 +496,7 @@ fn layered(
         (Ok(config), _) => config,
         (Err(e), true) => return Err(e),
         (Err(e), false) => {
-            anyhow::bail!("{}; {}", super::message(&e), off.join("; "))
+            anyhow::bail!("{}; {}", super::report::message(&e), off.join("; "))
         }
     };
     config
@@ -714,7 +719,7 @@ mod tests {
             .unwrap()
             .resolve()
             .unwrap_err();
-        let text = super::super::message(&err);
+        let text = super::super::report::message(&err);
         assert!(text.contains("missing field `min_cells`"), "{text}");
         assert!(
             text.contains("`detect.split` is off under --preset paper")

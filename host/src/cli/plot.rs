@@ -30,7 +30,7 @@ pub struct Args {
 
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let Some(format) = Format::from_extension(&args.output) else {
-        return Err(super::usage(format!(
+        return Err(super::report::usage(format!(
             "{}: name the output .svg or .png to choose the format",
             args.output.display()
         )));
@@ -38,7 +38,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (min, max) = plot::SIDE_PX;
     for (flag, px) in [("--width", args.width), ("--height", args.height)] {
         if !(min..=max).contains(&px) {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "{flag} {px} is out of range: must be {min} to {max} px"
             )));
         }
@@ -47,15 +47,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         &[crate::cli::output::named("the stimulus", &args.file)],
         &[crate::cli::output::named("-o", &args.output)],
     )?;
-    let bytes = super::read_input(&args.file)?;
-    let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    let bytes = super::input::read_input(&args.file)?;
+    let stimulus = super::input::stimulus_in(&bytes, &args.file, args.slot)?;
     super::input::warn_if_unplayable(&args.file, &stimulus);
     let size = Size {
         width: args.width,
         height: args.height,
     };
     let image = plot::plot(&stimulus, &DeviceConfig::default(), format, size)
-        .with_context(|| format!("{}: cannot plot", super::input_name(&args.file)))?;
+        .with_context(|| format!("{}: cannot plot", super::input::input_name(&args.file)))?;
     write_atomic(&args.output, &image)?;
     Ok(())
 }

@@ -41,7 +41,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Some("gif") => true,
         Some("png") => false,
         _ => {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "{}: name the output .gif (animation) or .png (one frame)",
                 args.output.display()
             )))
@@ -55,10 +55,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
     }
     if args.every == 0 {
-        return Err(super::usage("--every must be at least 1"));
+        return Err(super::report::usage("--every must be at least 1"));
     }
     let config = args.config.resolve()?;
-    let layout = super::layout(args.layout.as_deref())?;
+    let layout = super::input::layout(args.layout.as_deref())?;
     // Whole frames (no crop) so every frame has its blurred map, streamed as the
     // compile does (the preview blurs each frame again as it draws it: an hour's movie
     // is 4.7 GB); scaled to the limits rather than refused, since a preview shows the
@@ -72,13 +72,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         metadata: args.config.overrides(),
         ..CompileOptions::default()
     };
-    let name = super::input_name(&args.recording);
-    let recording = super::load_recording(&args.recording)?;
+    let name = super::input::input_name(&args.recording);
+    let recording = super::input::load_recording(&args.recording)?;
     super::input::check_file_sampling(&recording, &opts.config, &opts.metadata)?;
     let compiled = compile(&recording, &opts).with_context(|| format!("{name}: cannot compile"))?;
     let rate = compiled.report.metadata.rate_hz.value;
     for w in &compiled.report.warnings {
-        super::warn(&args.recording, &super::warning::describe(w));
+        super::report::warn(&args.recording, &super::warning::describe(w));
     }
     let image = if gif {
         preview::gif(&compiled, &recording, args.every, rate)

@@ -41,7 +41,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let csv_out = args.csv.then(|| args.output.clone().unwrap_or("-".into()));
     if let (Some(csv), Some(wav)) = (&csv_out, &args.wav) {
         if crate::cli::output::is_stdio(csv) && crate::cli::output::is_stdio(wav) {
-            return Err(super::usage(
+            return Err(super::report::usage(
                 "the CSV and the WAV cannot both go to standard output: give -o FILE or --wav FILE",
             ));
         }
@@ -56,15 +56,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(path) = &args.wav {
         let (min, max) = wav::RATE_HZ;
         if !(min..=max).contains(&args.rate) {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "--wav {}: --rate {} Hz is out of range: must be {min} to {max} Hz",
                 crate::cli::output::shown(path),
                 args.rate
             )));
         }
     }
-    let bytes = super::read_input(&args.file)?;
-    let stimulus = super::stimulus_in(&bytes, &args.file, args.slot)?;
+    let bytes = super::input::read_input(&args.file)?;
+    let stimulus = super::input::stimulus_in(&bytes, &args.file, args.slot)?;
     super::input::warn_if_unplayable(&args.file, &stimulus);
     let device = DeviceConfig::default();
     let mut fault = None;
@@ -80,7 +80,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         fault = ticks.fault();
     }
     if let Some(f) = fault {
-        super::warn(&args.file, &describe_fault(f));
+        super::report::warn(&args.file, &describe_fault(f));
     }
     Ok(())
 }

@@ -104,7 +104,7 @@ pub struct Args {
 /// A selection error as the command line words it: bad settings are usage errors.
 fn select_error(e: SelectError) -> anyhow::Error {
     match e {
-        SelectError::Setting(m) => super::usage(m),
+        SelectError::Setting(m) => super::report::usage(m),
         e => e.into(),
     }
 }
@@ -125,13 +125,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let data_path = args.data.as_deref().context("no data set given")?;
     check_outputs(args, data_path)?;
     if args.folds < 2 {
-        return Err(super::usage(format!(
+        return Err(super::report::usage(format!(
             "--folds {}: cross-validation needs at least 2",
             args.folds
         )));
     }
     if args.top == 0 {
-        return Err(super::usage(
+        return Err(super::report::usage(
             "--top 0: list at least one recording per class",
         ));
     }
@@ -236,7 +236,7 @@ fn check_outputs(args: &Args, data: &Path) -> anyhow::Result<()> {
     outputs.extend(args.model_file.as_deref().map(|p| named("--model-file", p)));
     if let Some(dir) = &args.output {
         if dir == data {
-            return Err(super::usage(format!(
+            return Err(super::report::usage(format!(
                 "-o {}: the output directory is the data set",
                 dir.display()
             )));
@@ -327,7 +327,7 @@ fn score_new(args: &Args) -> anyhow::Result<()> {
         .model_file
         .as_deref()
         .context("--score needs --model-file")?;
-    let bytes = super::read_input(path)?;
+    let bytes = super::input::read_input(path)?;
     let model = Model::from_json(path, &bytes)?;
     let mut samples = Vec::new();
     for p in &args.score {

@@ -115,7 +115,7 @@ fn check(args: &Args) -> anyhow::Result<()> {
         if ok {
             Ok(())
         } else {
-            Err(super::usage(message))
+            Err(super::report::usage(message))
         }
     };
     ensure(
@@ -202,7 +202,7 @@ fn report(args: &Args, recording: &ndarray::Array3<f64>, contacts: usize, npz: b
     let (frames, rows, cols) = recording.dim();
     eprintln!(
         "touchc: wrote {} ({frames} frames of {rows}x{cols} at {rate_hz} Hz, {} contacts)",
-        super::escaped(&crate::cli::output::shown(&args.output)),
+        super::report::escaped(&crate::cli::output::shown(&args.output)),
         contacts
     );
     // What `compile` assumes of a file that does not say (the published sleeve's).

@@ -53,7 +53,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         refuse_overwrites(&inputs, &[named("-o", &args.output)])?;
     }
     let cfg = args.config.resolve()?;
-    let rec = super::load_recording(&args.recording)?;
+    let rec = super::input::load_recording(&args.recording)?;
     super::input::check_file_sampling(&rec, &cfg, &args.config.overrides())?;
     // Streaming, as the compile does: neither the blurred movie nor the detections are
     // printed, so neither is kept.
@@ -95,7 +95,7 @@ fn write_table(w: &mut impl Write, rec: &Recording, out: &TrackOutput) -> std::i
     writeln!(
         w,
         "{}: {t} frames of {r} x {c} cells",
-        super::escaped(rec.name())
+        super::report::escaped(rec.name())
     )?;
     writeln!(
         w,

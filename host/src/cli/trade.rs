@@ -81,7 +81,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
         if n == 0 {
-            return Err(super::usage("--threads must be at least 1"));
+            return Err(super::report::usage("--threads must be at least 1"));
         }
         builder = builder.num_threads(n);
     }
@@ -92,7 +92,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // clap counts the unset `--cases` flag as given (its default), so `requires` on
     // `--seeds` would never refuse.
     if args.seeds.is_some() {
-        return Err(super::usage(
+        return Err(super::report::usage(
             "--seeds draws the synthetic cases: use it with --cases",
         ));
     }
@@ -101,7 +101,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     let mut failed = 0;
     for (i, path) in args.recordings.iter().enumerate() {
-        let rec = super::load_recording(path)?;
+        let rec = super::input::load_recording(path)?;
         let base = CompileOptions {
             metadata: args.config.overrides(),
             ..CompileOptions::default()
@@ -110,10 +110,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Ok(r) => rows.extend(r),
             Err(e) => {
                 failed += 1;
-                super::print_error(
-                    &anyhow::Error::new(e)
-                        .context(format!("{}: cannot compile", super::input_name(path))),
-                );
+                super::report::print_error(&anyhow::Error::new(e).context(format!(
+                    "{}: cannot compile",
+                    super::input::input_name(path)
+                )));
             }
         }
     }
@@ -142,7 +142,7 @@ fn refuse_outputs_over_inputs(args: &Args) -> anyhow::Result<()> {
 /// The truth files of `--truth`, one per recording (none without the flag).
 fn truths(args: &Args) -> anyhow::Result<Vec<Truth>> {
     if !args.truth.is_empty() && args.truth.len() != args.recordings.len() {
-        return Err(super::Usage(format!(
+        return Err(super::report::Usage(format!(
             "--truth needs one file per recording: {} recordings, {} truth files",
             args.recordings.len(),
             args.truth.len()
@@ -229,7 +229,13 @@ fn far_from_exact(rows: &[TradeRow]) -> Vec<String> {
     let far: Vec<String> = rows
         .iter()
         .filter(|r| r.max_vs_exact_pct > 100.0)
-        .map(|r| format!("{} under {}", super::escaped(&r.input), r.preset.name()))
+        .map(|r| {
+            format!(
+                "{} under {}",
+                super::report::escaped(&r.input),
+                r.preset.name()
+            )
+        })
         .collect();
     if !far.is_empty() {
         notes.push(format!(
@@ -242,7 +248,13 @@ fn far_from_exact(rows: &[TradeRow]) -> Vec<String> {
     let apart: Vec<String> = rows
         .iter()
         .filter(|r| r.tracks_agree_pct == 0.0 && r.preset != touchc_model::config::Preset::Exact)
-        .map(|r| format!("{} under {}", super::escaped(&r.input), r.preset.name()))
+        .map(|r| {
+            format!(
+                "{} under {}",
+                super::report::escaped(&r.input),
+                r.preset.name()
+            )
+        })
         .collect();
     if !apart.is_empty() {
         notes.push(format!(
@@ -260,7 +272,7 @@ fn far_from_exact(rows: &[TradeRow]) -> Vec<String> {
 fn run_cases(args: &Args) -> anyhow::Result<()> {
     let seeds = args.seeds.unwrap_or(1);
     if seeds == 0 {
-        return Err(super::usage("--seeds must be at least 1"));
+        return Err(super::report::usage("--seeds must be at least 1"));
     }
     let presets: Vec<Preset> = match args.config.preset {
         Some(p) => vec![p],
@@ -454,7 +466,7 @@ fn lines(rows: &[TradeRow], split: bool) -> impl Iterator<Item = Vec<String>> + 
 /// A line for a terminal: the recording's name (from its path) escaped.
 fn shown(mut line: Vec<String>) -> Vec<String> {
     if let Some(name) = line.first_mut() {
-        *name = super::escaped(name);
+        *name = super::report::escaped(name);
     }
     line
 }

@@ -2,7 +2,21 @@
 //! 1; argument mistakes exit 2 before any port is opened. (The link itself is tested
 //! against the firmware's server in the end-to-end crate and on the twin.)
 
-use crate::bin::{stderr, touchc};
+use std::process::Output;
+
+use crate::bin::{command, stderr};
+
+/// `touchc ARGS...` with a temporary directory of its own, where no twin serves: a twin
+/// running on this machine, or the link a killed one left behind, must not answer for
+/// a sleeve that is not there.
+fn touchc(args: &[&str]) -> Output {
+    let tmp = tempfile::tempdir().unwrap();
+    command()
+        .args(args)
+        .env("TMPDIR", tmp.path())
+        .output()
+        .unwrap()
+}
 
 /// Every subcommand, with arguments that parse.
 const SUBCOMMANDS: &[&[&str]] = &[

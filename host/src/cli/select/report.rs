@@ -111,7 +111,7 @@ pub(super) fn tables(
     let classes = &data.listing.classes;
     let labels = data.labels();
     for (k, c) in classes.iter().enumerate() {
-        writeln!(w, "{}:", super::super::escaped(c))?;
+        writeln!(w, "{}:", super::super::report::escaped(c))?;
         for (rank, &i) in top[k].iter().enumerate() {
             let note = if labels[i] == k {
                 String::new()
@@ -123,8 +123,8 @@ pub(super) fn tables(
                 "  {:>2}. {:.3}  {}{}",
                 rank + 1,
                 sel.scores[i][k],
-                super::super::escaped(&name(data, i)),
-                super::super::escaped(&note)
+                super::super::report::escaped(&name(data, i)),
+                super::super::report::escaped(&note)
             )?;
         }
     }
@@ -140,7 +140,7 @@ pub(super) fn tables(
         write!(
             w,
             " {:>width$}",
-            super::super::escaped(&c.chars().take(width).collect::<String>())
+            super::super::report::escaped(&c.chars().take(width).collect::<String>())
         )?;
     }
     writeln!(w)?;
@@ -148,7 +148,7 @@ pub(super) fn tables(
         write!(
             w,
             "{:width$}",
-            super::super::escaped(&c.chars().take(width).collect::<String>())
+            super::super::report::escaped(&c.chars().take(width).collect::<String>())
         )?;
         for n in &sel.metrics.confusion[k] {
             write!(w, " {n:>width$}")?;

@@ -11,7 +11,7 @@ use touchc_link::serial;
 use touchc_link::{DeviceInfo, SlotEntry};
 
 use super::{connect, describe, open, running_twin, USB_IDS};
-use crate::cli::escaped;
+use crate::cli::report::escaped;
 
 pub(super) fn list(probe: bool) -> anyhow::Result<()> {
     let mut found = serial::candidates(USB_IDS).context("cannot list the serial ports")?;

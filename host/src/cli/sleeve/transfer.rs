@@ -10,12 +10,12 @@ use touch_protocol::{bank, Stimulus};
 use touchc_link::{ClientError, Progress};
 
 use super::{bar, connect, describe, limit_name, open, Link, Sleeve};
-use crate::cli::{escaped, usage};
+use crate::cli::report::{escaped, usage};
 
 /// The image to upload: a bank file as it is, or the stimuli packed into one.
 fn image_of(files: &[PathBuf], layout: Option<&Path>) -> anyhow::Result<Vec<u8>> {
     if let [one] = files {
-        let bytes = crate::cli::read_input(one)?;
+        let bytes = crate::cli::input::read_input(one)?;
         if bytes.starts_with(&bank::MAGIC) {
             if layout.is_some() {
                 return Err(usage(
@@ -162,12 +162,16 @@ pub(super) fn abort(port: Option<&Path>) -> anyhow::Result<()> {
 }
 
 pub(super) fn stream(port: Option<&Path>, file: &Path) -> anyhow::Result<()> {
-    let bytes = crate::cli::read_input(file)?;
-    let stimulus = Stimulus::decode(&bytes)
-        .with_context(|| format!("{}: not a valid stimulus", crate::cli::input_name(file)))?;
+    let bytes = crate::cli::input::read_input(file)?;
+    let stimulus = Stimulus::decode(&bytes).with_context(|| {
+        format!(
+            "{}: not a valid stimulus",
+            crate::cli::input::input_name(file)
+        )
+    })?;
     let Link { port, mut client } = connect(port)?;
     let info = client.info().map_err(|e| describe(e, &port, "info"))?;
-    same_layout(&stimulus, &info, &crate::cli::input_name(file))?;
+    same_layout(&stimulus, &info, &crate::cli::input::input_name(file))?;
     let bar = bar(u64::from(stimulus.header().keyframe_count), "keyframes");
     let r = client
         .stream(&stimulus, |p: Progress| bar.set_position(p.done))
@@ -189,7 +193,7 @@ pub(super) fn stream(port: Option<&Path>, file: &Path) -> anyhow::Result<()> {
                 eprintln!(
                     "touchc: {}: streamed {}",
                     port.display(),
-                    crate::cli::input_name(file)
+                    crate::cli::input::input_name(file)
                 );
                 return Ok(());
             }

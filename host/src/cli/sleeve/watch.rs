@@ -10,7 +10,7 @@ use touch_protocol::link::{Event, Gesture, Source, StreamStop};
 use touchc_link::Stamped;
 
 use super::{connect, describe, limit_name, source_json, unix_s, Link};
-use crate::cli::usage;
+use crate::cli::report::usage;
 
 pub(super) fn status(
     port: Option<&Path>,

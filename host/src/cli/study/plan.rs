@@ -83,7 +83,7 @@ pub struct Plan {
 
 /// A plan mistake: the file, the key and the problem.
 fn mistake(path: &Path, key: &str, problem: impl std::fmt::Display) -> anyhow::Error {
-    crate::cli::usage(format!("{}: key `{key}`: {problem}", path.display()))
+    crate::cli::report::usage(format!("{}: key `{key}`: {problem}", path.display()))
 }
 
 /// The key a TOML error points at: the `name = ` of its line or its table's header,
@@ -119,7 +119,7 @@ impl Plan {
     /// Reads and checks `path`; a mistake is a usage error (exit status 2).
     pub fn load(path: &Path) -> anyhow::Result<Plan> {
         let text = std::fs::read_to_string(path)
-            .map_err(|e| crate::cli::usage(format!("{}: {e}", path.display())))?;
+            .map_err(|e| crate::cli::report::usage(format!("{}: {e}", path.display())))?;
         let f: PlanFile = toml::from_str(&text).map_err(|e| {
             let what = e.message().lines().next().unwrap_or("").to_string();
             mistake(path, &key_at(&text, &e), what)

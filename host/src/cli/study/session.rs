@@ -382,7 +382,7 @@ pub fn run(a: &RunArgs) -> anyhow::Result<()> {
             .chars()
             .all(|c| c.is_alphanumeric() || c == '_' || c == '-')
     {
-        return Err(crate::cli::usage(format!(
+        return Err(crate::cli::report::usage(format!(
             "--participant {who:?}: use letters, digits, _ and -"
         )));
     }
@@ -392,7 +392,7 @@ pub fn run(a: &RunArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| PathBuf::from(format!("{who}.jsonl")));
     let exists = log_path.exists();
     if exists && !a.resume {
-        return Err(crate::cli::usage(format!(
+        return Err(crate::cli::report::usage(format!(
             "{}: the log exists; continue it with --resume",
             log_path.display()
         )));
