@@ -191,3 +191,27 @@ fn the_twins_test_counts_are_its_files() {
         count("test_usb.py")
     );
 }
+
+#[test]
+fn the_emoji_tables_lengths_are_what_the_stimuli_play() {
+    let text = doc("examples/emoji/README.md");
+    let mut rows = 0;
+    for row in text
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.contains(" s | "))
+    {
+        let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+        let (name, length) = (cells[2], cells[5]);
+        let touch = format!("../examples/emoji/{name}.touch");
+        let out = command()
+            .args(["inspect", &touch, "--json"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let played = info["duration_s"].as_f64().unwrap() + info["ramp_ms"].as_f64().unwrap() / 1e3;
+        assert_eq!(length, format!("{played:.1} s"), "{row}");
+        rows += 1;
+    }
+    assert_eq!(rows, 6, "the six emoji's rows");
+}
