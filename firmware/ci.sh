@@ -121,6 +121,23 @@ cargo clippy --profile "$profile" --no-deps --locked "${uart_only[@]}" -- -D war
 cargo clippy --profile "$profile" --no-deps --locked --no-default-features \
     --features hw,dac-outputs,button-per-slot -- -D warnings
 elf="$root/target/$target/$profile/sleeve-firmware"
+# The docs that quote the two builds' flash and static RAM, as "64,052 B".
+quoting_docs=(README.md docs/performance.md docs/hardware.md firmware/README.md)
+# Fails unless every doc that quotes the firmware's size quotes this build's figures
+# (the docs' figures are the ones measured here, not an earlier build's).
+docs_quote() {
+    local name=$1 figure doc
+    shift
+    for figure in "$@"; do
+        figure="$(printf '%d' "$figure" | sed -e ':a' -e 's/\B[0-9]\{3\}\b/,&/' -e 'ta') B"
+        for doc in "${quoting_docs[@]}"; do
+            if ! grep -q "$figure" "$root/$doc"; then
+                echo "$doc does not quote the $name build's $figure, as measured above: update it" >&2
+                exit 1
+            fi
+        done
+    done
+}
 # Builds with the given cargo feature arguments; fails when the ELF is over either
 # budget or its stack is not below its statics.
 build_within_budget() {
@@ -133,6 +150,7 @@ build_within_budget() {
         echo "firmware ($name) over its flash or RAM budget" >&2
         exit 1
     fi
+    docs_quote "$name" "$flash" "$ram"
     # flip-link: the stack must sit below the statics (it grows down into the RAM boundary).
     nm="$(find "$(rustc --print sysroot)/lib/rustlib" -name llvm-nm -type f -print -quit 2>/dev/null)"
     if [ -n "$nm" ]; then

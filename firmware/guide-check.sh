@@ -9,7 +9,9 @@
 # A `touchc sleeve` line runs as written but on a port that does not exist (a sleeve
 # on this machine's cable is never touched): it must read its files, then say in one
 # line that no sleeve is attached and exit 1, with the `touchc` the guide installed.
-# The twin runs `touchc sleeve` against the release firmware.
+# The twin runs `touchc sleeve` against the release firmware. Afterwards the clone's
+# `git status` must be empty, and the installed touchc is measured against its size
+# budget (scripts/installed-size.sh).
 # `cargo install --path ...` installs into the clone's scratch folder, which is first
 # on PATH for the blocks that follow; a `cargo install` of a tool already on PATH is
 # skipped, said so.
@@ -161,5 +163,15 @@ for block in "${blocks[@]}"; do
         exit 1
     fi
 done
+# Following the guide leaves the checkout as it was: whatever its commands wrote there
+# (stimuli, banks, erased.bin) is covered by .gitignore.
+left="$(git -C "$clone" status --porcelain --untracked-files=all)"
+if [ -n "$left" ]; then
+    echo "firmware/README.md's commands left files in the checkout that .gitignore does not cover:" >&2
+    echo "$left" >&2
+    exit 1
+fi
+# The touchc the guide installed with `cargo install --path host`, against its budget.
+bash "$root/scripts/installed-size.sh" "$installed/bin/touchc"
 printf '\nguide check: %d blocks ran in a fresh clone; %d touchc sleeve commands ran without a sleeve; %d commands skipped (named above)\n' \
     "${#blocks[@]}" "$no_sleeve_checked" "$skipped"

@@ -92,6 +92,9 @@ impl Output {
         if is_stdio(path) {
             return Ok(Self::stdout());
         }
+        if super::stdio::stdout_was_closed() && super::stdio::names_stdout(path) {
+            return Err(fail(super::stdio::closed_error()));
+        }
         let target = resolve_links(path).map_err(fail)?;
         let existing = match std::fs::metadata(&target) {
             Ok(m) => Some(m),

@@ -72,6 +72,39 @@ fn a_closed_standard_output_is_an_error_not_a_success() {
     }
 }
 
+/// `-o /dev/stdout` and its other names reach descriptor 1, which the runtime reopened
+/// on `/dev/null` when it was closed: they must fail as `-o -` does, while an explicit
+/// `-o /dev/null` still succeeds.
+#[test]
+fn a_closed_standard_output_named_by_a_path_is_an_error_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let touch = stimulus(dir.path());
+    let t = s(&touch);
+    let rec = "../examples/tap_pat.npy";
+    let runs: [&[&str]; 6] = [
+        &["compile", rec, "-o", "/dev/stdout"],
+        &["compile", rec, "-o", "/proc/self/fd/1"],
+        &["compile", rec, "-o", "/dev/fd/1"],
+        &["render", t, "--csv", "-o", "/dev/stdout"],
+        &["render", t, "--wav", "/proc/self/fd/1"],
+        &["export", t, "--to", "hjif", "-o", "/dev/stdout"],
+    ];
+    for args in runs {
+        let out = shell(">&-", args, Duration::from_secs(120)).expect("finishes");
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains("it is closed"), "{args:?}: {err}");
+        assert!(!err.contains("->"), "{args:?} claims an output: {err}");
+    }
+    let out = shell(
+        ">&-",
+        &["compile", rec, "-o", "/dev/null"],
+        Duration::from_secs(120),
+    )
+    .expect("finishes");
+    assert_eq!(out.status.code(), Some(0), "-o /dev/null: {}", stderr(&out));
+}
+
 #[test]
 fn endless_inputs_end_in_an_error_at_once() {
     let dir = tempfile::tempdir().unwrap();

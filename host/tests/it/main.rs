@@ -41,6 +41,8 @@ mod cli_trade;
 mod cli_unix;
 mod cli_viz;
 mod compile;
+mod doc_figures;
+mod docs_commands;
 mod emoji_bank;
 mod export;
 mod extremes;
