@@ -32,6 +32,15 @@ fn cpu_s() -> f64 {
     }
 }
 
+/// The machine's one-minute load average (`/proc/loadavg`; "?" off Linux): on a shared
+/// machine it says how far the wall-clock columns are inflated.
+fn load() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|l| l.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "?".into())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let num = |i: usize, default: usize| -> Result<usize, Box<dyn std::error::Error>> {
@@ -63,12 +72,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let groups = data.groups();
     let folds = Folds::new(&data.labels(), groups.as_deref(), k, 1)?;
     println!(
-        "{} recordings of {:?}, {} classes ({mix:?}), {k} folds keeping each of 10 people whole, {} threads (generated in {:.1} s)",
+        "{} recordings of {:?}, {} classes ({mix:?}), {k} folds keeping each of 10 people whole, {} threads (generated in {:.1} s, load average {})",
         data.samples.len(),
         data.samples[0].frames.dim(),
         data.listing.classes.len(),
         rayon::current_num_threads(),
-        t0.elapsed().as_secs_f64()
+        t0.elapsed().as_secs_f64(),
+        load()
     );
     println!("| scorer | accuracy | macro-F1 | train s | score s | total s | CPU s |");
     println!("|---|---|---|---|---|---|---|");
@@ -111,5 +121,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             cpu_s() - cpu
         );
     }
+    println!("load average at the end: {}", load());
     Ok(())
 }
