@@ -73,9 +73,6 @@ pub enum SelectError {
     /// Training was stopped from outside (an interrupt).
     #[error("stopped before the end")]
     Cancelled,
-    /// The features scorer's regression could not be fitted (the solver failed).
-    #[error("the logistic regression: {0}")]
-    Fit(String),
     /// The network library failed.
     #[error("the network: {0}")]
     Network(String),

@@ -1,14 +1,9 @@
-//! Multinomial logistic regression on standardised features: the features scorer's
-//! model. Fitted by `linfa-logistic` (L-BFGS with a More-Thuente line search, from
-//! `argmin`); the fitted weights are kept here, so a saved model reads back without
-//! the crate's types and scores with a few lines. Convex and deterministic: every fit of
-//! the same data reaches the same optimum.
+//! Multinomial logistic regression on standardised features, fitted by L-BFGS: the
+//! features scorer's model. Small (classes x features weights), deterministic, and
+//! convex, so every fit of the same data reaches the same optimum.
 
-use linfa::prelude::Fit;
-use linfa_logistic::MultiLogisticRegression;
 use serde::{Deserialize, Serialize};
 
-use crate::SelectError;
 /// A fitted model: the standardisation and the weights.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Logistic {
@@ -22,16 +17,13 @@ pub struct Logistic {
     pub classes: usize,
 }
 
-/// The L2 penalty on the summed cross-entropy (biases not penalised): scikit-learn's
-/// default `C = 1` for its `LogisticRegression`.
-const ALPHA: f64 = 1.0;
+/// The L2 penalty's strength times the number of training recordings: scikit-learn's
+/// default (`C = 1`) for its `LogisticRegression`.
+const L2_TIMES_N: f64 = 1.0;
+/// L-BFGS memory.
+const MEMORY: usize = 10;
 /// Iterations at most; the fits here converge in a few hundred.
-const MAX_ITER: u64 = 1000;
-/// The gradient's norm at which a fit has converged (the loss is summed over the
-/// recordings, so this is tight for hundreds of them).
-const GRAD_TOL: f64 = 1e-5;
-/// The bias of a class the training set lacks: its probability about e^-50, never chosen.
-const ABSENT_BIAS: f64 = -50.0;
+const MAX_ITER: usize = 1000;
 
 fn softmax(z: &mut [f64]) {
     let m = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -50,9 +42,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl Logistic {
-    /// Fits rows `x` (each of the same length) with classes `y` (`< classes`); at least
-    /// two classes must be present.
-    pub fn fit(x: &[Vec<f64>], y: &[usize], classes: usize) -> Result<Self, SelectError> {
+    /// Fits rows `x` (each of the same length) with classes `y` (`< classes`).
+    pub fn fit(x: &[Vec<f64>], y: &[usize], classes: usize) -> Self {
         let d = x.first().map_or(0, Vec::len);
         let n = x.len().max(1) as f64;
         let mean: Vec<f64> = (0..d)
@@ -74,30 +65,11 @@ impl Logistic {
             weights: vec![0.0; classes * (d + 1)],
             classes,
         };
-        let z = ndarray_linfa::Array2::from_shape_fn((x.len(), d), |(i, j)| {
-            (x[i][j] - model.mean[j]) / model.scale[j]
-        });
-        let targets = ndarray_linfa::Array1::from_vec(y.to_vec());
-        let fitted = MultiLogisticRegression::default()
-            .alpha(ALPHA)
-            .max_iterations(MAX_ITER)
-            .gradient_tolerance(GRAD_TOL)
-            .fit(&linfa::Dataset::new(z, targets))
-            .map_err(|e| SelectError::Fit(e.to_string()))?;
-        // linfa's columns are the classes present, in order; a class the training set
-        // lacks keeps zero weights and a bias that rules it out.
-        let (params, intercept) = (fitted.params(), fitted.intercept());
-        let d1 = d + 1;
-        for k in 0..classes {
-            model.weights[k * d1 + d] = ABSENT_BIAS;
-        }
-        for (col, &k) in fitted.classes().iter().enumerate() {
-            for j in 0..d {
-                model.weights[k * d1 + j] = params[[j, col]];
-            }
-            model.weights[k * d1 + d] = intercept[col];
-        }
-        Ok(model)
+        let z: Vec<Vec<f64>> = x.iter().map(|r| model.standardised(r)).collect();
+        let l2 = L2_TIMES_N / n;
+        let objective = |w: &[f64], g: &mut [f64]| loss(w, g, &z, y, classes, l2);
+        model.weights = lbfgs(model.weights.clone(), objective);
+        model
     }
 
     fn standardised(&self, row: &[f64]) -> Vec<f64> {
@@ -122,6 +94,116 @@ impl Logistic {
     }
 }
 
+/// Mean cross-entropy plus the L2 penalty (not on the biases); its gradient into `g`.
+fn loss(w: &[f64], g: &mut [f64], z: &[Vec<f64>], y: &[usize], k: usize, l2: f64) -> f64 {
+    let n = z.len().max(1) as f64;
+    let d1 = z.first().map_or(1, Vec::len);
+    g.iter_mut().for_each(|v| *v = 0.0);
+    let mut f = 0.0;
+    let mut p = vec![0.0; k];
+    for (row, &label) in z.iter().zip(y) {
+        for (c, pc) in p.iter_mut().enumerate() {
+            *pc = dot(&w[c * d1..(c + 1) * d1], row);
+        }
+        softmax(&mut p);
+        f -= p[label].max(1e-300).ln();
+        for (c, pc) in p.iter().enumerate() {
+            let e = pc - f64::from(u8::from(c == label));
+            for (gj, zj) in g[c * d1..(c + 1) * d1].iter_mut().zip(row) {
+                *gj += e * zj;
+            }
+        }
+    }
+    f /= n;
+    for (j, gj) in g.iter_mut().enumerate() {
+        *gj /= n;
+        if j % d1 != d1 - 1 {
+            *gj += l2 * w[j];
+            f += 0.5 * l2 * w[j] * w[j];
+        }
+    }
+    f
+}
+
+/// Minimises `f` (which writes its gradient) from `x` by L-BFGS with a backtracking
+/// (Armijo) line search.
+fn lbfgs(mut x: Vec<f64>, mut f: impl FnMut(&[f64], &mut [f64]) -> f64) -> Vec<f64> {
+    let n = x.len();
+    let mut g = vec![0.0; n];
+    let mut fx = f(&x, &mut g);
+    let (mut s_hist, mut y_hist): (Vec<Vec<f64>>, Vec<Vec<f64>>) = (Vec::new(), Vec::new());
+    let mut g_new = vec![0.0; n];
+    for _ in 0..MAX_ITER {
+        if dot(&g, &g).sqrt() < 1e-7 {
+            break;
+        }
+        // Two-loop recursion: d = -H g.
+        let mut q = g.clone();
+        let mut alpha = vec![0.0; s_hist.len()];
+        for i in (0..s_hist.len()).rev() {
+            let rho = 1.0 / dot(&y_hist[i], &s_hist[i]);
+            alpha[i] = rho * dot(&s_hist[i], &q);
+            q.iter_mut()
+                .zip(&y_hist[i])
+                .for_each(|(a, b)| *a -= alpha[i] * b);
+        }
+        if let (Some(s), Some(y)) = (s_hist.last(), y_hist.last()) {
+            let gamma = dot(s, y) / dot(y, y);
+            q.iter_mut().for_each(|v| *v *= gamma);
+        }
+        for i in 0..s_hist.len() {
+            let rho = 1.0 / dot(&y_hist[i], &s_hist[i]);
+            let beta = rho * dot(&y_hist[i], &q);
+            q.iter_mut()
+                .zip(&s_hist[i])
+                .for_each(|(a, b)| *a += (alpha[i] - beta) * b);
+        }
+        let mut dir: Vec<f64> = q.iter().map(|v| -v).collect();
+        let mut slope = dot(&dir, &g);
+        if slope >= 0.0 {
+            // Not a descent direction (curvature lost): steepest descent.
+            dir = g.iter().map(|v| -v).collect();
+            slope = dot(&dir, &g);
+            s_hist.clear();
+            y_hist.clear();
+        }
+        let mut step = if s_hist.is_empty() {
+            1.0 / dot(&g, &g).sqrt().max(1.0)
+        } else {
+            1.0
+        };
+        let mut accepted = None;
+        for _ in 0..40 {
+            let trial: Vec<f64> = x.iter().zip(&dir).map(|(a, b)| a + step * b).collect();
+            let ft = f(&trial, &mut g_new);
+            if ft <= fx + 1e-4 * step * slope {
+                accepted = Some((trial, ft));
+                break;
+            }
+            step *= 0.5;
+        }
+        let Some((trial, ft)) = accepted else { break };
+        let s: Vec<f64> = trial.iter().zip(&x).map(|(a, b)| a - b).collect();
+        let y: Vec<f64> = g_new.iter().zip(&g).map(|(a, b)| a - b).collect();
+        let converged = (fx - ft).abs() <= 1e-12 * fx.abs().max(1.0);
+        x = trial;
+        fx = ft;
+        std::mem::swap(&mut g, &mut g_new);
+        if dot(&s, &y) > 1e-12 {
+            s_hist.push(s);
+            y_hist.push(y);
+            if s_hist.len() > MEMORY {
+                s_hist.remove(0);
+                y_hist.remove(0);
+            }
+        }
+        if converged {
+            break;
+        }
+    }
+    x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,7 +222,7 @@ mod tests {
             ]);
             y.push(c);
         }
-        let m = Logistic::fit(&x, &y, 3).unwrap();
+        let m = Logistic::fit(&x, &y, 3);
         let right = x.iter().zip(&y).filter(|(r, &c)| {
             let p = m.predict(r);
             (0..3).all(|k| p[c] >= p[k])
@@ -148,26 +230,5 @@ mod tests {
         assert_eq!(right.count(), 150);
         let p = m.predict(&x[0]);
         assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9);
-    }
-}
-
-#[cfg(test)]
-mod absent {
-    use super::*;
-
-    /// A class missing from the training set is never predicted, and the others keep
-    /// their places.
-    #[test]
-    fn a_class_the_training_set_lacks_is_never_chosen() {
-        let x: Vec<Vec<f64>> = (0..40)
-            .map(|i| vec![(i % 2) as f64 * 4.0 + (i as f64) * 0.01])
-            .collect();
-        let y: Vec<usize> = (0..40).map(|i| if i % 2 == 0 { 0 } else { 2 }).collect();
-        let m = Logistic::fit(&x, &y, 3).unwrap();
-        for (r, &c) in x.iter().zip(&y) {
-            let p = m.predict(r);
-            assert!(p[1] < 1e-9, "{p:?}");
-            assert!(p[c] > 0.5, "{p:?}");
-        }
     }
 }

@@ -92,7 +92,7 @@ impl Model {
         let weights = match settings.kind {
             ScorerKind::Features => {
                 let x = feature_rows(samples, control)?;
-                let logistic = Logistic::fit(&x, labels, classes.len())?;
+                let logistic = Logistic::fit(&x, labels, classes.len());
                 (control.progress)(Progress {
                     fold,
                     epoch: 1,
