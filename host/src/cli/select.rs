@@ -32,6 +32,7 @@ Examples:
   touchc select data/ --top 6 -o sel/          report.json, scores.csv, scores.json
   touchc select data.csv --model cnn --seed 2  the paper's network, grouped folds
   touchc select data/ --compile -o sel/        the best of each class into sel/bank.bin
+  touchc select data/ --compile --compile-top 3 -o sel/   each class's best 3 in the bank
   touchc select data/ --trade                  both scorers on the same folds
   touchc select data/ --model-file m.json      also train on everything and save it
   touchc select --model-file m.json --score new1.npy new2.npy
@@ -96,6 +97,11 @@ pub struct Args {
     /// `DIR/bank.bin` for `touchc sleeve upload` (needs `-o DIR`).
     #[arg(long, requires = "output", help_heading = OUTPUT)]
     compile: bool,
+    /// With `--compile`: each class's best K (at most `--top`, and 32 in all, a bank's
+    /// slots), the k-th best as `DIR/<class>_<k>.touch`; the bank holds them class by
+    /// class, best first.
+    #[arg(long, value_name = "K", requires = "compile", help_heading = OUTPUT)]
+    compile_top: Option<usize>,
     /// Algorithm parameters of `--compile`, and the recordings' sampling.
     #[command(flatten)]
     config: super::params::ConfigArgs,
@@ -136,6 +142,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ));
     }
     let listing = Listing::open(data_path)?;
+    check_compile_top(args, listing.classes.len())?;
     let data = listing.load(&args.config.overrides())?;
     let groups = data.groups();
     let folds = Folds::new(&data.labels(), groups.as_deref(), args.folds, args.seed)
@@ -286,8 +293,36 @@ fn steps(kind: ScorerKind, folds: usize, epochs: usize) -> usize {
     .max(folds * usize::from(epochs == 0))
 }
 
-/// `DIR/<class>.touch` for the best recording of each class, and `DIR/bank.bin` of them
-/// in class order.
+/// Refuses a `--compile-top` of none, of more than `--top` lists, or of more stimuli than
+/// a bank holds, before any training.
+fn check_compile_top(args: &Args, classes: usize) -> anyhow::Result<()> {
+    let Some(k) = args.compile_top else {
+        return Ok(());
+    };
+    let slots = usize::from(touch_protocol::bank::MAX_SLOTS);
+    if k == 0 {
+        return Err(super::report::usage(
+            "--compile-top 0: compile at least one recording per class",
+        ));
+    }
+    if k > args.top {
+        return Err(super::report::usage(format!(
+            "--compile-top {k}: more than the {} listed per class (--top)",
+            args.top
+        )));
+    }
+    if k * classes > slots {
+        return Err(super::report::usage(format!(
+            "--compile-top {k}: {classes} classes x {k} = {} stimuli, a bank holds {slots}",
+            k * classes
+        )));
+    }
+    Ok(())
+}
+
+/// `DIR/<class>.touch` for the best recording of each class (and `DIR/<class>_<k>.touch`
+/// for the k-th best, up to `--compile-top`), and `DIR/bank.bin` of them class by class,
+/// best first.
 fn compile_best(
     args: &Args,
     dir: &Path,
@@ -302,17 +337,30 @@ fn compile_best(
         ..CompileOptions::default()
     };
     let mut files = Vec::new();
+    let per_class = args.compile_top.unwrap_or(1);
     for (class, best) in data.listing.classes.iter().zip(top) {
-        let Some(&i) = best.first() else { continue };
-        let path = &data.listing.items[i].path;
-        let recording = Recording::load(path)?;
-        let opts = CompileOptions {
-            name: class.chars().take(32).collect(),
-            ..opts.clone()
-        };
-        let compiled = compile_owned(recording, &opts)
-            .with_context(|| format!("{}: cannot compile", path.display()))?;
-        files.push((dir.join(format!("{class}.touch")), compiled.stimulus));
+        for (rank, &i) in best.iter().take(per_class).enumerate() {
+            // The best keeps the class's name; the next ones are numbered from 2.
+            let suffix = if rank == 0 {
+                String::new()
+            } else {
+                format!("_{}", rank + 1)
+            };
+            let path = &data.listing.items[i].path;
+            let recording = Recording::load(path)?;
+            // A stimulus name holds 32 characters: the class is cut, the rank kept.
+            let head: String = class.chars().take(32 - suffix.len()).collect();
+            let opts = CompileOptions {
+                name: format!("{head}{suffix}"),
+                ..opts.clone()
+            };
+            let compiled = compile_owned(recording, &opts)
+                .with_context(|| format!("{}: cannot compile", path.display()))?;
+            files.push((
+                dir.join(format!("{class}{suffix}.touch")),
+                compiled.stimulus,
+            ));
+        }
     }
     let slices: Vec<&[u8]> = files.iter().map(|(_, b)| b.as_slice()).collect();
     let bank = touch_protocol::bank::encode(&slices)

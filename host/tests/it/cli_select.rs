@@ -6,7 +6,7 @@ use std::path::Path;
 
 use crate::bin;
 use bin::{command, ok, s, touchc};
-use touchc_select::synthetic::{labelled_set, write, SetSpec};
+use touchc_select::synthetic::{labelled_set, write, Mix, SetSpec};
 use touchc_synth::Sensor;
 
 /// A data set of `classes` x `per_class` recordings by 6 people in `dir`.
@@ -17,6 +17,7 @@ fn data_set(dir: &Path, classes: usize, per_class: usize) {
         people: 6,
         sensor: Sensor::Sleeve,
         frames: None,
+        mix: Mix::Separable,
         seed: 4,
     });
     write(dir, &set).unwrap();
@@ -134,6 +135,55 @@ fn compile_writes_a_bank_that_inspect_accepts_and_a_saved_model_scores_new_recor
     for class in ["attention", "calming", "gratitude"] {
         assert!(out.join(format!("{class}.touch")).is_file());
     }
+    // Each class's best two: six slots, class by class, best first.
+    let two = dir.path().join("two");
+    let o = touchc(&[
+        "select",
+        s(&data),
+        "--folds",
+        "4",
+        "--top",
+        "3",
+        "--compile",
+        "--compile-top",
+        "2",
+        "-o",
+        s(&two),
+    ]);
+    ok(&o);
+    let o = touchc(&["inspect", s(&two.join("bank.bin"))]);
+    ok(&o);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("slot 5: ") && !text.contains("slot 6: "),
+        "{text}"
+    );
+    let (first, second) = (text.find("attention").unwrap(), text.find("attention_2"));
+    assert!(second.is_some_and(|at| at > first), "{text}");
+    for class in ["attention", "calming", "gratitude"] {
+        assert!(two.join(format!("{class}_2.touch")).is_file());
+        assert!(!two.join(format!("{class}_3.touch")).exists());
+    }
+    // More than --top lists, none, or more than a bank's 32 slots: usage errors.
+    let many = dir.path().join("many");
+    for (k, top, what) in [
+        ("4", "3", "more than the 3 listed"),
+        ("0", "3", "at least one"),
+        ("11", "11", "3 classes x 11 = 33 stimuli"),
+    ] {
+        let args = [
+            "select",
+            s(&data),
+            "--top",
+            top,
+            "--compile",
+            "--compile-top",
+            k,
+            "-o",
+            s(&many),
+        ];
+        refused_with(&args, 2, what, &many);
+    }
     let new = data.join("calming/calming_0008.npy");
     let o = touchc(&["select", "--model-file", s(&model), "--score", s(&new)]);
     ok(&o);
@@ -176,6 +226,7 @@ fn bad_data_sets_are_refused_with_the_file_named_and_nothing_written() {
         people: 1,
         sensor: Sensor::Grid10,
         frames: None,
+        mix: Mix::Separable,
         seed: 1,
     });
     let odd = mixed.join("calming/zz_grid.npy");

@@ -2,14 +2,14 @@
 //! cross-validation of recordings of the paper's size, each scorer on the same folds.
 //!
 //! `cargo run --release -p touchc-select --example trade -- [RECORDINGS] [FRAMES]
-//! [FOLDS] [EPOCHS] [SCORERS]`; the benchmark of `docs/select.md` is
-//! `RAYON_NUM_THREADS=2 ... -- 700 705 5 30 features,cnn`.
+//! [FOLDS] [EPOCHS] [SCORERS] [realistic|separable]`; the benchmark of
+//! `docs/select.md` is `RAYON_NUM_THREADS=2 ... -- 700 705 5 30 features,cnn`.
 
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use touchc_select::model::Settings;
-use touchc_select::synthetic::{dataset, SetSpec};
+use touchc_select::synthetic::{dataset, Mix, SetSpec};
 use touchc_select::{cross_validate, Control, Folds, ScorerKind};
 use touchc_synth::Sensor;
 
@@ -32,6 +32,15 @@ fn cpu_s() -> f64 {
     }
 }
 
+/// The machine's one-minute load average (`/proc/loadavg`; "?" off Linux): on a shared
+/// machine it says how far the wall-clock columns are inflated.
+fn load() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|l| l.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "?".into())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let num = |i: usize, default: usize| -> Result<usize, Box<dyn std::error::Error>> {
@@ -43,6 +52,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let (recordings, frames, k, epochs) = (num(0, 700)?, num(1, 705)?, num(2, 5)?, num(3, 30)?);
     let scorers = args.get(4).map_or("features,cnn", String::as_str);
+    let mix = match args.get(5).map_or("realistic", String::as_str) {
+        "realistic" => Mix::Realistic,
+        "separable" => Mix::Separable,
+        other => return Err(format!("unknown mix {other}: realistic or separable").into()),
+    };
     let t0 = Instant::now();
     let mut data = dataset(&SetSpec {
         classes: 6,
@@ -50,6 +64,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         people: 10,
         sensor: Sensor::Sleeve,
         frames: Some(frames),
+        mix,
         seed: 1,
     });
     data.samples.truncate(recordings);
@@ -57,12 +72,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let groups = data.groups();
     let folds = Folds::new(&data.labels(), groups.as_deref(), k, 1)?;
     println!(
-        "{} recordings of {:?}, {} classes, {k} folds keeping each of 10 people whole, {} threads (generated in {:.1} s)",
+        "{} recordings of {:?}, {} classes ({mix:?}), {k} folds keeping each of 10 people whole, {} threads (generated in {:.1} s, load average {})",
         data.samples.len(),
         data.samples[0].frames.dim(),
         data.listing.classes.len(),
         rayon::current_num_threads(),
-        t0.elapsed().as_secs_f64()
+        t0.elapsed().as_secs_f64(),
+        load()
     );
     println!("| scorer | accuracy | macro-F1 | train s | score s | total s | CPU s |");
     println!("|---|---|---|---|---|---|---|");
@@ -105,5 +121,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             cpu_s() - cpu
         );
     }
+    println!("load average at the end: {}", load());
     Ok(())
 }

@@ -1,14 +1,31 @@
 //! Labelled synthetic data sets: the synthesiser's gestures mixed per class, with
-//! per-person variation (speed, pressure, place along the arm), for tests, examples
-//! and the benchmark, so selection runs without a lab's recordings.
+//! per-person variation, for tests, examples and the benchmark, so selection runs
+//! without a lab's recordings.
 //!
-//! A class is a mix of gesture sequences (its "scenario"); each recording draws one
-//! sequence, and each person has their own speed, pressure and place along the arm.
+//! Two kinds ([`Mix`]). `Separable`: each class its own gestures, people differing a
+//! little; a scorer that learns anything gets (nearly) all of it right, so a test can
+//! ask that it does. `Realistic`: what a lab's recordings look like: classes share
+//! gestures in different proportions (a tap says "attention" more often than
+//! "happiness", but both), every person has their own speed, pressure, place on the
+//! arm, hold and pause lengths and favourite gestures, every recording varies around its
+//! person's way and starts after its own quiet spell, and the sensor's noise and flicker
+//! differ from one recording to the next. Some recordings of one class then look like
+//! another's and no scorer reaches 1.
 
 use ndarray::{s, Array3};
 use touchc_synth::{generate, Gesture, Sensor, SynthSpec, Tuning};
 
 use crate::rng::Rng;
+
+/// How far apart the classes are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mix {
+    /// Each class its own gestures ([`CLASSES`]); people vary a little.
+    Separable,
+    /// Classes share gestures in different proportions ([`REALISTIC`]); people and
+    /// recordings vary widely, the sensor is noisy and flickers.
+    Realistic,
+}
 
 /// What to generate.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,12 +41,14 @@ pub struct SetSpec {
     /// Every recording exactly this many frames (quiet frames before, as the paper
     /// padded in front), or as long as its gestures.
     pub frames: Option<usize>,
+    /// How far apart the classes are.
+    pub mix: Mix,
     /// The seed: the same spec gives the same recordings.
     pub seed: u64,
 }
 
-/// The classes' names and gesture mixes: each recording draws one of its class's
-/// sequences.
+/// The classes' names and gesture mixes of [`Mix::Separable`]: each recording draws
+/// one of its class's sequences.
 pub const CLASSES: [(&str, &[&[Gesture]]); 6] = [
     (
         "attention",
@@ -57,6 +76,57 @@ pub const CLASSES: [(&str, &[&[Gesture]]); 6] = [
     ),
 ];
 
+/// The gesture mixes of [`Mix::Realistic`], in [`CLASSES`] order: each gesture of a
+/// recording is drawn with these weights (percent), reweighted by the person's taste.
+/// Each class has a gesture it is mostly made of, and every gesture serves two or more
+/// classes, as people touch to say different things with the same hands: a reader who
+/// knew each recording's gestures exactly would still name the class right only about
+/// 80 % of the time (their most likely class; a simulation of these weights).
+pub const REALISTIC: [&[(Gesture, u32)]; 6] = [
+    // attention
+    &[
+        (Gesture::Tap, 60),
+        (Gesture::Pat, 20),
+        (Gesture::Squeeze, 10),
+        (Gesture::Shake, 10),
+    ],
+    // calming
+    &[
+        (Gesture::Strokes, 60),
+        (Gesture::Stroke, 20),
+        (Gesture::Rub, 10),
+        (Gesture::Hand, 10),
+    ],
+    // gratitude
+    &[
+        (Gesture::Squeeze, 60),
+        (Gesture::Hand, 20),
+        (Gesture::Pat, 10),
+        (Gesture::Tap, 10),
+    ],
+    // happiness
+    &[
+        (Gesture::Shake, 60),
+        (Gesture::Tickle, 20),
+        (Gesture::Pat, 10),
+        (Gesture::Tap, 10),
+    ],
+    // love
+    &[
+        (Gesture::Stroke, 55),
+        (Gesture::Palm, 20),
+        (Gesture::Hand, 15),
+        (Gesture::Strokes, 10),
+    ],
+    // sadness
+    &[
+        (Gesture::Rub, 55),
+        (Gesture::Palm, 25),
+        (Gesture::Hand, 10),
+        (Gesture::Squeeze, 10),
+    ],
+];
+
 /// One labelled recording.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Labelled {
@@ -68,53 +138,153 @@ pub struct Labelled {
     pub frames: Array3<f64>,
 }
 
-/// A person's way of touching: how fast, how hard, and where along the arm.
+/// A person's way of touching: how fast, how hard, where along the arm, how long they
+/// hold and pause, and (realistic sets) how much they like each gesture.
 struct Person {
     speed: f64,
     pressure: f64,
     shift: isize,
+    hold: f64,
+    gap: f64,
+    /// Multiplies each gesture's weight, by [`Gesture`] index in [`POOL`].
+    taste: [f64; POOL.len()],
 }
 
-fn person(seed: u64, p: usize) -> Person {
-    let mut rng = Rng::new(seed ^ (0x5eed_0000 + p as u64));
-    Person {
-        speed: 0.7 + 0.6 * rng.uniform(),
-        pressure: 0.6 + 0.8 * rng.uniform(),
-        shift: rng.below(5) as isize - 2,
+/// Every gesture a realistic class may use, for the people's tastes.
+const POOL: [Gesture; 10] = [
+    Gesture::Tap,
+    Gesture::Tickle,
+    Gesture::Pat,
+    Gesture::Shake,
+    Gesture::Squeeze,
+    Gesture::Stroke,
+    Gesture::Strokes,
+    Gesture::Rub,
+    Gesture::Hand,
+    Gesture::Palm,
+];
+
+fn person(spec: &SetSpec, p: usize) -> Person {
+    let mut rng = Rng::new(spec.seed ^ (0x5eed_0000 + p as u64));
+    if spec.mix == Mix::Separable {
+        return Person {
+            speed: 0.7 + 0.6 * rng.uniform(),
+            pressure: 0.6 + 0.8 * rng.uniform(),
+            shift: rng.below(5) as isize - 2,
+            hold: 1.0,
+            gap: 1.0,
+            taste: [1.0; POOL.len()],
+        };
     }
+    let mut taste = [1.0; POOL.len()];
+    // Log-normal tastes: some people pat half as often as the mix says, others twice.
+    taste
+        .iter_mut()
+        .for_each(|t| *t = (0.5 * rng.normal()).exp());
+    Person {
+        // Half to twice the typical speed, a third to nearly twice the pressure.
+        speed: (0.35 * rng.normal()).exp().clamp(0.5, 2.0),
+        pressure: (0.4 * rng.normal()).exp().clamp(0.35, 1.9),
+        shift: rng.below(7) as isize - 3,
+        hold: 0.5 + rng.uniform(),
+        gap: 0.5 + 2.0 * rng.uniform(),
+        taste,
+    }
+}
+
+/// One recording's gestures: one to three drawn from the class's mix weighted by the
+/// person's taste.
+fn realistic_gestures(class: usize, who: &Person, rng: &mut Rng) -> Vec<Gesture> {
+    let weights: Vec<(Gesture, f64)> = REALISTIC[class]
+        .iter()
+        .map(|&(g, w)| {
+            let k = POOL.iter().position(|&p| p == g).unwrap_or(0);
+            (g, f64::from(w) * who.taste[k])
+        })
+        .collect();
+    let total: f64 = weights.iter().map(|w| w.1).sum();
+    let count = 1 + usize::from(rng.uniform() < 0.45) + usize::from(rng.uniform() < 0.15);
+    (0..count)
+        .map(|_| {
+            let mut u = rng.uniform() * total;
+            for &(g, w) in &weights {
+                if u < w {
+                    return g;
+                }
+                u -= w;
+            }
+            weights[weights.len() - 1].0
+        })
+        .collect()
+}
+
+/// A recording's synthesis: the person's way, varied for this recording.
+fn recording(spec: &SetSpec, class: usize, who: &Person, rng: &mut Rng) -> (SynthSpec, f64, isize) {
+    let mixes = CLASSES[class].1;
+    if spec.mix == Mix::Separable {
+        let gestures = mixes[rng.below(mixes.len())].to_vec();
+        let tuning = Tuning {
+            stroke_speed_mps: Some(0.25 * who.speed),
+            tap_s: Some(0.2 / who.speed),
+            shake_hz: Some(3.0 * who.speed),
+            ..Tuning::default()
+        };
+        let synth = SynthSpec {
+            gestures,
+            seed: rng.next_u64(),
+            sensor: spec.sensor,
+            tuning,
+            quiet_frames: 10,
+            ..SynthSpec::default()
+        };
+        return (synth, who.pressure, who.shift);
+    }
+    let gestures = realistic_gestures(class, who, rng);
+    // This recording around the person's way: +-15 % speed, +-20 % pressure, now and
+    // then a cell further along the arm.
+    let speed = who.speed * (0.15 * rng.normal()).exp();
+    let pressure = who.pressure * (0.2 * rng.normal()).exp();
+    let shift = who.shift + [-1, 0, 0, 0, 1][rng.below(5)];
+    let tuning = Tuning {
+        stroke_speed_mps: Some(0.3 * speed),
+        tap_s: Some(0.2 / speed),
+        shake_hz: Some(3.0 * speed),
+        shake_amplitude_mm: Some(spec.sensor.pitch_mm() * (1.2 + 1.3 * rng.uniform())),
+        gap_s: Some(0.15 * who.gap),
+        gap_max_s: Some(0.4 * who.gap),
+        strokes: Some(2 + rng.below(3)),
+        hold_s: Some(3.0 * who.hold * (0.2 * rng.normal()).exp()),
+    };
+    let synth = SynthSpec {
+        gestures,
+        seed: rng.next_u64(),
+        sensor: spec.sensor,
+        tuning,
+        quiet_frames: 5 + rng.below(40),
+        noise_psi: 0.003 + 0.009 * rng.uniform(),
+        flicker: 3.0 * rng.uniform(),
+        ..SynthSpec::default()
+    };
+    (synth, pressure, shift)
 }
 
 /// The recordings of `spec`, class by class.
 pub fn labelled_set(spec: &SetSpec) -> Vec<Labelled> {
     let mut out = Vec::new();
     let mut rng = Rng::new(spec.seed);
-    for (class, mixes) in CLASSES.iter().take(spec.classes.clamp(2, 6)) {
+    let people: Vec<Person> = (0..spec.people.max(1)).map(|p| person(spec, p)).collect();
+    for (class, (name, _)) in CLASSES.iter().enumerate().take(spec.classes.clamp(2, 6)) {
         for i in 0..spec.per_class {
-            let p = i % spec.people.max(1);
-            let who = person(spec.seed, p);
-            let gestures = mixes[rng.below(mixes.len())].to_vec();
-            let tuning = Tuning {
-                stroke_speed_mps: Some(0.25 * who.speed),
-                tap_s: Some(0.2 / who.speed),
-                shake_hz: Some(3.0 * who.speed),
-                ..Tuning::default()
-            };
-            let synth = SynthSpec {
-                gestures,
-                seed: rng.next_u64(),
-                sensor: spec.sensor,
-                tuning,
-                quiet_frames: 10,
-                ..SynthSpec::default()
-            };
-            let raw = generate(&synth).mapv(|v| v * who.pressure);
-            let frames = shifted(&raw, who.shift);
+            let p = i % people.len();
+            let (synth, pressure, shift) = recording(spec, class, &people[p], &mut rng);
+            let raw = generate(&synth).mapv(|v| v * pressure);
+            let frames = shifted(&raw, shift);
             let frames = match spec.frames {
                 Some(n) => fitted(&frames, n, synth.noise_psi, &mut rng),
                 None => frames,
             };
             out.push(Labelled {
-                class: class.to_string(),
+                class: name.to_string(),
                 group: format!("p{p}"),
                 frames,
             });

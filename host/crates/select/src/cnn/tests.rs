@@ -1,0 +1,133 @@
+//! The network against finite differences of its loss and against its definition
+//! computed one output at a time.
+
+use super::*;
+
+/// The analytic gradient matches a finite difference of the loss for a few weights
+/// of every layer.
+#[test]
+fn gradients_match_finite_differences() {
+    let mut rng = Rng::new(3);
+    let frames = ndarray::Array3::from_shape_fn((9, 7, 8), |_| rng.uniform() as f32);
+    let sample = Sample {
+        frames,
+        rate_hz: 20.0,
+        pitch_mm: 25.4,
+    };
+    let mut net = Net::new(9, 7, 8, 3, 1.0, 5);
+    // Biases off zero so every ReLU is away from its kink for a small step.
+    for p in net.params.iter_mut() {
+        *p += 0.05;
+    }
+    let x = net.input_of(&sample);
+    let (_, g) = net.backward(&x, &net.forward(&x), 1);
+    let o = offsets(net.input, 3);
+    for j in [0, 2, o.b1, o.w2 + 3, o.b2 + 1, o.wd + 2, o.bd] {
+        let h = 1e-2f32;
+        let mut up = net.clone();
+        up.params[j] += h;
+        let mut down = net.clone();
+        down.params[j] -= h;
+        let lu = -up.forward(&x).probs[1].ln();
+        let ld = -down.forward(&x).probs[1].ln();
+        let numeric = (lu - ld) / (2.0 * h);
+        assert!(
+            (numeric - g[j]).abs() < 2e-3 + 0.05 * g[j].abs(),
+            "weight {j}: {numeric} vs {}",
+            g[j]
+        );
+    }
+}
+
+/// The network as its definition reads, one output at a time: Keras's Conv3D
+/// (1, 2, 2) "valid" with ReLU, MaxPooling3D (2, 2, 2), Dense, softmax.
+fn reference(net: &Net, x: &[f32]) -> Vec<f32> {
+    let o = offsets(net.input, net.classes);
+    let p = &net.params;
+    let conv = |x: &[f32], d: Dims, w: &[f32], b: &[f32], cout: usize| {
+        let (h, wd) = (d.h - 1, d.w - 1);
+        let mut y = vec![0.0f32; cout * d.t * h * wd];
+        for co in 0..cout {
+            for t in 0..d.t {
+                for i in 0..h {
+                    for j in 0..wd {
+                        let mut v = b[co];
+                        for ci in 0..d.c {
+                            for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                                let k = w[((co * d.c + ci) * 2 + dy) * 2 + dx];
+                                v += k * x[((ci * d.t + t) * d.h + i + dy) * d.w + j + dx];
+                            }
+                        }
+                        y[((co * d.t + t) * h + i) * wd + j] = v.max(0.0);
+                    }
+                }
+            }
+        }
+        (
+            y,
+            Dims {
+                c: cout,
+                t: d.t,
+                h,
+                w: wd,
+            },
+        )
+    };
+    let pool = |x: &[f32], d: Dims| {
+        let o = Dims {
+            c: d.c,
+            t: d.t / 2,
+            h: d.h / 2,
+            w: d.w / 2,
+        };
+        let mut y = vec![f32::NEG_INFINITY; o.len()];
+        for c in 0..o.c {
+            for t in 0..2 * o.t {
+                for i in 0..2 * o.h {
+                    for j in 0..2 * o.w {
+                        let k = ((c * o.t + t / 2) * o.h + i / 2) * o.w + j / 2;
+                        y[k] = y[k].max(x[((c * d.t + t) * d.h + i) * d.w + j]);
+                    }
+                }
+            }
+        }
+        (y, o)
+    };
+    let (a1, d1) = conv(x, net.input, &p[..o.b1], &p[o.b1..o.w2], C1);
+    let (p1, d1) = pool(&a1, d1);
+    let (a2, d2) = conv(&p1, d1, &p[o.w2..o.b2], &p[o.b2..o.wd], C2);
+    let (p2, _) = pool(&a2, d2);
+    let mut z: Vec<f32> = (0..net.classes)
+        .map(|k| {
+            let row = &p[o.wd + k * p2.len()..][..p2.len()];
+            p[o.bd + k] + row.iter().zip(&p2).map(|(a, b)| a * b).sum::<f32>()
+        })
+        .collect();
+    softmax(&mut z);
+    z
+}
+
+/// The strided, whole-channel layers compute what the definition says, on shapes
+/// with odd frames, rows and columns (the floors of the pooling).
+#[test]
+fn the_network_matches_its_definition() {
+    let mut rng = Rng::new(11);
+    for (t, h, w) in [(9, 7, 8), (12, 8, 21), (17, 10, 13)] {
+        let frames = ndarray::Array3::from_shape_fn((t, h, w), |_| rng.uniform() as f32);
+        let sample = Sample {
+            frames,
+            rate_hz: 20.0,
+            pitch_mm: 25.4,
+        };
+        let mut net = Net::new(t, h, w, 4, 1.0, 7);
+        for p in net.params.iter_mut() {
+            *p += 0.02;
+        }
+        let x = net.input_of(&sample);
+        let fast = net.forward(&x).probs;
+        let slow = reference(&net, &x);
+        for (a, b) in fast.iter().zip(&slow) {
+            assert!((a - b).abs() < 1e-5, "{t}x{h}x{w}: {fast:?} vs {slow:?}");
+        }
+    }
+}
