@@ -31,6 +31,9 @@ pub use status::Snapshot;
 pub const CONTROL_DEPTH: usize = 5;
 /// Answers and events in flight from the tick to the link (one fewer than this).
 pub const ANSWER_DEPTH: usize = 9;
+/// Answer places the tick wants free before it takes a command: its reply and
+/// what else one tick may tell (a button's gesture, a start, a stop, a limit).
+pub const ANSWER_MARGIN: usize = 4;
 /// Stream keyframes the device buffers (one fewer than this).
 pub const KEYFRAME_DEPTH: usize = 33;
 
@@ -419,6 +422,13 @@ impl<'a> TickPort<'_, 'a> {
         let place = self.own_place();
         // SAFETY: as for `player`.
         unsafe { (*self.players.places[place].get()).assume_init_ref() }
+    }
+
+    /// Free places in the answer queue: the tick takes a command only while its
+    /// reply and the events of the same tick fit ([`ANSWER_MARGIN`]), so that a
+    /// link slow to drain the queue holds commands back instead of losing replies.
+    pub fn answer_room(&self) -> usize {
+        self.answers.capacity() - self.answers.len()
     }
 
     /// Sends an answer; dropped if the queue is full.

@@ -188,6 +188,14 @@ fn hello_info_and_slots() {
             offset: 0,
             len: 257
         }),
+        Err(LinkError::Malformed),
+        "SPEC: a length over 256 breaks the command's rule"
+    );
+    assert_eq!(
+        h.call(Command::BankRead {
+            offset: end + 1,
+            len: 16
+        }),
         Err(LinkError::OutOfRange)
     );
 }
@@ -659,6 +667,14 @@ fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
     let m = cobs::encode(&raw, &mut stuffed).unwrap();
     h.dev.write(&stuffed[..m]);
     h.dev.write(&[0x00]);
+    // `Info` (seq 7) with three bytes after it, under a good CRC (postcard alone
+    // would stop at the message's end and answer it).
+    let body = [0x07, 0x01, 0x00, 0x00, 0x00];
+    let mut raw = body.to_vec();
+    raw.extend_from_slice(&bank_crc(&body).to_le_bytes());
+    let m = cobs::encode(&raw, &mut stuffed).unwrap();
+    h.dev.write(&stuffed[..m]);
+    h.dev.write(&[0x00]);
     h.pump();
     assert_eq!(
         h.unreadable,
@@ -668,8 +684,13 @@ fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
             FrameError::BadCrc,
             FrameError::Cobs,
             FrameError::Short,
+            FrameError::Malformed,
             FrameError::Malformed
         ]
+    );
+    assert!(
+        h.frames.is_empty(),
+        "the request with trailing bytes was answered"
     );
     assert!(h.call(Command::Info).is_ok());
     // A chunk longer than MAX_CHUNK is refused (it still fits a frame).
@@ -680,6 +701,37 @@ fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
             bytes: &[1; 257]
         }),
         Err(LinkError::Malformed)
+    );
+}
+
+#[test]
+fn a_pipelined_flood_gets_one_answer_per_request_and_a_full_queue_its_own() {
+    let mut h = host();
+    h.call(Command::Play { slot: 0 }).unwrap();
+    let seqs: Vec<u16> = (0..40).map(|_| h.send(Command::Status)).collect();
+    h.run(60);
+    let mut answers = std::collections::BTreeMap::<u16, Vec<Result<(), LinkError>>>::new();
+    for f in h.frames.drain(..) {
+        match link::decode::<Message>(&f).unwrap() {
+            Message::Reply { seq, reply } => {
+                assert!(matches!(reply, Reply::Status(_)), "{reply:?}");
+                answers.entry(seq).or_default().push(Ok(()));
+            }
+            Message::Refused { seq, error } => answers.entry(seq).or_default().push(Err(error)),
+            m => panic!("{m:?}"),
+        }
+    }
+    assert!(h.unreadable.is_empty());
+    for seq in &seqs {
+        let a = answers.get(seq).map_or(&[][..], |a| &a[..]);
+        assert_eq!(a.len(), 1, "request {seq}: {a:?}");
+        assert!(matches!(a[0], Ok(()) | Err(LinkError::QueueFull)), "{a:?}");
+    }
+    let full = answers.values().filter(|a| a[0].is_err()).count();
+    assert!(
+        full > 0 && full < seqs.len(),
+        "{full} of {} refused",
+        seqs.len()
     );
 }
 
