@@ -21,7 +21,7 @@ from test_twin import EMOJI, IDLE, ROOT, SCRATCH, TOUCHC, boot, codes, expected,
 
 EMOJI_DIR = ROOT / "examples/emoji"
 # The emoji stimuli's ramp, ms (`touchc inspect`).
-RAMP_MS = {"love": 10}
+RAMP_MS = {"love": 10, "gratitude": 10}
 
 
 def render_codes(stimulus):
@@ -248,9 +248,9 @@ class Stream(Served):
         self.serve(b)
         rng = random.Random(33)
         worst = 0.0
-        # One stimulus: a second stream straight after it (gratitude after love) on
-        # the USB default build parts from the render at its tick 10, an open finding.
-        for name in ("love",):
+        # Two streams, the second straight after the first: nothing of the first
+        # (its player, its state) may carry into the second.
+        for name in ("love", "gratitude"):
             stimulus = EMOJI_DIR / f"{name}.touch"
             # The signal tick for tick; the stream's final ramp starts where its last
             # keyframe is played out and may differ from the render's by a code.

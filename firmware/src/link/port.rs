@@ -264,30 +264,9 @@ impl<'a> LinkPort<'_, 'a> {
     pub fn stage(&mut self, slot: u8, build: impl FnOnce() -> Option<Player<'a>>) {
         let p = self.players;
         p.wanted.store(u32::from(slot) + 1, Ordering::Release);
-        let mut state = p.state.load(Ordering::Acquire);
-        loop {
-            let staged = state & 0xFF;
-            if staged == u32::from(slot) + 1 {
-                return;
-            }
-            if staged == NONE_STAGED {
-                break;
-            }
-            // Take back the place of a player the tick may be taking right now: if
-            // it did, `state` changed and this fails.
-            match p.state.compare_exchange(
-                state,
-                state & LINK_PLACE,
-                Ordering::AcqRel,
-                Ordering::Acquire,
-            ) {
-                Ok(_) => {
-                    state &= LINK_PLACE;
-                    break;
-                }
-                Err(now) => state = now,
-            }
-        }
+        let Some(state) = self.take_back(Some(slot)) else {
+            return;
+        };
         let Some(player) = build() else {
             return;
         };
@@ -299,6 +278,42 @@ impl<'a> LinkPort<'_, 'a> {
             (state & LINK_PLACE) | (u32::from(slot) + 1),
             Ordering::Release,
         );
+    }
+
+    /// Drops the player staged for `slot`, if that is the one staged: a stream's
+    /// player is staged under one tag for every stream, and one left staged (its
+    /// stream stopped before it started) must not start the next.
+    pub fn unstage(&mut self, slot: u8) {
+        if self.staged() == Some(slot) {
+            let _ = self.take_back(None);
+        }
+    }
+
+    /// Takes back the link's place from a staged player (unless it is `keep`'s:
+    /// then `None`); the state with none staged.
+    fn take_back(&self, keep: Option<u8>) -> Option<u32> {
+        let p = self.players;
+        let mut state = p.state.load(Ordering::Acquire);
+        loop {
+            let staged = state & 0xFF;
+            if keep.is_some_and(|k| staged == u32::from(k) + 1) {
+                return None;
+            }
+            if staged == NONE_STAGED {
+                return Some(state);
+            }
+            // Take back the place of a player the tick may be taking right now: if
+            // it did, `state` changed and this fails.
+            match p.state.compare_exchange(
+                state,
+                state & LINK_PLACE,
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => return Some(state & LINK_PLACE),
+                Err(now) => state = now,
+            }
+        }
     }
 
     /// Queues a command; gives it back if the queue is full.

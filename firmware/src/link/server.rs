@@ -364,9 +364,9 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         }
         for i in 0..n.min(MAX_STREAM_KEYFRAMES) {
             if let Some(k) = link::stream_keyframe(keyframes, i) {
-                let _ = self.port.push_keyframe(k);
                 // The player from the stream's first two keyframes, for the tick to
-                // take when it starts the stream.
+                // take when it starts the stream: staged before the second is
+                // queued, as the tick starts the stream once two are.
                 match (expected + i as u32, self.stream) {
                     (0, Some((params, _))) => self.stream = Some((params, Some(k))),
                     (1, Some((params, Some(first)))) => {
@@ -374,6 +374,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                     }
                     _ => {}
                 }
+                let _ = self.port.push_keyframe(k);
             }
         }
         self.port.fed();
@@ -420,6 +421,9 @@ impl<'a, F: Flash> LinkServer<'a, F> {
     /// Builds a stream's player from its first keyframes (from a cold coil: the tick
     /// hands it the heat at the start) and stages it as `tag`.
     fn stage_stream(&mut self, tag: u8, params: &StreamParams, first: [i16; 8], second: [i16; 8]) {
+        // One staged under this tag is an earlier stream's, stopped before it
+        // started: never this one's.
+        self.port.unstage(tag);
         self.port.stage(tag, || {
             Some(Player::live(
                 params,

@@ -12,7 +12,7 @@ use touch_protocol::{Limits, Stimulus, CHANNELS, IDLE_CODE};
 use super::bank::bank_crc;
 use super::sim::Device;
 use crate::button::Event as Button;
-use crate::output::{device_config, IDLE_FRAME};
+use crate::output::{device_config, Frame, IDLE_FRAME};
 use crate::testutil::{bank, constant_stimulus, for_layout, stimulus_from};
 
 /// The host's side, as a test drives it: sends requests, collects frames.
@@ -1327,5 +1327,50 @@ fn a_stream_fed_ahead_plays_on() {
     assert!(
         !on && events.contains(&Event::StreamStopped(StreamStop::Underrun)),
         "{events:?}"
+    );
+}
+
+/// Streams `ks` whole on `h` (data, end, played out); the outputs from its
+/// `Started` event on.
+fn stream_all(h: &mut Host, ks: &[[i16; 8]]) -> Vec<Frame> {
+    h.call(Command::StreamBegin(stream_params())).unwrap();
+    let since = h.events.len();
+    feed(h, ks, 0, ks.len());
+    h.call(Command::StreamEnd).unwrap();
+    h.run(ks.len() * 20 + 200);
+    let (started, _) = h.events[since..]
+        .iter()
+        .find(|e| e.1 == Event::Started(Source::Stream))
+        .copied()
+        .expect("the stream started");
+    h.dev.outputs()[started as usize..].to_vec()
+}
+
+#[test]
+fn a_stream_plays_its_own_keyframes_after_one_stopped_before_it_started() {
+    let level = |q: i16| vec![[q; 8]; 6];
+    let alone = stream_all(&mut host(), &level(-6000));
+    // A first stream stopped after its first two keyframes came and before the
+    // tick started it: the player the link built from them is left staged.
+    let mut h = host();
+    h.call(Command::StreamBegin(stream_params())).unwrap();
+    let mut bytes = [0u8; 2 * link::KEYFRAME_LEN];
+    let len = link::put_stream_keyframes(&level(9000)[..2], &mut bytes);
+    h.send(Command::StreamData {
+        index: 0,
+        keyframes: &bytes[..len],
+    });
+    h.send(Command::Stop);
+    h.run(100);
+    assert!(!h
+        .events
+        .iter()
+        .any(|e| e.1 == Event::Started(Source::Stream)));
+    let after = stream_all(&mut h, &level(-6000));
+    let n = alone.len().min(after.len());
+    let parts = (0..n).find(|&i| after[i] != alone[i]);
+    assert_eq!(
+        parts, None,
+        "the second stream parts from the same one alone"
     );
 }
