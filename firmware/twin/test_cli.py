@@ -291,5 +291,76 @@ class Stream(Served):
             print(f"\nstreams whole with host stalls of up to {worst * 1000:.0f} ms")
 
 
+
+class CutUpload(Served):
+    """`touchc sleeve upload` with the power cut at three points: the message says
+    what happened, at once (no 10 s timeout), and the sleeve plays."""
+
+    def cut_at(self, b, kind, when):
+        """Cuts the power once, at the first flash operation of `kind` for which
+        `when(arg)` holds, as it starts."""
+        state = {"done": False}
+
+        def look(k, arg):
+            if k == kind and not state["done"] and when(arg):
+                state["done"] = True
+                b.power_cut()
+        b.on_flash = look
+        return state
+
+    def upload(self, b):
+        start = time.monotonic()
+        r = self.touchc("upload", str(EMOJI))
+        return r, time.monotonic() - start
+
+    def test_a_cut_after_the_head_finds_the_new_bank_in_place(self):
+        b = boot(EMOJI, erase=True)
+        self.serve(b)
+        cut = self.cut_at(b, "program", lambda addr: addr == twin.BANK_BASE)
+        r, took = self.upload(b)
+        self.assertTrue(cut["done"], "the commit never programmed the head")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("restarted before it answered the upload's commit", r.stderr)
+        self.assertIn("with the new bank in place: verified", r.stderr)
+        self.assertLess(took, 8, "waited out a timeout")
+        got = json.loads(self.ok("info", "--json").stdout)
+        self.assertEqual(got["bank"]["state"], "flashed", got["bank"])
+
+    def test_a_cut_during_the_erase_is_told_at_once(self):
+        b = boot(EMOJI)
+        self.serve(b)
+        # Half a second into the first sector's erase (about a second long).
+        cut = {"done": False}
+
+        def look(kind, _):
+            if kind == "erase" and not cut["done"]:
+                cut["done"] = True
+                b.at(b.now() + 0.5, lambda b: b.reset("power"))
+        b.on_flash = look
+        r, took = self.upload(b)
+        self.assertTrue(cut["done"])
+        self.assertEqual(r.returncode, 1, r.stderr)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("the sleeve restarted during the upload", r.stderr)
+        self.assertIn("the upload was lost: run it again", r.stderr)
+        self.assertLess(took, 5, "waited out the erase's 10 s timeout")
+        self.ok("play", "0")
+        self.ok("stop")
+
+    def test_a_cut_mid_chunks_says_the_upload_was_lost(self):
+        b = boot(EMOJI)
+        self.serve(b)
+        cut = self.cut_at(b, "program", lambda addr: addr >= twin.BANK_BASE + 2048)
+        r, _ = self.upload(b)
+        self.assertTrue(cut["done"])
+        self.assertEqual(r.returncode, 1, r.stderr)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("the sleeve restarted during the upload", r.stderr)
+        self.assertIn("the upload was lost: run it again", r.stderr)
+        self.assertNotIn("no upload in progress", r.stderr)
+        got = json.loads(self.ok("info", "--json").stdout)
+        self.assertEqual(got["bank"]["state"], "builtin", got["bank"])
+
+
 if __name__ == "__main__":
     unittest.main()

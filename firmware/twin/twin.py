@@ -696,6 +696,8 @@ class Flash:
         b.uc.mem_write(addr, b"\xff" * size)
         b.erases.append((start, self.busy_until, snb))
         b.flash_busy_changed()
+        if b.on_flash:
+            b.on_flash("erase", snb)
 
     def finish(self, t):
         """Completes the operation that ends at or before `t`."""
@@ -746,6 +748,8 @@ class Flash:
             self.op = ("program",)
             b.programs += 1
             b.flash_busy_changed()
+            if b.on_flash:
+                b.on_flash("program", addr)
         elif self.cr & self.ERRIE:
             self.sr |= self.OPERR
         return new
@@ -998,6 +1002,9 @@ class Board:
         self.erases = []  # (start, end, sector) of every sector erase
         self.programs = 0  # flash writes programmed
         self.dirty_writes = []  # (t, addr, old, value): programs over bits not erased
+        # A test's look at each flash operation as it starts: on_flash("erase", sector)
+        # or on_flash("program", address); it may cut the power there (`power_cut`).
+        self.on_flash = None
         self.tick_instructions = None  # [(t, instructions)] per TIM7 handler, when counted
         self.counting = False
         self._count_hook = None
@@ -1181,6 +1188,11 @@ class Board:
         the quantum)."""
         self.stop = ("reset", cause)
         self.uc.emu_stop()
+
+    def power_cut(self):
+        """The supply cut and back at once, from a peripheral's model in the middle
+        of a quantum: the chip restarts as from a reset once the CPU has stopped."""
+        self.request_reset("power")
 
     def reset(self, cause):
         """A system reset: peripherals and core to their reset state, RAM kept."""
