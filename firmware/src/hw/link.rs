@@ -45,6 +45,7 @@ static WAKE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
 /// Wakes the link's task: bytes arrived (USB), or the tick queued answers or wants
 /// a player built (from the tick's follow-up interrupt, `tick.rs`).
+#[inline(never)]
 pub fn wake() {
     WAKE.signal(());
 }
@@ -148,12 +149,16 @@ fn USART2() {
         let byte = u.dr().read().dr() as u8;
         // SAFETY: only this handler touches the frame state.
         receive(byte, rx, unsafe { &mut *addr_of_mut!(RX_FRAME) });
-        WAKE.signal(());
+        wake();
     }
     if sr.txe() && u.cr1().read().txeie() {
         match tx.dequeue() {
             Some(b) => u.dr().write(|w| w.set_dr(u16::from(b))),
-            None => u.cr1().modify(|w| w.set_txeie(false)),
+            None => {
+                u.cr1().modify(|w| w.set_txeie(false));
+                // What waited for room to answer goes on.
+                wake();
+            }
         }
     }
 }
@@ -236,21 +241,17 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
     // The transport that gets the tick's answers and events.
     let mut last = 0;
     let mut batch = [0u8; RX_LEN];
-    // A transport's ring to the wire was too full to go on: look again soon.
-    let mut behind = false;
     loop {
-        // Woken by a byte or an answer; once a second anyway, for the upload
-        // timeout; within a millisecond while a full ring to the wire drains.
-        let wait = Duration::from_millis(if behind { 1 } else { 1000 });
-        let _ = with_timeout(wait, WAKE.wait()).await;
-        behind = false;
+        // Woken by a byte, an answer, or a ring to the wire gone empty (what waited
+        // for room there goes on); once a second anyway, for the upload timeout.
+        let _ = with_timeout(Duration::from_secs(1), WAKE.wait()).await;
         for (i, port) in ports.iter_mut().enumerate() {
             if owner.is_some_and(|o| o != i) {
                 continue;
             }
             if !port.has_room() {
-                // Its requests wait (and hold their host back) until their answers fit.
-                behind |= port.rx.len() > 0;
+                // Its requests wait (and hold their host back) until their answers
+                // fit: the ring's sender wakes this task once it is empty.
                 continue;
             }
             // Up to the end of a frame: the next frame may be the other transport's.
@@ -275,7 +276,7 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
             server.receive(&batch[..n], &mut |f: &[u8]| port.send(f));
             if port.rx.len() > 0 {
                 // More than a batch, or a frame after this one: come back after a yield.
-                WAKE.signal(());
+                wake();
             }
         }
         if let Some(o) = owner {
@@ -289,7 +290,7 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
                 let port = &mut ports[o];
                 server.receive(&[0], &mut |f: &[u8]| port.send(f));
                 owner = None;
-                WAKE.signal(());
+                wake();
             }
         }
         // The USART's dropped frames are answered on the transport of the tick's
@@ -297,7 +298,6 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
         server.dropped(DROPPED.load(Ordering::Relaxed));
         let port = &mut ports[last];
         while port.has_room() && server.poll_one(&mut |f: &[u8]| port.send(f)) {}
-        behind |= !port.has_room();
         // After a commit or an abort, or an upload abandoned by its host
         // (`sleeve_firmware::link::server::UPLOAD_IDLE_MS`): the task wakes at least
         // once a second to see it.

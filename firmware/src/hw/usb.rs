@@ -205,6 +205,8 @@ pub async fn run(usb: Usb, wire: Wire) {
                         n += 1;
                     }
                     if n == 0 {
+                        // All sent: what waited for room to answer goes on.
+                        link::wake();
                         break;
                     }
                     if sender.write_packet(&packet[..n]).await.is_err() {
