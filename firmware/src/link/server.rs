@@ -475,15 +475,8 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                 self.emit(&Message::Refused { seq, error }, out);
             }
             Answer::Status(seq) => {
-                let snap = self.port.snapshot();
-                let status = self.status(&snap);
-                self.emit(
-                    &Message::Reply {
-                        seq,
-                        reply: Reply::Status(status),
-                    },
-                    out,
-                );
+                let reply = Reply::Status(self.status(&self.port.snapshot()));
+                self.emit(&Message::Reply { seq, reply }, out);
             }
             Answer::Locked(_) => {
                 self.locked = true;
