@@ -201,7 +201,7 @@ TWIN_ELF="$elf" TWIN_LINKED_BANK="$bank" bash "$here/twin/run.sh"
 step "twin: the UART-only build's playback and its link on USART2"
 cargo build --profile "$profile" --locked "${uart_only[@]}"
 TWIN_ELF="$elf" bash "$here/twin/run.sh" test_twin.BootAndPlay test_twin.LinkTwin \
-    test_twin.PlayLatency test_twin.LinkStream
+    test_twin.PlayLatency test_twin.LinkStream test_link
 
 step "twin: the default build on USB (OTG FS model, scripted host, the link over USB)"
 # Leaves the default build in place for `cargo run --profile firmware`.

@@ -17,8 +17,8 @@ EVENTS = ["Button", "Started", "Stopping", "Finished", "LimitHit", "TooHot", "Se
           "StreamStopped"]
 ERRORS = ["Malformed", "UnsupportedVersion", "NoSuchSlot", "BadSlot", "TooHot", "Busy", "NoBank", "NoUpload",
           "OutOfOrder", "OutOfRange", "BadCrc", "WrongLayout", "BadBank", "Flash", "NoStream", "StreamGap",
-          "StreamFull"]
-FRAME_ERRORS = ["TooLong", "Cobs", "Short", "BadCrc", "Malformed"]
+          "StreamFull", "QueueFull"]
+FRAME_ERRORS = ["TooLong", "Cobs", "Short", "BadCrc", "Malformed", "Overrun"]
 
 
 # ------------------------------------------------------------------ encoding

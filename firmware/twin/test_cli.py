@@ -21,7 +21,7 @@ from test_twin import EMOJI, IDLE, ROOT, SCRATCH, TOUCHC, boot, codes, expected,
 
 EMOJI_DIR = ROOT / "examples/emoji"
 # The emoji stimuli's ramp, ms (`touchc inspect`).
-RAMP_MS = {"love": 10}
+RAMP_MS = {"love": 10, "gratitude": 10}
 
 
 def render_codes(stimulus):
@@ -248,9 +248,9 @@ class Stream(Served):
         self.serve(b)
         rng = random.Random(33)
         worst = 0.0
-        # One stimulus: a second stream straight after it (gratitude after love) on
-        # the USB default build parts from the render at its tick 10, an open finding.
-        for name in ("love",):
+        # Two streams, the second straight after the first: nothing of the first
+        # (its player, its state) may carry into the second.
+        for name in ("love", "gratitude"):
             stimulus = EMOJI_DIR / f"{name}.touch"
             # The signal tick for tick; the stream's final ramp starts where its last
             # keyframe is played out and may differ from the render's by a code.
@@ -289,6 +289,77 @@ class Stream(Served):
                           f"vs {want[bad] if bad is not None else None}")
         if os.environ.get("TWIN_VERBOSE"):
             print(f"\nstreams whole with host stalls of up to {worst * 1000:.0f} ms")
+
+
+
+class CutUpload(Served):
+    """`touchc sleeve upload` with the power cut at three points: the message says
+    what happened, at once (no 10 s timeout), and the sleeve plays."""
+
+    def cut_at(self, b, kind, when):
+        """Cuts the power once, at the first flash operation of `kind` for which
+        `when(arg)` holds, as it starts."""
+        state = {"done": False}
+
+        def look(k, arg):
+            if k == kind and not state["done"] and when(arg):
+                state["done"] = True
+                b.power_cut()
+        b.on_flash = look
+        return state
+
+    def upload(self, b):
+        start = time.monotonic()
+        r = self.touchc("upload", str(EMOJI))
+        return r, time.monotonic() - start
+
+    def test_a_cut_after_the_head_finds_the_new_bank_in_place(self):
+        b = boot(EMOJI, erase=True)
+        self.serve(b)
+        cut = self.cut_at(b, "program", lambda addr: addr == twin.BANK_BASE)
+        r, took = self.upload(b)
+        self.assertTrue(cut["done"], f"the commit never programmed the head: {r.stderr}")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("restarted before it answered the upload's commit", r.stderr)
+        self.assertIn("with the new bank in place: verified", r.stderr)
+        self.assertLess(took, 8, "waited out a timeout")
+        got = json.loads(self.ok("info", "--json").stdout)
+        self.assertEqual(got["bank"]["state"], "flashed", got["bank"])
+
+    def test_a_cut_during_the_erase_is_told_at_once(self):
+        b = boot(EMOJI)
+        self.serve(b)
+        # Half a second into the first sector's erase (about a second long).
+        cut = {"done": False}
+
+        def look(kind, _):
+            if kind == "erase" and not cut["done"]:
+                cut["done"] = True
+                b.at(b.now() + 0.5, lambda b: b.reset("power"))
+        b.on_flash = look
+        r, took = self.upload(b)
+        self.assertTrue(cut["done"], r.stderr)
+        self.assertEqual(r.returncode, 1, r.stderr)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("the sleeve restarted during the upload", r.stderr)
+        self.assertIn("the upload was lost: run it again", r.stderr)
+        self.assertLess(took, 5, "waited out the erase's 10 s timeout")
+        self.ok("play", "0")
+        self.ok("stop")
+
+    def test_a_cut_mid_chunks_says_the_upload_was_lost(self):
+        b = boot(EMOJI)
+        self.serve(b)
+        cut = self.cut_at(b, "program", lambda addr: addr >= twin.BANK_BASE + 2048)
+        r, _ = self.upload(b)
+        self.assertTrue(cut["done"], r.stderr)
+        self.assertEqual(r.returncode, 1, r.stderr)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("the sleeve restarted during the upload", r.stderr)
+        self.assertIn("the upload was lost: run it again", r.stderr)
+        self.assertNotIn("no upload in progress", r.stderr)
+        got = json.loads(self.ok("info", "--json").stdout)
+        self.assertEqual(got["bank"]["state"], "builtin", got["bank"])
 
 
 if __name__ == "__main__":

@@ -312,45 +312,15 @@ class UsbHost:
 
 def serve(board, host, link_path, seconds=None, speed=1.0, stop=None):
     """Runs `board` in step with the wall clock with the host's CDC-ACM port on a
-    pseudo-terminal linked at `link_path`, as the port a computer shows for the
-    sleeve (/dev/ttyACM0, COM3): `touchc sleeve --port LINK_PATH ...` talks to the
-    twin over USB. While the device is not configured (before its enumeration, or
-    while it restarts after an upload) the port's bytes wait, as a program's writes
-    wait on a port that reappears. Stops after `seconds` (emulated), when `stop` is
-    set, or when interrupted."""
-    import os
-    import select
-    import time
-    import tty
-
-    master, slave = os.openpty()
-    tty.setraw(slave)
-    if os.path.lexists(link_path):
-        os.unlink(link_path)
-    os.symlink(os.ttyname(slave), link_path)
-    step = 0.001
-    try:
-        start, t0 = time.monotonic(), board.t
-        while (seconds is None or board.t - t0 < seconds * twin.T_HZ) and not (stop and stop.is_set()):
-            if host.state == "configured" and not host.tx:
-                ready, _, _ = select.select([master], [], [], 0)
-                if ready:
-                    try:
-                        host.send(os.read(master, 4096))
-                    except OSError:
-                        pass  # no process has the port open
-            board.run(step)
-            out = host.take()
-            if out:
-                os.write(master, out)
-            ahead = (board.t - t0) / twin.T_HZ / speed - (time.monotonic() - start)
-            if ahead > 0:
-                select.select([master], [], [], ahead)
-    finally:
-        os.unlink(link_path)
-        os.close(master)
-        os.close(slave)
-    return board
+    pseudo-terminal linked at `link_path` (`twin.serve_pty`), as the port a
+    computer shows for the sleeve (/dev/ttyACM0, COM3): `touchc sleeve --port
+    LINK_PATH ...` talks to the twin over USB. While the device is not configured
+    (before its enumeration, or while it restarts after an upload) the port's
+    bytes wait, as a program's writes wait on a port that reappears. Stops after
+    `seconds` (emulated), when `stop` is set, or when interrupted."""
+    return twin.serve_pty(board, link_path, host.send, host.take,
+                          ready=lambda: host.state == "configured" and not host.tx,
+                          seconds=seconds, speed=speed, stop=stop)
 
 
 if __name__ == "__main__":

@@ -26,6 +26,18 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     CRC32.checksum(bytes)
 }
 
+/// [`crc32`] of `bytes` following `state`: the running register, `!0` before the
+/// first bytes; the CRC of everything fed is `!state` at the end. For a CRC over
+/// pieces held apart (a bank's head in RAM and its body in flash, frames of codes
+/// as they are played): `!crc32_update(crc32_update(!0, a), b) == crc32(a ++ b)`.
+pub fn crc32_update(state: u32, bytes: &[u8]) -> u32 {
+    // The crate's register runs reflected for this reflected algorithm, and its
+    // digest reflects the initial value it is given.
+    let mut d = CRC32.digest_with_initial(state.reverse_bits());
+    d.update(bytes);
+    !d.finalize()
+}
+
 /// [`crc32`] at compile time.
 pub(crate) const fn crc32_const(bytes: &[u8]) -> u32 {
     CRC32.checksum(bytes)
@@ -147,6 +159,21 @@ mod tests {
     fn crc_is_zlibs() {
         // The check value of CRC-32/ISO-HDLC.
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+    }
+
+    #[test]
+    fn crc_runs_over_pieces() {
+        assert_eq!(!crc32_update(!0, b"123456789"), 0xCBF4_3926);
+        let whole = b"a bank's head, then its body";
+        for cut in 0..=whole.len() {
+            let (a, b) = whole.split_at(cut);
+            assert_eq!(
+                !crc32_update(crc32_update(!0, a), b),
+                crc32(whole),
+                "cut at {cut}"
+            );
+        }
+        assert_eq!(!crc32_update(!0, b""), crc32(b""));
     }
 
     #[test]

@@ -259,7 +259,7 @@ fn replies_are_pinned() {
 #[test]
 fn refusals_events_and_unreadable_frames_are_pinned() {
     let refused = |seq, error| Message::Refused { seq, error };
-    let cases: [(LinkError, &[u8]); 17] = [
+    let cases: [(LinkError, &[u8]); 18] = [
         (LinkError::Malformed, &[0x00]),
         (LinkError::UnsupportedVersion { device: 2 }, &[0x01, 0x02]),
         (
@@ -293,6 +293,7 @@ fn refusals_events_and_unreadable_frames_are_pinned() {
         (LinkError::BadBank { blinks: 5 }, &[0x0C, 0x05]),
         (LinkError::Flash, &[0x0D]),
         (LinkError::NoStream, &[0x0E]),
+        (LinkError::QueueFull, &[0x11]),
     ];
     for (error, bytes) in cases {
         let mut expected = vec![0x01, 0x04];
@@ -346,6 +347,7 @@ fn refusals_events_and_unreadable_frames_are_pinned() {
     }
     pin_message(Message::Unreadable(FrameError::BadCrc), &[0x03, 0x03]);
     pin_message(Message::Unreadable(FrameError::TooLong), &[0x03, 0x00]);
+    pin_message(Message::Unreadable(FrameError::Overrun), &[0x03, 0x05]);
 }
 
 /// Whole frames on the wire: postcard, CRC-32 LE, COBS, 00 (CRCs from Python's

@@ -6,6 +6,7 @@ use touch_protocol::Error;
 
 use super::stream::{StreamClock, StreamState};
 use super::{source, Controller, Report};
+use crate::link::port::ANSWER_MARGIN;
 use crate::link::{Answer, Control, TickReply};
 
 impl Controller<'_> {
@@ -14,7 +15,13 @@ impl Controller<'_> {
     #[inline(never)]
     pub(super) fn serve_link(&mut self, log: &mut dyn FnMut(Report)) {
         // Left in the queue until it is done with: a `Play` may wait for its player.
-        let Some(&control) = self.link.as_ref().and_then(|p| p.peek_control()) else {
+        // Not while the link is behind with the answers: the reply would be dropped.
+        let Some(&control) = self
+            .link
+            .as_ref()
+            .filter(|p| p.answer_room() >= ANSWER_MARGIN)
+            .and_then(|p| p.peek_control())
+        else {
             return;
         };
         let first = self.now.wrapping_add(1);

@@ -11,6 +11,7 @@
 //! are all the link uses.
 
 use core::ptr::addr_of_mut;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_stm32::gpio::{AfType, Flex, OutputType, Speed};
 use embassy_stm32::interrupt::{InterruptExt, Priority};
@@ -21,6 +22,7 @@ use embassy_sync::signal::Signal;
 use embassy_time::{with_timeout, Duration, Instant, Timer};
 use heapless::spsc::{Consumer, Producer, Queue};
 use sleeve_firmware::link::LinkServer;
+use touch_protocol::link::MAX_ENCODED;
 
 use super::flash::BankFlash;
 
@@ -43,6 +45,7 @@ static WAKE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
 /// Wakes the link's task: bytes arrived (USB), or the tick queued answers or wants
 /// a player built (from the tick's follow-up interrupt, `tick.rs`).
+#[inline(never)]
 pub fn wake() {
     WAKE.signal(());
 }
@@ -64,6 +67,12 @@ pub struct Port {
 }
 
 impl Port {
+    /// True while the largest frame fits in the ring to the wire: the server reads
+    /// a request, or takes an answer from the tick, only then, so that none is lost.
+    fn has_room(&self) -> bool {
+        self.tx.capacity() - self.tx.len() >= MAX_ENCODED
+    }
+
     /// Queues a frame to send, whole or not at all (a frame that does not fit is
     /// dropped: the host times out and asks again, it never sees a wrong frame).
     fn send(&mut self, frame: &[u8]) {
@@ -136,18 +145,68 @@ fn USART2() {
     let u = pac::USART2;
     let sr = u.sr().read();
     if sr.rxne() || sr.ore() {
-        // Reading DR clears RXNE and the overrun flag; a byte that finds the ring full
-        // is dropped (the frame fails its CRC and the host retries).
+        // Reading DR clears RXNE and the overrun flag.
         let byte = u.dr().read().dr() as u8;
-        let _ = rx.enqueue(byte);
-        WAKE.signal(());
+        // SAFETY: only this handler touches the frame state.
+        receive(byte, rx, unsafe { &mut *addr_of_mut!(RX_FRAME) });
+        wake();
     }
     if sr.txe() && u.cr1().read().txeie() {
         match tx.dequeue() {
             Some(b) => u.dr().write(|w| w.set_dr(u16::from(b))),
-            None => u.cr1().modify(|w| w.set_txeie(false)),
+            None => {
+                u.cr1().modify(|w| w.set_txeie(false));
+                // What waited for room to answer goes on.
+                wake();
+            }
         }
     }
+}
+
+/// Where the USART's handler is in the frame it receives.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum RxFrame {
+    /// Between frames.
+    Idle,
+    /// The frame's bytes so far are in the ring.
+    Kept,
+    /// Some of its bytes are in the ring, the rest found it full: its end goes in
+    /// (one place is kept free for it) and the server answers it unreadable.
+    Cut,
+    /// Its first byte found the ring full: dropped whole, counted in [`DROPPED`].
+    Dropped,
+}
+
+static mut RX_FRAME: RxFrame = RxFrame::Idle;
+/// Frames the USART's handler dropped whole (wrapping): each is answered
+/// `Unreadable(Overrun)`, so that every request gets an answer.
+static DROPPED: AtomicU32 = AtomicU32::new(0);
+
+/// One byte from the wire into the ring, a frame at a time: a host faster than the
+/// device's answers fills the ring (the server reads a frame only when it has room
+/// to answer it), and what does not fit is dropped by frame, never a frame's end
+/// alone (that would join two requests into one unreadable frame).
+fn receive(byte: u8, rx: &mut Producer<'static, u8, RX_LEN>, state: &mut RxFrame) {
+    // One place stays free for the end of a frame begun in the ring.
+    let fits = rx.capacity() - rx.len() > 1;
+    *state = match (*state, byte) {
+        (RxFrame::Dropped, 0) => {
+            DROPPED.fetch_add(1, Ordering::Relaxed);
+            RxFrame::Idle
+        }
+        (_, 0) => {
+            // Room is certain after a frame's bytes; an empty frame may be lost.
+            let _ = rx.enqueue(0);
+            RxFrame::Idle
+        }
+        (RxFrame::Idle | RxFrame::Kept, b) if fits => {
+            let _ = rx.enqueue(b);
+            RxFrame::Kept
+        }
+        (RxFrame::Idle, _) => RxFrame::Dropped,
+        (RxFrame::Kept, _) => RxFrame::Cut,
+        (other, _) => other,
+    };
 }
 
 /// The link's transports: USART2, and the USB socket when built in (feature `usb`).
@@ -183,10 +242,16 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
     let mut last = 0;
     let mut batch = [0u8; RX_LEN];
     loop {
-        // Woken by a byte or an answer; once a second anyway, for the upload timeout.
+        // Woken by a byte, an answer, or a ring to the wire gone empty (what waited
+        // for room there goes on); once a second anyway, for the upload timeout.
         let _ = with_timeout(Duration::from_secs(1), WAKE.wait()).await;
         for (i, port) in ports.iter_mut().enumerate() {
             if owner.is_some_and(|o| o != i) {
+                continue;
+            }
+            if !port.has_room() {
+                // Its requests wait (and hold their host back) until their answers
+                // fit: the ring's sender wakes this task once it is empty.
                 continue;
             }
             // Up to the end of a frame: the next frame may be the other transport's.
@@ -211,7 +276,7 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
             server.receive(&batch[..n], &mut |f: &[u8]| port.send(f));
             if port.rx.len() > 0 {
                 // More than a batch, or a frame after this one: come back after a yield.
-                WAKE.signal(());
+                wake();
             }
         }
         if let Some(o) = owner {
@@ -225,11 +290,14 @@ pub async fn serve(transports: Transports, mut server: LinkServer<'static, BankF
                 let port = &mut ports[o];
                 server.receive(&[0], &mut |f: &[u8]| port.send(f));
                 owner = None;
-                WAKE.signal(());
+                wake();
             }
         }
+        // The USART's dropped frames are answered on the transport of the tick's
+        // answers: the last to send a frame, the USART's when it floods.
+        server.dropped(DROPPED.load(Ordering::Relaxed));
         let port = &mut ports[last];
-        server.poll(&mut |f: &[u8]| port.send(f));
+        while port.has_room() && server.poll_one(&mut |f: &[u8]| port.send(f)) {}
         // After a commit or an abort, or an upload abandoned by its host
         // (`sleeve_firmware::link::server::UPLOAD_IDLE_MS`): the task wakes at least
         // once a second to see it.

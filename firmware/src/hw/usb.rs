@@ -119,6 +119,22 @@ pub fn split() -> (Port, Wire) {
     )
 }
 
+/// The device's descriptor fields.
+fn device_config() -> embassy_usb::Config<'static> {
+    let mut config = embassy_usb::Config::new(USB_IDS.0, USB_IDS.1);
+    config.manufacturer = Some("touchc");
+    config.product = Some(PRODUCT);
+    // The chip's 96-bit unique ID in hexadecimal: two sleeves on one computer are
+    // told apart by it (`touchc sleeve list`).
+    config.serial_number = Some(embassy_stm32::uid::uid_hex());
+    // The sleeve has its own supply and only senses VBUS; the controller board may
+    // still run from the cable, within 100 mA.
+    config.self_powered = true;
+    config.max_power = 100;
+    config.max_packet_size_0 = PACKET as u8;
+    config
+}
+
 /// Waits for VBUS, then runs the USB device and its CDC-ACM port for good.
 #[embassy_executor::task]
 pub async fn run(usb: Usb, wire: Wire) {
@@ -137,17 +153,7 @@ pub async fn run(usb: Usb, wire: Wire) {
     otg_config.vbus_detection = true;
     let driver = OtgDriver(Driver::new_fs(otg, Irqs, dp, dm, &mut ep_out, otg_config));
 
-    let mut config = embassy_usb::Config::new(USB_IDS.0, USB_IDS.1);
-    config.manufacturer = Some("touchc");
-    config.product = Some(PRODUCT);
-    // The chip's 96-bit unique ID in hexadecimal: two sleeves on one computer are
-    // told apart by it (`touchc sleeve list`).
-    config.serial_number = Some(embassy_stm32::uid::uid_hex());
-    // The sleeve has its own supply and only senses VBUS; the controller board may
-    // still run from the cable, within 100 mA.
-    config.self_powered = true;
-    config.max_power = 100;
-    config.max_packet_size_0 = PACKET as u8;
+    let config = device_config();
     let mut config_descriptor = [0u8; 128];
     let mut bos_descriptor = [0u8; 32];
     let mut control = [0u8; PACKET];
@@ -205,6 +211,8 @@ pub async fn run(usb: Usb, wire: Wire) {
                         n += 1;
                     }
                     if n == 0 {
+                        // All sent: what waited for room to answer goes on.
+                        link::wake();
                         break;
                     }
                     if sender.write_packet(&packet[..n]).await.is_err() {

@@ -15,7 +15,7 @@
 //! bank ([`crate::boot::committed`]); see the flash-model tests below.
 
 use touch_protocol::bank::REGION_LEN;
-use touch_protocol::container::crc32;
+use touch_protocol::container::{crc32, crc32_update};
 use touch_protocol::link::LinkError;
 
 use crate::boot::{check_bank, BootError};
@@ -245,11 +245,7 @@ fn flash_error(_: FlashError) -> LinkError {
 
 /// CRC-32 of the image given as its head and the rest.
 fn image_crc(head: &[u8], body: &[u8]) -> u32 {
-    const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-    let mut d = CRC32.digest();
-    d.update(head);
-    d.update(body);
-    d.finalize()
+    !crc32_update(crc32_update(!0, head), body)
 }
 
 /// The boot's check of a region (its format, every CRC, the layout's geometry hash):

@@ -31,6 +31,9 @@ pub use status::Snapshot;
 pub const CONTROL_DEPTH: usize = 5;
 /// Answers and events in flight from the tick to the link (one fewer than this).
 pub const ANSWER_DEPTH: usize = 9;
+/// Answer places the tick wants free before it takes a command: its reply and
+/// what else one tick may tell (a button's gesture, a start, a stop, a limit).
+pub const ANSWER_MARGIN: usize = 4;
 /// Stream keyframes the device buffers (one fewer than this).
 pub const KEYFRAME_DEPTH: usize = 33;
 
@@ -261,30 +264,9 @@ impl<'a> LinkPort<'_, 'a> {
     pub fn stage(&mut self, slot: u8, build: impl FnOnce() -> Option<Player<'a>>) {
         let p = self.players;
         p.wanted.store(u32::from(slot) + 1, Ordering::Release);
-        let mut state = p.state.load(Ordering::Acquire);
-        loop {
-            let staged = state & 0xFF;
-            if staged == u32::from(slot) + 1 {
-                return;
-            }
-            if staged == NONE_STAGED {
-                break;
-            }
-            // Take back the place of a player the tick may be taking right now: if
-            // it did, `state` changed and this fails.
-            match p.state.compare_exchange(
-                state,
-                state & LINK_PLACE,
-                Ordering::AcqRel,
-                Ordering::Acquire,
-            ) {
-                Ok(_) => {
-                    state &= LINK_PLACE;
-                    break;
-                }
-                Err(now) => state = now,
-            }
-        }
+        let Some(state) = self.take_back(Some(slot)) else {
+            return;
+        };
         let Some(player) = build() else {
             return;
         };
@@ -296,6 +278,42 @@ impl<'a> LinkPort<'_, 'a> {
             (state & LINK_PLACE) | (u32::from(slot) + 1),
             Ordering::Release,
         );
+    }
+
+    /// Drops the player staged for `slot`, if that is the one staged: a stream's
+    /// player is staged under one tag for every stream, and one left staged (its
+    /// stream stopped before it started) must not start the next.
+    pub fn unstage(&mut self, slot: u8) {
+        if self.staged() == Some(slot) {
+            let _ = self.take_back(None);
+        }
+    }
+
+    /// Takes back the link's place from a staged player (unless it is `keep`'s:
+    /// then `None`); the state with none staged.
+    fn take_back(&self, keep: Option<u8>) -> Option<u32> {
+        let p = self.players;
+        let mut state = p.state.load(Ordering::Acquire);
+        loop {
+            let staged = state & 0xFF;
+            if keep.is_some_and(|k| staged == u32::from(k) + 1) {
+                return None;
+            }
+            if staged == NONE_STAGED {
+                return Some(state);
+            }
+            // Take back the place of a player the tick may be taking right now: if
+            // it did, `state` changed and this fails.
+            match p.state.compare_exchange(
+                state,
+                state & LINK_PLACE,
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => return Some(state & LINK_PLACE),
+                Err(now) => state = now,
+            }
+        }
     }
 
     /// Queues a command; gives it back if the queue is full.
@@ -419,6 +437,13 @@ impl<'a> TickPort<'_, 'a> {
         let place = self.own_place();
         // SAFETY: as for `player`.
         unsafe { (*self.players.places[place].get()).assume_init_ref() }
+    }
+
+    /// Free places in the answer queue: the tick takes a command only while its
+    /// reply and the events of the same tick fit ([`ANSWER_MARGIN`]), so that a
+    /// link slow to drain the queue holds commands back instead of losing replies.
+    pub fn answer_room(&self) -> usize {
+        self.answers.capacity() - self.answers.len()
     }
 
     /// Sends an answer; dropped if the queue is full.

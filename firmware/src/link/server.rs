@@ -65,6 +65,9 @@ pub struct LinkServer<'a, F: Flash> {
     heard_ms: u64,
     /// When the upload's last request came, ms on the same clock.
     upload_ms: u64,
+    /// Frames dropped by the transport (wrapping), and those answered.
+    dropped: u32,
+    overruns: u32,
 }
 
 impl<'a, F: Flash> LinkServer<'a, F> {
@@ -84,6 +87,8 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             restart: false,
             heard_ms: 0,
             upload_ms: 0,
+            dropped: 0,
+            overruns: 0,
         }
     }
 
@@ -141,6 +146,14 @@ impl<'a, F: Flash> LinkServer<'a, F> {
             };
             self.handle_frame(&copy[..n], out);
         }
+    }
+
+    /// Counts the frames a transport dropped unread (its receive buffer was full),
+    /// `total` since boot (wrapping): each is answered `Unreadable(Overrun)` by
+    /// [`LinkServer::poll_one`], so that every request gets an answer, these
+    /// without their `seq`.
+    pub fn dropped(&mut self, total: u32) {
+        self.dropped = total;
     }
 
     fn handle_frame(&mut self, frame: &[u8], out: &mut dyn FnMut(&[u8])) {
@@ -270,7 +283,11 @@ impl<'a, F: Flash> LinkServer<'a, F> {
     fn bank_read(&mut self, seq: u16, offset: u32, len: u16, out: &mut dyn FnMut(&[u8])) {
         let region = self.flash.region();
         let (offset_us, len_us) = (offset as usize, usize::from(len));
-        if len_us > MAX_CHUNK || offset_us > region.len() {
+        if len_us > MAX_CHUNK {
+            // A length no reply may carry breaks the command's own rule.
+            return self.refuse(seq, LinkError::Malformed, out);
+        }
+        if offset_us > region.len() {
             return self.refuse(seq, LinkError::OutOfRange, out);
         }
         let end = (offset_us + len_us).min(region.len());
@@ -298,7 +315,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         } else if self.port.send(Control::Lock { seq }).is_ok() {
             self.begin = Some((seq, len, crc));
         } else {
-            self.refuse(seq, LinkError::Busy(Busy::Playing), out)
+            self.refuse(seq, LinkError::QueueFull, out)
         }
     }
 
@@ -323,7 +340,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         } else if self.port.send(c).is_err() {
             // Four commands already wait for the tick: the host sends faster than
             // it reads replies.
-            Some(LinkError::Busy(Busy::Playing))
+            Some(LinkError::QueueFull)
         } else {
             None
         };
@@ -347,9 +364,9 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         }
         for i in 0..n.min(MAX_STREAM_KEYFRAMES) {
             if let Some(k) = link::stream_keyframe(keyframes, i) {
-                let _ = self.port.push_keyframe(k);
                 // The player from the stream's first two keyframes, for the tick to
-                // take when it starts the stream.
+                // take when it starts the stream: staged before the second is
+                // queued, as the tick starts the stream once two are.
                 match (expected + i as u32, self.stream) {
                     (0, Some((params, _))) => self.stream = Some((params, Some(k))),
                     (1, Some((params, Some(first)))) => {
@@ -357,6 +374,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
                     }
                     _ => {}
                 }
+                let _ = self.port.push_keyframe(k);
             }
         }
         self.port.fed();
@@ -403,6 +421,9 @@ impl<'a, F: Flash> LinkServer<'a, F> {
     /// Builds a stream's player from its first keyframes (from a cold coil: the tick
     /// hands it the heat at the start) and stages it as `tag`.
     fn stage_stream(&mut self, tag: u8, params: &StreamParams, first: [i16; 8], second: [i16; 8]) {
+        // One staged under this tag is an earlier stream's, stopped before it
+        // started: never this one's.
+        self.port.unstage(tag);
         self.port.stage(tag, || {
             Some(Player::live(
                 params,
@@ -416,59 +437,67 @@ impl<'a, F: Flash> LinkServer<'a, F> {
 
     /// Forwards what the tick answered, builds the player the tick wants ready,
     /// and does an upload's erase once the tick has locked the bank.
-    #[inline(never)]
     pub fn poll(&mut self, out: &mut dyn FnMut(&[u8])) {
+        while self.poll_one(out) {}
+    }
+
+    /// As [`LinkServer::poll`], for one answer at most (one frame through `out`):
+    /// a frame dropped unread ([`LinkServer::dropped`]), else the tick's next. A
+    /// transport calls it while it has room for a frame, so that no answer is
+    /// dropped on a full wire. False when none waited.
+    #[inline(never)]
+    pub fn poll_one(&mut self, out: &mut dyn FnMut(&[u8])) -> bool {
         if let Some(slot) = self.port.wanted() {
             if self.port.staged() != Some(slot) {
                 self.stage(slot);
             }
         }
-        while let Some(a) = self.port.receive() {
-            match a {
-                Answer::Reply(seq, reply) => {
-                    if matches!(reply, TickReply::StreamBegin { .. }) {
-                        self.stream_next = Some(0);
-                    }
-                    let reply = reply.into();
-                    self.emit(&Message::Reply { seq, reply }, out);
+        if self.overruns != self.dropped {
+            self.overruns = self.overruns.wrapping_add(1);
+            self.emit(&Message::Unreadable(FrameError::Overrun), out);
+            return true;
+        }
+        let Some(a) = self.port.receive() else {
+            return false;
+        };
+        match a {
+            Answer::Reply(seq, reply) => {
+                if matches!(reply, TickReply::StreamBegin { .. }) {
+                    self.stream_next = Some(0);
                 }
-                Answer::Refused(seq, error) => {
-                    if matches!(self.begin, Some((s, ..)) if s == seq) {
-                        self.begin = None;
-                    }
-                    self.emit(&Message::Refused { seq, error }, out);
+                let reply = reply.into();
+                self.emit(&Message::Reply { seq, reply }, out);
+            }
+            Answer::Refused(seq, error) => {
+                if matches!(self.begin, Some((s, ..)) if s == seq) {
+                    self.begin = None;
                 }
-                Answer::Status(seq) => {
-                    let snap = self.port.snapshot();
-                    let status = self.status(&snap);
-                    self.emit(
-                        &Message::Reply {
-                            seq,
-                            reply: Reply::Status(status),
-                        },
-                        out,
-                    );
+                self.emit(&Message::Refused { seq, error }, out);
+            }
+            Answer::Status(seq) => {
+                let reply = Reply::Status(self.status(&self.port.snapshot()));
+                self.emit(&Message::Reply { seq, reply }, out);
+            }
+            Answer::Locked(_) => {
+                self.locked = true;
+                self.erase_and_reply(out);
+            }
+            Answer::Event(tick, event) => {
+                if matches!(
+                    event,
+                    link::Event::StreamStopped(_)
+                        | link::Event::Finished(link::Source::Stream)
+                        | link::Event::TooHot {
+                            source: link::Source::Stream,
+                            ..
+                        }
+                ) {
+                    self.stream_next = None;
                 }
-                Answer::Locked(_) => {
-                    self.locked = true;
-                    self.erase_and_reply(out);
-                }
-                Answer::Event(tick, event) => {
-                    if matches!(
-                        event,
-                        link::Event::StreamStopped(_)
-                            | link::Event::Finished(link::Source::Stream)
-                            | link::Event::TooHot {
-                                source: link::Source::Stream,
-                                ..
-                            }
-                    ) {
-                        self.stream_next = None;
-                    }
-                    self.emit(&Message::Event { tick, event }, out);
-                }
+                self.emit(&Message::Event { tick, event }, out);
             }
         }
+        true
     }
 
     fn erase_and_reply(&mut self, out: &mut dyn FnMut(&[u8])) {

@@ -12,7 +12,7 @@ use touch_protocol::{Limits, Stimulus, CHANNELS, IDLE_CODE};
 use super::bank::bank_crc;
 use super::sim::Device;
 use crate::button::Event as Button;
-use crate::output::{device_config, IDLE_FRAME};
+use crate::output::{device_config, Frame, IDLE_FRAME};
 use crate::testutil::{bank, constant_stimulus, for_layout, stimulus_from};
 
 /// The host's side, as a test drives it: sends requests, collects frames.
@@ -187,6 +187,14 @@ fn hello_info_and_slots() {
         h.call(Command::BankRead {
             offset: 0,
             len: 257
+        }),
+        Err(LinkError::Malformed),
+        "SPEC: a length over 256 breaks the command's rule"
+    );
+    assert_eq!(
+        h.call(Command::BankRead {
+            offset: end + 1,
+            len: 16
         }),
         Err(LinkError::OutOfRange)
     );
@@ -659,6 +667,14 @@ fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
     let m = cobs::encode(&raw, &mut stuffed).unwrap();
     h.dev.write(&stuffed[..m]);
     h.dev.write(&[0x00]);
+    // `Info` (seq 7) with three bytes after it, under a good CRC (postcard alone
+    // would stop at the message's end and answer it).
+    let body = [0x07, 0x01, 0x00, 0x00, 0x00];
+    let mut raw = body.to_vec();
+    raw.extend_from_slice(&bank_crc(&body).to_le_bytes());
+    let m = cobs::encode(&raw, &mut stuffed).unwrap();
+    h.dev.write(&stuffed[..m]);
+    h.dev.write(&[0x00]);
     h.pump();
     assert_eq!(
         h.unreadable,
@@ -668,8 +684,13 @@ fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
             FrameError::BadCrc,
             FrameError::Cobs,
             FrameError::Short,
+            FrameError::Malformed,
             FrameError::Malformed
         ]
+    );
+    assert!(
+        h.frames.is_empty(),
+        "the request with trailing bytes was answered"
     );
     assert!(h.call(Command::Info).is_ok());
     // A chunk longer than MAX_CHUNK is refused (it still fits a frame).
@@ -680,6 +701,37 @@ fn damaged_frames_are_answered_unreadable_and_the_next_one_works() {
             bytes: &[1; 257]
         }),
         Err(LinkError::Malformed)
+    );
+}
+
+#[test]
+fn a_pipelined_flood_gets_one_answer_per_request_and_a_full_queue_its_own() {
+    let mut h = host();
+    h.call(Command::Play { slot: 0 }).unwrap();
+    let seqs: Vec<u16> = (0..40).map(|_| h.send(Command::Status)).collect();
+    h.run(60);
+    let mut answers = std::collections::BTreeMap::<u16, Vec<Result<(), LinkError>>>::new();
+    for f in h.frames.drain(..) {
+        match link::decode::<Message>(&f).unwrap() {
+            Message::Reply { seq, reply } => {
+                assert!(matches!(reply, Reply::Status(_)), "{reply:?}");
+                answers.entry(seq).or_default().push(Ok(()));
+            }
+            Message::Refused { seq, error } => answers.entry(seq).or_default().push(Err(error)),
+            m => panic!("{m:?}"),
+        }
+    }
+    assert!(h.unreadable.is_empty());
+    for seq in &seqs {
+        let a = answers.get(seq).map_or(&[][..], |a| &a[..]);
+        assert_eq!(a.len(), 1, "request {seq}: {a:?}");
+        assert!(matches!(a[0], Ok(()) | Err(LinkError::QueueFull)), "{a:?}");
+    }
+    let full = answers.values().filter(|a| a[0].is_err()).count();
+    assert!(
+        full > 0 && full < seqs.len(),
+        "{full} of {} refused",
+        seqs.len()
     );
 }
 
@@ -1275,5 +1327,50 @@ fn a_stream_fed_ahead_plays_on() {
     assert!(
         !on && events.contains(&Event::StreamStopped(StreamStop::Underrun)),
         "{events:?}"
+    );
+}
+
+/// Streams `ks` whole on `h` (data, end, played out); the outputs from its
+/// `Started` event on.
+fn stream_all(h: &mut Host, ks: &[[i16; 8]]) -> Vec<Frame> {
+    h.call(Command::StreamBegin(stream_params())).unwrap();
+    let since = h.events.len();
+    feed(h, ks, 0, ks.len());
+    h.call(Command::StreamEnd).unwrap();
+    h.run(ks.len() * 20 + 200);
+    let (started, _) = h.events[since..]
+        .iter()
+        .find(|e| e.1 == Event::Started(Source::Stream))
+        .copied()
+        .expect("the stream started");
+    h.dev.outputs()[started as usize..].to_vec()
+}
+
+#[test]
+fn a_stream_plays_its_own_keyframes_after_one_stopped_before_it_started() {
+    let level = |q: i16| vec![[q; 8]; 6];
+    let alone = stream_all(&mut host(), &level(-6000));
+    // A first stream stopped after its first two keyframes came and before the
+    // tick started it: the player the link built from them is left staged.
+    let mut h = host();
+    h.call(Command::StreamBegin(stream_params())).unwrap();
+    let mut bytes = [0u8; 2 * link::KEYFRAME_LEN];
+    let len = link::put_stream_keyframes(&level(9000)[..2], &mut bytes);
+    h.send(Command::StreamData {
+        index: 0,
+        keyframes: &bytes[..len],
+    });
+    h.send(Command::Stop);
+    h.run(100);
+    assert!(!h
+        .events
+        .iter()
+        .any(|e| e.1 == Event::Started(Source::Stream)));
+    let after = stream_all(&mut h, &level(-6000));
+    let n = alone.len().min(after.len());
+    let parts = (0..n).find(|&i| after[i] != alone[i]);
+    assert_eq!(
+        parts, None,
+        "the second stream parts from the same one alone"
     );
 }

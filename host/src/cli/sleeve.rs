@@ -339,6 +339,10 @@ fn refusal(e: &LinkError) -> String {
             format!("stream keyframes out of order (the sleeve expects {expected})")
         }
         LinkError::StreamFull { room } => format!("the sleeve's stream buffer is full ({room} free)"),
+        LinkError::QueueFull => {
+            "the sleeve's command queue was full (requests came faster than it answers); nothing was done"
+                .into()
+        }
     }
 }
 

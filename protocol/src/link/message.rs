@@ -490,6 +490,10 @@ pub enum LinkError {
         /// Free places.
         room: u16,
     },
+    /// The device's queue of commands for the tick was full (four wait): the host
+    /// sent faster than it read their replies. Nothing was done; the request may
+    /// be sent again once a reply came.
+    QueueFull,
 }
 
 /// What is in the way of a command.

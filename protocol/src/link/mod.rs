@@ -92,8 +92,11 @@ pub enum FrameError {
     /// The CRC does not match: damaged on the way.
     BadCrc,
     /// The CRC matches but the message does not decode (another version, or not a
-    /// message of this kind).
+    /// message of this kind, or bytes after the message).
     Malformed,
+    /// The frame was dropped unread: the device's receive buffer was full (a host
+    /// that sent faster than the device answers, on a wire that cannot wait).
+    Overrun,
 }
 
 impl From<cobs::CobsError> for FrameError {
@@ -113,6 +116,7 @@ impl core::fmt::Display for FrameError {
             FrameError::Short => "frame shorter than its CRC",
             FrameError::BadCrc => "frame CRC mismatch",
             FrameError::Malformed => "frame does not decode as a message",
+            FrameError::Overrun => "frame dropped: the receive buffer was full",
         })
     }
 }
@@ -138,7 +142,12 @@ pub fn encode<T: Serialize>(message: &T, out: &mut [u8]) -> Result<usize, FrameE
 /// then the message. The message borrows from `frame`.
 pub fn decode<'a, T: Deserialize<'a>>(frame: &'a [u8]) -> Result<T, FrameError> {
     let body = check(frame)?;
-    postcard::from_bytes(body).map_err(|_| FrameError::Malformed)
+    // postcard stops where the message ends: bytes after it, under a good CRC, are
+    // a message of another shape, not this one.
+    match postcard::take_from_bytes(body) {
+        Ok((message, [])) => Ok(message),
+        _ => Err(FrameError::Malformed),
+    }
 }
 
 /// The message bytes of an unstuffed frame whose CRC matches.
@@ -267,6 +276,24 @@ mod tests {
         let mut frame = body.to_vec();
         frame.extend_from_slice(&crate::container::crc32(&body).to_le_bytes());
         assert_eq!(decode::<Request>(&frame), Err(FrameError::Malformed));
+    }
+
+    #[test]
+    fn trailing_bytes_under_a_good_crc_are_malformed() {
+        // `Info` (seq 7) is `07 01`; the same with three bytes after it.
+        for (body, ok) in [
+            (&[0x07, 0x01][..], true),
+            (&[0x07, 0x01, 0x00, 0x00, 0x00], false),
+        ] {
+            let mut frame = body.to_vec();
+            frame.extend_from_slice(&crate::container::crc32(body).to_le_bytes());
+            let r = decode::<Request>(&frame);
+            if ok {
+                assert_eq!(r.map(|r| r.command), Ok(Command::Info));
+            } else {
+                assert_eq!(r, Err(FrameError::Malformed));
+            }
+        }
     }
 
     #[test]

@@ -139,7 +139,9 @@ impl TickPort<'_, '_> {
     /// Publishes the state for a `Status` reply (read back by
     /// [`LinkPort::snapshot`], with the faults [`TickPort::publish_faults`] stored
     /// last): a store per word, no copy of a snapshot. The heat is `idle`'s, or,
-    /// with `idle` none, that of the player in the tick's place.
+    /// with `idle` none, that of the player in the tick's place. Inlined into its
+    /// one caller, the tick's: a call of its own costs flash and the tick time.
+    #[inline(always)]
     pub fn publish_status(
         &mut self,
         tick: u32,

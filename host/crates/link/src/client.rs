@@ -88,6 +88,15 @@ pub enum ClientError {
     /// ramp to 0 A): the reason its `StreamStopped` event gave.
     #[error("the device stopped the stream: {0:?}")]
     StreamStopped(StreamStop),
+    /// The device restarted (a power cut, a reset) before it answered `command`:
+    /// it answered a later request instead, or no longer knew the upload. What
+    /// the command began on it is lost (a commit's bank may still be in place:
+    /// [`Client::verify`] tells).
+    #[error("the device restarted before it answered {command}")]
+    Restarted {
+        /// The command's name.
+        command: &'static str,
+    },
     /// The bank the device holds after an upload is not the image sent.
     #[error("the sleeve's bank differs from the image sent: {0}")]
     Verify(VerifyError),

@@ -71,11 +71,15 @@ pub(super) fn upload(
     }
     let bar = bar(image.len() as u64, "bytes");
     bar.set_message("erasing");
-    let slots = client
-        .upload(&image, |p: Progress| bar.set_position(p.done))
-        .map_err(|e| describe(e, &port, "upload"));
+    let uploaded = client.upload(&image, |p: Progress| bar.set_position(p.done));
     bar.finish_and_clear();
-    let slots = slots?;
+    let slots = match uploaded {
+        Ok(slots) => slots,
+        // A cut after the commit wrote the bank's head leaves the new bank in place
+        // although its reply never came; anywhere else, the upload is lost.
+        Err(ClientError::Restarted { .. }) => return after_restart(client, &port, &image),
+        Err(e) => return Err(describe(e, &port, "upload")),
+    };
     // The sleeve restarts into the new bank: asked again once it is back, on the same
     // port; a USB socket goes away and comes back, and is opened again.
     let mut client = match client.reconnect() {
@@ -85,17 +89,56 @@ pub(super) fn upload(
             reopen(&port)?
         }
     };
-    let bar = self::bar(image.len() as u64, "bytes read back");
-    let verified = client
-        .verify(&image, |p: Progress| bar.set_position(p.done))
-        .map_err(|e| describe(e, &port, "verify"));
-    bar.finish_and_clear();
-    verified?;
+    verify(&mut client, &port, &image)?;
     eprintln!(
         "touchc: {}: uploaded and verified {} bytes, {} slots",
         port.display(),
         image.len(),
         slots
+    );
+    Ok(())
+}
+
+/// Reads the bank back and compares it with `image`.
+fn verify(client: &mut Sleeve, port: &Path, image: &[u8]) -> anyhow::Result<()> {
+    let bar = self::bar(image.len() as u64, "bytes read back");
+    let verified = client
+        .verify(image, |p: Progress| bar.set_position(p.done))
+        .map_err(|e| describe(e, port, "verify"));
+    bar.finish_and_clear();
+    verified
+}
+
+/// The sleeve restarted before it answered the upload: says whether the new bank
+/// is in place (read back whole) or the upload was lost.
+fn after_restart(mut client: Sleeve, port: &Path, image: &[u8]) -> anyhow::Result<()> {
+    let p = port.display();
+    let mut client = match client.reconnect() {
+        Ok(_) => client,
+        Err(_) => {
+            drop(client);
+            reopen(port)?
+        }
+    };
+    let lost = || {
+        anyhow::anyhow!(
+            "{p}: the sleeve restarted during the upload (a power cut or a reset?); \
+             the upload was lost: run it again"
+        )
+    };
+    match client.verify(image, |_| {}) {
+        Ok(()) => {}
+        Err(ClientError::Verify(_)) => return Err(lost()),
+        Err(e) => return Err(describe(e, port, "verify")),
+    }
+    let slots = match client.info().map_err(|e| describe(e, port, "info"))?.bank {
+        touch_protocol::link::BankState::Flashed(s) => s.slots,
+        _ => return Err(lost()),
+    };
+    eprintln!(
+        "touchc: {p}: the sleeve restarted before it answered the upload's commit (a power cut \
+         or a reset?), with the new bank in place: verified {} bytes, {slots} slots",
+        image.len()
     );
     Ok(())
 }

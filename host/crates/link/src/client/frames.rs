@@ -9,6 +9,11 @@ use touch_protocol::link::{self, Command, Message, Reply, Request};
 use super::{Client, ClientError, Stamped};
 use crate::Transport;
 
+/// How long [`Client::call_watched`] waits for its command's reply before it
+/// asks with a `Status` whether the device is still there (a device restarts and
+/// answers again within some 300 ms; an erase takes seconds).
+const PROBE: Duration = Duration::from_millis(250);
+
 /// Events kept for [`Client::next_event`]; older ones are dropped past this.
 const MAX_QUEUED_EVENTS: usize = 4096;
 
@@ -32,12 +37,7 @@ impl<T: Transport> Client<T> {
         let name = command_name(&command);
         let mut attempt = 0;
         loop {
-            self.seq = self.seq.wrapping_add(1);
-            let seq = self.seq;
-            let mut wire = [0u8; link::MAX_ENCODED];
-            let n = link::encode(&Request { seq, command }, &mut wire)
-                .map_err(|_| ClientError::Protocol("a request too long to send"))?;
-            self.transport.write_all(&wire[..n])?;
+            let seq = self.send(command)?;
             match self.await_reply(seq, name, timeout, &mut take) {
                 Err(ClientError::Timeout { .. } | ClientError::Unreadable { .. })
                     if attempt < retries =>
@@ -47,6 +47,86 @@ impl<T: Transport> Client<T> {
                 other => return other,
             }
         }
+    }
+
+    /// As [`Client::call`] without retries, for a command that keeps the device
+    /// busy for a while (an erase, a commit): every [`PROBE`] without its reply, a
+    /// `Status` follows it. The device answers requests in order, so a probe
+    /// answered first means the device no longer knew the command: it restarted
+    /// ([`ClientError::Restarted`]), found in a fraction of a second instead of
+    /// at the end of `timeout`.
+    pub(super) fn call_watched<R>(
+        &mut self,
+        command: Command<'_>,
+        timeout: Duration,
+        mut take: impl FnMut(Reply<'_>) -> Option<R>,
+    ) -> Result<R, ClientError> {
+        let name = command_name(&command);
+        let seq = self.send(command)?;
+        let start = self.transport.now();
+        let mut probes = Vec::new();
+        let mut result: Option<Result<R, ClientError>> = None;
+        let mut unreadable = None;
+        loop {
+            let until = (self.transport.now() - start + PROBE).min(timeout);
+            while result.is_none() && self.transport.now() - start < until {
+                let left = until.saturating_sub(self.transport.now() - start);
+                self.receive(left, |message| match message {
+                    Message::Reply { seq: s, reply } if s == seq => {
+                        result =
+                            Some(take(reply).ok_or(ClientError::UnexpectedReply { command: name }));
+                        true
+                    }
+                    Message::Refused { seq: s, error } if s == seq => {
+                        result = Some(Err(ClientError::Refused {
+                            command: name,
+                            error,
+                        }));
+                        true
+                    }
+                    Message::Reply { seq: s, .. } | Message::Refused { seq: s, .. }
+                        if probes.contains(&s) =>
+                    {
+                        // A frame the device could not read may have been the
+                        // command itself: that, rather than a restart.
+                        result = Some(Err(match unreadable {
+                            Some(error) => ClientError::Unreadable {
+                                command: name,
+                                error,
+                            },
+                            None => ClientError::Restarted { command: name },
+                        }));
+                        true
+                    }
+                    Message::Unreadable(error) => {
+                        unreadable = Some(error);
+                        false
+                    }
+                    _ => false,
+                })?;
+            }
+            if let Some(r) = result {
+                return r;
+            }
+            if self.transport.now() - start >= timeout {
+                return Err(ClientError::Timeout {
+                    command: name,
+                    waited: timeout,
+                });
+            }
+            probes.push(self.send(Command::Status)?);
+        }
+    }
+
+    /// Sends one request; its sequence number.
+    fn send(&mut self, command: Command<'_>) -> Result<u16, ClientError> {
+        self.seq = self.seq.wrapping_add(1);
+        let seq = self.seq;
+        let mut wire = [0u8; link::MAX_ENCODED];
+        let n = link::encode(&Request { seq, command }, &mut wire)
+            .map_err(|_| ClientError::Protocol("a request too long to send"))?;
+        self.transport.write_all(&wire[..n])?;
+        Ok(seq)
     }
 
     fn await_reply<R>(
@@ -211,6 +291,75 @@ mod tests {
             reply: Duration::from_millis(100),
             ..Timeouts::default()
         })
+    }
+
+    #[test]
+    fn a_device_that_restarted_mid_command_is_found_by_a_probe() {
+        // Forgets the erase (as a restarted device does) but answers a `Status`.
+        let status = StatusReport {
+            tick: 1,
+            playing: None,
+            stopping: false,
+            selected: 0,
+            heat_permille: [0; 8],
+            cooldown_ms: 0,
+            faults: 0,
+            last_fault: None,
+            upload: None,
+        };
+        let (t, _d) = device(move |seq, c| match c {
+            Command::Status => vec![frame(&Message::Reply {
+                seq,
+                reply: Reply::Status(status),
+            })],
+            _ => vec![],
+        });
+        let mut c = quick(t);
+        let start = std::time::Instant::now();
+        let r = c.call_watched(
+            Command::BankBegin { len: 8, crc: 0 },
+            Duration::from_secs(10),
+            |_| Some(()),
+        );
+        assert!(
+            matches!(
+                r,
+                Err(ClientError::Restarted {
+                    command: "bank begin"
+                })
+            ),
+            "{r:?}"
+        );
+        assert!(
+            start.elapsed() < Duration::from_secs(2),
+            "{:?}",
+            start.elapsed()
+        );
+    }
+
+    #[test]
+    fn a_busy_device_answers_the_command_before_its_probes() {
+        // An erase of 0.6 s: the probes queue behind it and are answered after it.
+        let (t, _d) = device(|seq, c| match c {
+            Command::BankBegin { len, .. } => {
+                std::thread::sleep(Duration::from_millis(600));
+                vec![frame(&Message::Reply {
+                    seq,
+                    reply: Reply::BankBegin { len },
+                })]
+            }
+            _ => vec![frame(&Message::Refused {
+                seq,
+                error: LinkError::QueueFull,
+            })],
+        });
+        let mut c = quick(t);
+        let r = c.call_watched(
+            Command::BankBegin { len: 8, crc: 0 },
+            Duration::from_secs(10),
+            |r| matches!(r, Reply::BankBegin { len: 8 }).then_some(()),
+        );
+        assert!(r.is_ok(), "{r:?}");
     }
 
     #[test]

@@ -14,6 +14,18 @@ const RESTART_GRACE: Duration = Duration::from_millis(100);
 /// the boot's bank check up to some 100 ms).
 const RESTART_POLL: Duration = Duration::from_millis(50);
 
+/// An upload the device no longer knows (`NoUpload` after its `BankBegin` was
+/// answered) was lost to a restart.
+fn lost_upload(e: ClientError) -> ClientError {
+    match e {
+        ClientError::Refused {
+            command,
+            error: LinkError::NoUpload,
+        } => ClientError::Restarted { command },
+        e => e,
+    }
+}
+
 impl<T: Transport> Client<T> {
     /// Reads `len` bytes of the bank region from `offset`.
     pub fn read_bank(
@@ -66,7 +78,7 @@ impl<T: Transport> Client<T> {
         let crc = touch_protocol::container::crc32(image);
         let chunk = self.chunk_len()?;
         let erase = self.timeouts.erase;
-        self.call(Command::BankBegin { len, crc }, erase, 0, |r| match r {
+        self.call_watched(Command::BankBegin { len, crc }, erase, |r| match r {
             Reply::BankBegin { len: l } if l == len => Some(()),
             _ => None,
         })?;
@@ -93,7 +105,7 @@ impl<T: Transport> Client<T> {
                     error: LinkError::OutOfOrder { expected },
                     ..
                 }) if expected == end as u32 => expected,
-                Err(e) => return Err(e),
+                Err(e) => return Err(lost_upload(e)),
             };
             if next != end as u32 {
                 return Err(ClientError::Protocol(
@@ -107,10 +119,12 @@ impl<T: Transport> Client<T> {
             });
         }
         let timeout = self.timeouts.erase;
-        let (got, slots) = self.call(Command::BankCommit, timeout, 0, |r| match r {
-            Reply::BankCommit { crc, slots } => Some((crc, slots)),
-            _ => None,
-        })?;
+        let (got, slots) = self
+            .call_watched(Command::BankCommit, timeout, |r| match r {
+                Reply::BankCommit { crc, slots } => Some((crc, slots)),
+                _ => None,
+            })
+            .map_err(lost_upload)?;
         if got != crc {
             return Err(ClientError::Verify(VerifyError::CommitCrc {
                 expected: crc,
