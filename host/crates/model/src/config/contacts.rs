@@ -29,8 +29,8 @@ pub struct Split {
 impl Split {
     /// The `touch` preset's before contacts were regions (`docs/trade.md` measures
     /// against it): a contact is flat when 8 cells read half its peak, lattice every 2
-    /// cells, down to a quarter of the peak. Lay it over `touch` with `[detect.split]`
-    /// in a `--config` file (and `[track.regions]` off, under `--preset paper`).
+    /// cells, down to a quarter of the peak. It is used only where `track.regions` is
+    /// off.
     pub const LATTICE: Split = Split {
         min_cells: 8,
         level: 0.5,
