@@ -572,33 +572,39 @@ mod tests {
         assert_eq!(fast.placement.coarse_to_fine, None);
     }
 
-    /// A key of a table the preset leaves out (`paper` has no contact splitting) names
+    /// A key of a table the preset leaves out (`paper` has no contact regions) names
     /// the table as off and what would turn it on, beside serde's missing field.
     #[test]
     fn a_key_of_a_table_the_preset_leaves_out_says_the_table_is_off() {
         let args = ConfigArgs::augment_args(Command::new("t"))
-            .try_get_matches_from(["t", "--preset", "paper", "--set", "detect.split.extent=0.3"])
+            .try_get_matches_from([
+                "t",
+                "--preset",
+                "paper",
+                "--set",
+                "track.regions.seed_psi=0.1",
+            ])
             .unwrap();
         let err = ConfigArgs::from_arg_matches(&args)
             .unwrap()
             .resolve()
             .unwrap_err();
         let text = super::super::report::message(&err);
-        assert!(text.contains("missing field `min_cells`"), "{text}");
+        assert!(text.contains("missing field `footprint_psi`"), "{text}");
         assert!(
-            text.contains("`detect.split` is off under --preset paper")
-                && text.contains("level, min_cells, spacing_cells")
+            text.contains("`track.regions` is off under --preset paper")
+                && text.contains("footprint_psi, join_cells")
                 && text.contains("--preset touch"),
             "{text}"
         );
         // A table the preset has takes a single key.
         let args = ConfigArgs::augment_args(Command::new("t"))
-            .try_get_matches_from(["t", "--set", "detect.split.extent=0.3"])
+            .try_get_matches_from(["t", "--set", "track.regions.seed_psi=0.1"])
             .unwrap();
         let touch = ConfigArgs::from_arg_matches(&args)
             .unwrap()
             .resolve()
             .unwrap();
-        assert_eq!(touch.detect.split.and_then(|s| s.extent), Some(0.3));
+        assert_eq!(touch.track.regions.map(|r| r.seed_psi), Some(0.1));
     }
 }

@@ -163,11 +163,13 @@ fn cause(c: &MissCause, touch_tracking: bool) -> String {
             pct(share),
             if touch_tracking {
                 format!(
-                    "contact splitting is on: try a finer lattice (--set {}=1)",
+                    "contacts are tracked whole already: try a lower footprint threshold \
+                     (--set {}=0.02) or, with contact splitting, a finer lattice (--set {}=1)",
+                    Knob::TrackRegionsFootprintPsi,
                     Knob::DetectSplitSpacingCells
                 )
             } else {
-                "try --preset touch (contact splitting)".to_string()
+                "try --preset touch (contacts as regions)".to_string()
             }
         ),
     }
@@ -596,7 +598,7 @@ mod tests {
              follows 0.01 m/s: try --preset touch, or a wider link gate (--max-speed-mm-s); \
              10% of the missed touch lies more than 2 cells from the contact tracked in its \
              frame: a large contact (a flat hand) or a second one; try --preset touch \
-             (contact splitting); 3% of the missed touch is in touches shorter than 5 frames \
+             (contacts as regions); 3% of the missed touch is in touches shorter than 5 frames \
              (250 ms), the least a trajectory needs to pay its entry and exit costs: try \
              --preset touch, or lower --entry-cost and --exit-cost"
         );
@@ -620,8 +622,9 @@ mod tests {
             "the tracked contacts explain 76% of the touch pressure (coverage 0.76, below \
              0.8): touch is lost; 93% of the missed touch lies more than 2 cells from the \
              contact tracked in its frame: a large contact (a flat hand) or a second one; \
-             contact splitting is on: try a finer lattice (--set \
-             detect.split.spacing_cells=1); 7% of the missed touch is in frames where no \
+             contacts are tracked whole already: try a lower footprint threshold (--set \
+             track.regions.footprint_psi=0.02) or, with contact splitting, a finer lattice \
+             (--set detect.split.spacing_cells=1); 7% of the missed touch is in frames where no \
              contact was tracked; its detections are too weak to start a trajectory: try \
              lower --entry-cost and --exit-cost"
         );

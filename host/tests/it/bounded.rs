@@ -3,7 +3,7 @@
 
 use ndarray::{Array2, Array3};
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, Metadata, MetadataOverrides, Preset, Sampling};
+use touchc_model::config::{Config, Metadata, MetadataOverrides, Preset, Sampling, Split};
 use touchc_pipeline::track::track;
 use touchc_tracking::detect::{frame_points, local_maxima};
 use touchc_tracking::preprocess::{Blur, BlurOperator};
@@ -44,7 +44,7 @@ fn blurred(frame: &Array2<f64>, cfg: &Config) -> Array2<f64> {
 /// A 6 x 10-cell patch at 5 psi blurs into a plateau, flat up to the blur's rounding
 /// (a pattern of values one ulp apart): one maximum, at the patch's centre, not one per
 /// pixel of the pattern's top level; the whole sensor saturated is a constant frame,
-/// no maximum. The touch preset's lattice still covers the patch.
+/// no maximum. The lattice of flat contacts (`Split::LATTICE`) still covers the patch.
 #[test]
 fn a_saturated_patch_is_one_local_maximum() {
     let cfg = Config::default();
@@ -64,12 +64,7 @@ fn a_saturated_patch_is_one_local_maximum() {
     );
     assert!(local_maxima(b.view(), cfg.detect.min_value_psi).is_empty());
 
-    let split = cfg
-        .detect
-        .split
-        .as_ref()
-        .expect("touch splits flat contacts");
-    let points = frame_points(b.view(), &cfg.detect, Some(split), 7);
+    let points = frame_points(b.view(), &cfg.detect, Some(&Split::LATTICE), 7);
     assert!(
         !points.is_empty() && points.len() <= LATTICE,
         "{}",

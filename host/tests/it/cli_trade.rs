@@ -274,7 +274,7 @@ fn trade_cases_takes_no_recordings_and_seeds_only_with_cases() {
 #[test]
 fn trade_applies_a_knob_to_the_presets_whose_table_has_it() {
     let dir = tempfile::tempdir().unwrap();
-    // A pat: a flat hand, whose weaker regions the extent reaches.
+    // A pat: a flat hand, whose rim the footprint threshold reaches.
     let rec = synth(dir.path(), "pat", "pat");
     let json = dir.path().join("t.json");
     let trade = |set: &str| {
@@ -291,20 +291,20 @@ fn trade_applies_a_knob_to_the_presets_whose_table_has_it() {
             s(&json),
         ])
     };
-    let out = trade("detect.split.extent=0.5");
+    let out = trade("track.regions.footprint_psi=0.06");
     ok(&out);
     let err = bin::stderr(&out);
     assert!(
-        err.contains("--set detect.split.extent=0.5 is not applied to --preset exact")
-            && err.contains("`detect.split` is off"),
+        err.contains("--set track.regions.footprint_psi=0.06 is not applied to --preset exact")
+            && err.contains("`track.regions` is off"),
         "{err}"
     );
     let with = report(&json);
-    let top_only = with.as_array().unwrap()[0]["bytes"].clone();
-    ok(&trade("detect.split.extent=0.25"));
+    let narrow = with.as_array().unwrap()[0]["bytes"].clone();
+    ok(&trade("track.regions.footprint_psi=0.03"));
     let default = report(&json).as_array().unwrap()[0]["bytes"].clone();
-    // The knob reached `touch`: splitting on the top only is another stimulus.
-    assert_ne!(top_only, default);
+    // The knob reached `touch`: a narrower footprint is another stimulus.
+    assert_ne!(narrow, default);
     // A knob the chosen preset cannot take is still refused.
     let out = touchc(&[
         "trade",
@@ -312,7 +312,7 @@ fn trade_applies_a_knob_to_the_presets_whose_table_has_it() {
         "--preset",
         "paper",
         "--set",
-        "detect.split.extent=0.5",
+        "track.regions.footprint_psi=0.06",
     ]);
     assert!(refused(&out).contains("off under --preset paper"));
 }

@@ -167,8 +167,8 @@ fn presses(at: &[(f64, f64)]) -> Recording {
     Recording::from_array("presses", data.view()).unwrap()
 }
 
-/// Rendered coverage: a press under the sleeve is tracked whole and played in part (a
-/// workspace holds one or two of the cells a fingertip presses); nine presses spread
+/// Rendered coverage: a press under the sleeve is tracked whole and played in part (its
+/// footprint's cells outside every workspace are not played); nine presses spread
 /// over the frame, further apart than the workspaces reach, are tracked whole, but the
 /// sleeve plays two of them at most: a shortfall, with what to try.
 #[test]
@@ -178,7 +178,7 @@ fn the_report_says_how_much_of_the_touch_the_sleeve_plays() {
         .report;
     assert!(one.coverage > 0.95, "{}", one.coverage);
     assert!(
-        (0.2..0.8).contains(&one.rendered_coverage),
+        (0.2..0.95).contains(&one.rendered_coverage),
         "{}",
         one.rendered_coverage
     );
@@ -238,9 +238,10 @@ fn fifteen_strokes_stay_fifteen_trajectories_under_the_default() {
 fn a_broad_contacts_rim_does_not_pull_the_placement_off_its_pressure() {
     let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let rec = Recording::load(manifest.join("../examples/emoji/sadness.npy")).unwrap();
-    // The lattice: the default without regions (whose footprints need no lattice).
+    // The lattice (the default before regions, whose footprints need no lattice).
     let mut lattice = Config::default();
     lattice.track.regions = None;
+    lattice.detect.split = Some(touchc_model::config::Split::LATTICE);
     let default = compile(
         &rec,
         &CompileOptions {

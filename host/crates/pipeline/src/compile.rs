@@ -544,6 +544,7 @@ fn tracking_figures(cfg: &Config, sampling: &Sampling) -> Tracking {
         cell_mm: sampling.pitch_mm,
         gate_mm_s: cfg.track.max_speed_mm_s,
         min_frames,
-        touch_tracking: cfg.track.bridge.is_some() && cfg.detect.split.is_some(),
+        touch_tracking: cfg.track.bridge.is_some()
+            && (cfg.detect.split.is_some() || cfg.track.regions.is_some()),
     }
 }

@@ -173,10 +173,23 @@ pub fn link_regions(
         }
     }
     done.extend(live);
+    done.retain(|c| !c.points.is_empty());
+    if done.len() > cfg.max_trajectories {
+        // As the flow's units: the contacts that explain the most (lowest total cost)
+        // are kept, ties to the earlier one.
+        let cost = |c: &Contact| c.points.iter().map(|p| p.cost).sum::<f64>();
+        let mut order: Vec<(f64, usize)> = done.iter().map(cost).zip(0..).collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut keep = vec![false; done.len()];
+        for &(_, i) in order.iter().take(cfg.max_trajectories) {
+            keep[i] = true;
+        }
+        let mut k = keep.into_iter();
+        done.retain(|_| k.next().unwrap_or(false));
+    }
     // Creation order is the order of the first frame, then of the first cell.
     done.sort_by_key(|c| c.points.first().map(|p| (p.frame, p.row, p.col)));
     done.into_iter()
-        .filter(|c| !c.points.is_empty())
         .map(|c| Trajectory { points: c.points })
         .collect()
 }
@@ -331,6 +344,33 @@ mod tests {
             .map(|f| if (5..8).contains(&f) { vec![] } else { one(f) })
             .collect();
         assert_eq!(count(&lifted, 20.0), 2);
+    }
+
+    #[test]
+    fn at_most_max_trajectories_contacts_are_kept_the_strongest() {
+        // Three taps one after another, the middle one weakest (its cells' cost is the
+        // same, but it has one cell where the others have two).
+        let movie = vec![
+            vec![(1, 1, 0.5), (1, 2, 0.5)],
+            vec![],
+            vec![],
+            vec![],
+            vec![(4, 4, 0.5)],
+            vec![],
+            vec![],
+            vec![],
+            vec![(7, 7, 0.5), (7, 8, 0.5)],
+        ];
+        let mut cfg = Config::preset(Preset::Touch).track;
+        cfg.max_trajectories = 2;
+        let sampling = Sampling {
+            rate_hz: 20.0,
+            pitch_mm: 25.4,
+            upsample: 7,
+        };
+        let kept = link_regions(&frames(&movie), &Regions::MEASURED, &cfg, &sampling);
+        let first: Vec<usize> = kept.iter().map(|t| t.points[0].frame).collect();
+        assert_eq!(first, vec![0, 8]);
     }
 
     #[test]

@@ -1,5 +1,6 @@
-//! The contact models of the `touch` preset: flat contacts split on a lattice ([`Split`]),
-//! links across flicker ([`Bridge`]) and contacts as moving regions ([`Regions`]).
+//! The contact models of real touch: contacts as moving regions ([`Regions`], the `touch`
+//! preset's), links across flicker ([`Bridge`]) and flat contacts split on a lattice
+//! ([`Split`], the preset's before regions, kept as an option to measure against).
 
 use serde::{Deserialize, Serialize};
 
@@ -25,6 +26,19 @@ pub struct Split {
     pub extent: Option<f64>,
 }
 
+impl Split {
+    /// The `touch` preset's before contacts were regions (`docs/trade.md` measures
+    /// against it): a contact is flat when 8 cells read half its peak, lattice every 2
+    /// cells, down to a quarter of the peak. It is used only where `track.regions` is
+    /// off.
+    pub const LATTICE: Split = Split {
+        min_cells: 8,
+        level: 0.5,
+        spacing_cells: 2,
+        extent: Some(0.25),
+    };
+}
+
 /// Links across missing frames: a contact that reads below detection for a frame or two
 /// (sensor flicker) stays one trajectory instead of breaking into pieces.
 ///
@@ -33,7 +47,7 @@ pub struct Split {
 /// one-frame gate radius (the contact may keep moving while unseen), at the one-frame
 /// link cost of the scaled gate plus `cost_per_missing` per frame skipped. A flow that
 /// can take the frames in between keeps them: skipping a strong detection forgoes its
-/// negative cost. 60 ms bridges one frame at 20 Hz and three at 54 Hz (real flicker
+/// negative cost. 100 ms (`touch`) bridges two frames at 20 Hz and five at 54 Hz (real flicker
 /// lasts one or two frames at 54 Hz); a lift of 150 ms between two strokes never.
 ///
 /// With bridging, a detection that costs `cost_per_missing` or more is treated as a
@@ -104,10 +118,9 @@ pub struct Regions {
 }
 
 impl Regions {
-    /// The measured setting (`docs/trade.md`, "Real touch on a fabric grid"): seed at
-    /// the touch threshold (0.08 psi), footprint at 0.03 psi (ten times the noise),
-    /// cells up to 2 apart joined. Not yet the `touch` preset's: lay it over it with
-    /// `[track.regions]` in a `--config` file.
+    /// The `touch` preset's, measured (`docs/trade.md`, "Real touch on a fabric
+    /// grid"): seed at the touch threshold (0.08 psi), footprint at 0.03 psi (ten times
+    /// the noise), cells up to 2 apart joined.
     pub const MEASURED: Regions = Regions {
         seed_psi: 0.08,
         footprint_psi: 0.03,

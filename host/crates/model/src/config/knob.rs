@@ -260,14 +260,11 @@ mod tests {
     use super::*;
     use crate::config::{Bridge, CoarseToFine, ConfigError, Preset, Regions, Split};
 
-    /// Every preset, and one config holding every optional table (the split's extent
-    /// is set in no preset), so that every key appears in some config.
+    /// Every preset, and one config holding every optional table (the lattice is set
+    /// in no preset), so that every key appears in some config.
     fn configs() -> Vec<Config> {
         let mut full = Config::preset(Preset::Touch);
-        full.detect.split = Some(Split {
-            extent: Some(0.25),
-            ..full.detect.split.expect("the touch preset splits")
-        });
+        full.detect.split = Some(Split::LATTICE);
         full.track.bridge = Some(Bridge {
             max_missing_s: 0.1,
             cost_per_missing: 0.5,

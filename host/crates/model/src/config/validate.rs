@@ -350,6 +350,7 @@ impl Config {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::Split;
 
     #[test]
     fn every_preset_is_valid() {
@@ -365,9 +366,11 @@ mod tests {
     fn the_extent_is_held_below_the_level() {
         for extent in [0.75, 2.0] {
             let mut c = Config::default();
-            let split = c.detect.split.as_mut().expect("the touch preset splits");
-            split.level = 0.5;
-            split.extent = Some(extent);
+            c.detect.split = Some(Split {
+                level: 0.5,
+                extent: Some(extent),
+                ..Split::LATTICE
+            });
             assert_eq!(
                 c.validate(),
                 Err(ConfigError::OutOfRange {

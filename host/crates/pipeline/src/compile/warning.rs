@@ -36,8 +36,8 @@ pub enum Warning {
         threshold: f64,
         /// The likely causes of the rest, largest first.
         causes: Vec<MissCause>,
-        /// The `touch` preset's tracking (links across missing frames, contact
-        /// splitting) was on, so it is not what to try.
+        /// The `touch` preset's tracking (links across missing frames, contacts as
+        /// regions or split on a lattice) was on, so it is not what to try.
         touch_tracking: bool,
     },
     /// The flow used every unit of `track.max_trajectories`: further contacts are not
