@@ -187,6 +187,10 @@ fn the_twins_test_counts_are_its_files() {
         count("test_cli.py")
     );
     assert_eq!(
+        number_after(&text, "`test_link.py` held "),
+        count("test_link.py")
+    );
+    assert_eq!(
         number_after(&text, "`test_usb.py` held "),
         count("test_usb.py")
     );

@@ -66,7 +66,7 @@ const NOT_RUN: &[(&str, &str)] = &[
     ),
     ("OUT=/tmp/", "writes into /tmp"),
     (
-        "RAYON_NUM_THREADS=2 target/release/examples/trade",
+        "RAYON_NUM_THREADS=2 nice timeout 2400 target/release/examples/trade",
         "the selection's benchmark, minutes; it writes nothing",
     ),
 ];
