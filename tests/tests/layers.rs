@@ -366,3 +366,56 @@ fn the_architecture_doc_draws_the_graph_cargo_builds() {
         );
     }
 }
+
+#[test]
+fn the_architecture_doc_names_every_source_file() {
+    // A row per crate, `| `touchc-x` (`dir/`) | `a.rs`, `b/c.rs` | ...`: every file
+    // under the crate's src/ (for `touchc`, host/src/) is named, and no file that is gone.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let doc = std::fs::read_to_string(root.join("docs/architecture.md")).unwrap();
+    let mut checked = Vec::new();
+    for row in doc.lines().filter(|l| l.starts_with("| `touchc")) {
+        let cells: Vec<&str> = row.split(" | ").collect();
+        let name = cells[0]
+            .trim_start_matches("| `")
+            .split('`')
+            .next()
+            .unwrap();
+        let src = if name == "touchc" {
+            root.join("host/src")
+        } else {
+            let dir = cells[0]
+                .split("(`")
+                .nth(1)
+                .and_then(|d| d.split('/').next());
+            root.join("host/crates")
+                .join(dir.expect("the row names its folder"))
+                .join("src")
+        };
+        let mut files = Vec::new();
+        rust_files(&src, &mut files);
+        let mut on_disk: Vec<String> = files
+            .iter()
+            .map(|f| {
+                f.strip_prefix(&src)
+                    .unwrap()
+                    .to_string_lossy()
+                    .replace('\\', "/")
+            })
+            .collect();
+        on_disk.sort();
+        let mut named: Vec<String> = cells[1]
+            .split(", ")
+            .map(|f| f.trim_matches('`').to_string())
+            .collect();
+        named.sort();
+        assert_eq!(named, on_disk, "docs/architecture.md's row for {name}");
+        checked.push(name.to_string());
+    }
+    for (name, _) in LAYERS {
+        assert!(
+            checked.iter().any(|c| c == name),
+            "docs/architecture.md has no row for {name}"
+        );
+    }
+}
