@@ -35,9 +35,15 @@ def serve_pty(board, link_path, send, take, ready=lambda: True, seconds=None, sp
 
     master, slave = os.openpty()
     tty.setraw(slave)
-    if os.path.lexists(link_path):
-        os.unlink(link_path)
+    # The link, and beside it the process that serves it: `touchc sleeve` takes the
+    # link for a sleeve only while this process lives (a killed twin leaves the link).
+    pid_path = os.path.splitext(link_path)[0] + ".pid"
+    for path in (link_path, pid_path):
+        if os.path.lexists(path):
+            os.unlink(path)
     os.symlink(os.ttyname(slave), link_path)
+    with open(pid_path, "w") as f:
+        f.write(f"{os.getpid()}\n")
     step = 0.001
     try:
         start, t0 = time.monotonic(), board.t
@@ -57,7 +63,9 @@ def serve_pty(board, link_path, send, take, ready=lambda: True, seconds=None, sp
             if ahead > 0:
                 select.select([master], [], [], ahead)
     finally:
-        os.unlink(link_path)
+        for path in (link_path, pid_path):
+            if os.path.lexists(path):
+                os.unlink(path)
         os.close(master)
         os.close(slave)
     return board
@@ -74,6 +82,8 @@ def serve(board, link_path, usart="USART2", seconds=None, speed=1.0, stop=None):
 if __name__ == "__main__":
     import argparse
     import os
+    import signal
+    import sys
     import tempfile
 
     ap = argparse.ArgumentParser(description="The sleeve firmware on the twin, its USART on a pseudo-terminal.")
@@ -91,6 +101,8 @@ if __name__ == "__main__":
     if a.bank:
         with open(a.bank, "rb") as f:
             b.set_bank(f.read())
+    # A terminated twin (kill, a closed terminal) removes its link too.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
     try:
         serve(b, a.link, a.usart, a.seconds, a.speed)
     except KeyboardInterrupt:

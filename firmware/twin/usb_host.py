@@ -325,6 +325,8 @@ def serve(board, host, link_path, seconds=None, speed=1.0, stop=None):
 
 if __name__ == "__main__":
     import argparse
+    import signal
+    import sys
 
     import otg_fs
 
@@ -343,6 +345,8 @@ if __name__ == "__main__":
     otg_fs.write_uid(b, bytes.fromhex(a.uid))
     h = UsbHost(b, b.attach(otg_fs.OtgFs(b)))
     h.plug(True)
+    # A terminated twin (kill, a closed terminal) removes its link too.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
     try:
         serve(b, h, a.link, a.seconds, a.speed)
     except KeyboardInterrupt:

@@ -157,7 +157,10 @@ fn twin_port() -> PathBuf {
     std::env::temp_dir().join("touchc-sleeve-twin")
 }
 
-/// The twin's port, if a twin serves there now (the link leads to a terminal).
+/// The twin's port, if a twin serves there now: the link leads to a terminal and the
+/// process the twin wrote beside it (`touchc-sleeve-twin.pid`) is alive. A twin that
+/// was killed leaves its link behind, and the terminal it named can be another
+/// program's by now.
 fn running_twin() -> Option<PathBuf> {
     let p = twin_port();
     let target = std::fs::canonicalize(&p).ok()?;
@@ -171,10 +174,30 @@ fn running_twin() -> Option<PathBuf> {
         {
             return None;
         }
+        let pid = std::fs::read_to_string(p.with_extension("pid")).ok()?;
+        if !alive(pid.trim().parse().ok()?) {
+            return None;
+        }
     }
     #[cfg(not(unix))]
     let _ = target;
     Some(p)
+}
+
+/// Whether process `pid` exists (`kill(pid, 0)`: it succeeds, or is refused for want
+/// of permission).
+#[cfg(unix)]
+fn alive(pid: i32) -> bool {
+    extern "C" {
+        fn kill(pid: i32, sig: i32) -> i32;
+    }
+    const EPERM: i32 = 1;
+    if pid <= 0 {
+        return false;
+    }
+    // SAFETY: signal 0 sends nothing; it only asks whether the process exists.
+    let sent = unsafe { kill(pid, 0) };
+    sent == 0 || std::io::Error::last_os_error().raw_os_error() == Some(EPERM)
 }
 
 /// The port to use: `--port`, else the only sleeve (a running twin counts), else

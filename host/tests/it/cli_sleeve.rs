@@ -161,3 +161,41 @@ fn help_documents_every_subcommand() {
         assert!(out.status.success(), "{sub} --help");
     }
 }
+
+#[test]
+fn the_link_a_killed_twin_left_behind_is_no_sleeve() {
+    // A twin killed with SIGKILL leaves its link to a terminal; by the next session the
+    // terminal can be another program's. Only a live twin's link counts.
+    if serial_ports_attached() {
+        eprintln!("skipped: a USB serial port is attached here");
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    // /dev/null stands for the terminal: a character device, as a pseudo-terminal is.
+    std::os::unix::fs::symlink("/dev/null", tmp.path().join("touchc-sleeve-twin")).unwrap();
+    let run = |pid: Option<&str>| {
+        if let Some(pid) = pid {
+            std::fs::write(tmp.path().join("touchc-sleeve-twin.pid"), pid).unwrap();
+        }
+        command()
+            .args(["sleeve", "info"])
+            .env("TMPDIR", tmp.path())
+            .output()
+            .unwrap()
+    };
+    // No process named beside the link, then one that has ended.
+    for pid in [None, Some("2147483646\n")] {
+        let out = run(pid);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{pid:?}: {err}");
+        assert!(err.contains("no sleeve attached"), "{pid:?}: {err}");
+    }
+    // A live process beside it: the link is taken for the twin (and /dev/null fails
+    // as a port, which says the link was tried).
+    let out = run(Some(&format!("{}\n", std::process::id())));
+    assert!(
+        stderr(&out).contains("/dev/null") || stderr(&out).contains("touchc-sleeve-twin"),
+        "{}",
+        stderr(&out)
+    );
+}
