@@ -60,13 +60,11 @@ pub(crate) fn print_error(err: &anyhow::Error) {
     eprintln!("touchc: error: {}", readable(&message(err)));
 }
 
-/// The error's chain joined by ": ", each cause in the command line's words where it
-/// has them: a TOML error in one line
+/// The error's chain joined by ": ", each cause said once: a TOML error in one line
 /// (where, then what) instead of its multi-line picture of the offending line, and,
-/// after all of it, the advice that puts a cause right. The project's errors never repeat
-/// their source's text (the chain carries it), so each cause is said once, in its
-/// place; a cause from another crate whose text its outer error already ended with is
-/// left out.
+/// after the whole account, the advice that puts a cause right. The project's errors
+/// never repeat their source's text (the chain carries it); a cause from another crate
+/// whose text its outer error already ended with is left out.
 pub(crate) fn message(err: &anyhow::Error) -> String {
     let mut out = String::new();
     // A cause's advice follows the account of it, which its sources end.
