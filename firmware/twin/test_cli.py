@@ -6,6 +6,7 @@ Run by `firmware/twin/run.sh` (with `test_twin`). The twin runs in step with the
 clock in a thread of this process; each `touchc` is a process of its own.
 """
 
+import gc
 import json
 import os
 import random
@@ -43,6 +44,10 @@ class Served(unittest.TestCase):
             self.skipTest(f"{TOUCHC} not built (run.sh builds it)")
         SCRATCH.mkdir(parents=True, exist_ok=True)
         self.board, self.port = board, SCRATCH / "cli-pty"
+        # The boards of the tests before (the whole suite runs in one process) are
+        # collected now, not in a pause of the serve thread while the CLI waits on its
+        # reply timeout: the twin keeps pace with the wall clock only while it runs.
+        gc.collect()
         stop = threading.Event()
         server = threading.Thread(target=twin.serve, args=(board, str(self.port)), kwargs={"stop": stop})
         server.start()
