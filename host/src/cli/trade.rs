@@ -226,17 +226,20 @@ fn write_outputs(args: &Args, rows: &[TradeRow]) -> anyhow::Result<()> {
 /// tracks or places otherwise gives.
 fn far_from_exact(rows: &[TradeRow]) -> Vec<String> {
     let mut notes = Vec::new();
-    let far: Vec<String> = rows
-        .iter()
-        .filter(|r| r.max_vs_exact_pct > 100.0)
-        .map(|r| {
-            format!(
-                "{} under {}",
-                super::report::escaped(&r.input),
-                r.preset.name()
-            )
-        })
-        .collect();
+    // The rows a note is about, as `input under preset`.
+    let named = |keep: &dyn Fn(&TradeRow) -> bool| -> Vec<String> {
+        rows.iter()
+            .filter(|r| keep(r))
+            .map(|r| {
+                format!(
+                    "{} under {}",
+                    super::report::escaped(&r.input),
+                    r.preset.name()
+                )
+            })
+            .collect()
+    };
+    let far = named(&|r| r.max_vs_exact_pct > 100.0);
     if !far.is_empty() {
         notes.push(format!(
             "max vs exact over 100% of full scale ({}): the signals are -0.9 A at rest and \
@@ -245,17 +248,8 @@ fn far_from_exact(rows: &[TradeRow]) -> Vec<String> {
             far.join(", ")
         ));
     }
-    let apart: Vec<String> = rows
-        .iter()
-        .filter(|r| r.tracks_agree_pct == 0.0 && r.preset != touchc_model::config::Preset::Exact)
-        .map(|r| {
-            format!(
-                "{} under {}",
-                super::report::escaped(&r.input),
-                r.preset.name()
-            )
-        })
-        .collect();
+    let apart =
+        named(&|r| r.tracks_agree_pct == 0.0 && r.preset != touchc_model::config::Preset::Exact);
     if !apart.is_empty() {
         notes.push(format!(
             "tracks agree 0 ({}): no detection is tracked by both this preset and exact, \
