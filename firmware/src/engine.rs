@@ -2,7 +2,11 @@
 //! handle the buttons and compute the next frame.
 //!
 //! Writing first makes the output update jitter-free: it happens at a fixed point
-//! after the timer interrupt, whatever the player's code path costs. No allocation,
+//! after the timer interrupt, whatever the player's code path costs. The one
+//! exception is a slot a `Play` command starts: its first frame is written in the
+//! tick that starts it, once computed, so that a command that lands just as a
+//! tick begins still plays within 2 ms (the carrier's own period, 49 us, already
+//! moves a frame's effect by more than the tick takes to compute it). No allocation,
 //! no blocking, no logging: what to log goes out through a callback (a lock-free
 //! queue in the firmware).
 
@@ -40,7 +44,16 @@ impl<'a, S: OutputSink, W: Watchdog, const N: usize> Engine<'a, S, W, N> {
     }
 
     /// One tick. `edges` holds each button's newest EXTI edge since the last tick.
-    pub fn tick(&mut self, edges: [Option<bool>; N], mut log: impl FnMut(Report)) {
+    /// When a command started a slot in it, its first frame is written once
+    /// computed, and `started` is called before the frame for the next tick is
+    /// (the firmware lowers the tick's priority there, to let the link's
+    /// interrupts in).
+    pub fn tick(
+        &mut self,
+        edges: [Option<bool>; N],
+        mut log: impl FnMut(Report),
+        mut started: impl FnMut(),
+    ) {
         self.sink.write(&self.next);
         self.watchdog.feed();
         self.controller.send_later(&mut log);
@@ -49,7 +62,11 @@ impl<'a, S: OutputSink, W: Watchdog, const N: usize> Engine<'a, S, W, N> {
                 log(report);
             }
         }
-        self.next = self.controller.tick(&mut log);
+        let sink = &mut self.sink;
+        self.next = self.controller.tick_with(&mut log, |first| {
+            sink.write(first);
+            started();
+        });
     }
 
     /// Applies an event as if a button had produced it (for tests and a debugger).
@@ -65,6 +82,11 @@ impl<'a, S: OutputSink, W: Watchdog, const N: usize> Engine<'a, S, W, N> {
     /// The output sink.
     pub fn sink(&self) -> &S {
         &self.sink
+    }
+
+    /// The output sink, for a model that keeps its record between ticks.
+    pub fn sink_mut(&mut self) -> &mut S {
+        &mut self.sink
     }
 }
 
@@ -105,7 +127,7 @@ mod tests {
                     now[button] = Some(level);
                 }
             }
-            e.tick(now, |r| reports.push((t, r)));
+            e.tick(now, |r| reports.push((t, r)), || {});
         }
         reports
     }

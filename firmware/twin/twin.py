@@ -10,14 +10,16 @@ gathers what the tests and tools use, and serves a board on a pseudo-terminal.
 What is and is not modelled is in README.md.
 """
 
+from unicorn import UC_HOOK_CODE
 from unicorn import arm_const as A
 
 from twin_board import Board
-from twin_core import BANK_BASE, FLASH_BASE, HARDFAULT, IRQ, T_HZ, NotModelled, load_elf
+from twin_core import (BANK_BASE, ENTRY_CYCLES, FLASH_BASE, HARDFAULT, IRQ, MASKED_STEP, T_HZ, NotModelled,
+                       load_elf)
 from twin_usart_flash import Flash
 
-__all__ = ["A", "BANK_BASE", "Board", "FLASH_BASE", "Flash", "HARDFAULT", "IRQ", "NotModelled", "T_HZ",
-           "load_elf", "serve", "serve_pty"]
+__all__ = ["A", "BANK_BASE", "Board", "ENTRY_CYCLES", "FLASH_BASE", "Flash", "HARDFAULT", "IRQ", "MASKED_STEP",
+           "NotModelled", "T_HZ", "UC_HOOK_CODE", "load_elf", "serve", "serve_pty"]
 
 
 def serve_pty(board, link_path, send, take, ready=lambda: True, seconds=None, speed=1.0, stop=None):

@@ -19,8 +19,9 @@ from unicorn import (
 )
 from unicorn import arm_const as A
 
-from twin_core import (BANK_BASE, BANK_SIZE, CCM_BASE, CCM_SIZE, FLASH_BASE, FLASH_SIZE, HARDFAULT, IRQ,
-                       QUANTUM, SRAM_BASE, SRAM_SIZE, T_HZ, NotModelled, Pwr, Rcc, Regs, Timer, load_elf)
+from twin_core import (BANK_BASE, BANK_SIZE, CCM_BASE, CCM_SIZE, ENTRY_CYCLES, FLASH_BASE, FLASH_SIZE, HARDFAULT,
+                       IRQ, MASKED_PRECISE, MASKED_STEP, QUANTUM, SRAM_BASE, SRAM_SIZE, T_HZ, NotModelled, Pwr, Rcc,
+                       Regs, Timer, load_elf)
 from twin_periph import Exti, Gpio, Iwdg, Nvic
 from twin_usart_flash import Flash, Usart
 
@@ -41,6 +42,8 @@ class Board:
         # or on_flash("program", address); it may cut the power there (`power_cut`).
         self.on_flash = None
         self.tick_instructions = None  # [(t, instructions)] per TIM7 handler, when counted
+        self.tick_lowered = None  # [(t, instructions)] of the handlers that lowered their priority: that part
+        self._icount_top = None
         self.counting = False
         self._count_hook = None
         self._polls = None  # (reads, fed) of a wait on a busy flash
@@ -174,13 +177,29 @@ class Board:
     def count_tick_instructions(self, on=True):
         """From now on (until called with `on` false), appends (time, instructions)
         of each TIM7 handler (its own and anything nested in it) to
-        `tick_instructions`."""
+        `tick_instructions`; of one that lowers its priority, those up to there,
+        and the rest to `tick_lowered`."""
         self.counting = on
         if on and self.tick_instructions is None:
             self.tick_instructions = []
+            self.tick_lowered = []
 
     def _count(self, uc, address, size, _):
         self._icount += 1
+
+    def priority_changed(self, exceptions):
+        """A write changed the priority of `exceptions`. For an active one, what it
+        lets in changes at once: the quantum ends after this store (a store the
+        CPU then runs again writes the same value, which changes nothing). A TIM7
+        handler that lowers its own priority ends its part at the top there: its
+        instructions so far are what `tick_instructions` counts."""
+        tim7 = 16 + IRQ["TIM7"]
+        if tim7 in exceptions and tim7 in self.active and self._count_hook is not None:
+            if self.nvic.prio(tim7) > 0 and self._icount_top is None:
+                self._icount_top = self._icount
+        if any(n in self.active for n in exceptions):
+            self.stop = ("priority", None)
+            self.uc.emu_stop()
     # -- reset
     def _power_on(self):
         self.rcc = Rcc(self, self.csr_flags)
@@ -202,6 +221,7 @@ class Board:
         for dev in getattr(self, "devices", []):
             dev.chip_reset()
         self.active = []  # exception numbers, innermost last
+        self._masked_for = 0  # instructions run so far while an interrupt waits on a mask
         self.saved = []  # per active exception: EXC_RETURN used
         self.event_reg = False
         self.sleeping = None
@@ -379,6 +399,17 @@ class Board:
             return best
         return None
 
+    def _masked(self):
+        """Whether an interrupt is pending that PRIMASK or BASEPRI keeps out (the
+        active handlers' priorities alone would let it in)."""
+        nv = self.nvic
+        cand = nv.pending & ((nv.enabled << 16) | 0xFFFC)
+        if not cand:
+            return False
+        best = min(nv.prio(n) for n in range(cand.bit_length()) if cand >> n & 1)
+        active = min((nv.prio(n) for n in self.active), default=256)
+        return best < active
+
     def _enter(self, n):
         uc = self.uc
         if uc.reg_read(A.UC_ARM_REG_CONTROL) & 2:
@@ -406,6 +437,7 @@ class Board:
         self.taken.append((self.t, n))
         if n == 16 + IRQ["TIM7"] and self.counting and self._count_hook is None:
             self._icount = 0
+            self._icount_top = None
             self._count_hook = uc.hook_add(UC_HOOK_CODE, self._count)
 
     def _exit(self, exc_return):
@@ -427,7 +459,10 @@ class Board:
             if self._count_hook is not None:
                 uc.hook_del(self._count_hook)
                 self._count_hook = None
-                self.tick_instructions.append((self.t, self._icount))
+                top = self._icount if self._icount_top is None else self._icount_top
+                self.tick_instructions.append((self.t, top))
+                if self._icount_top is not None:
+                    self.tick_lowered.append((self.t, self._icount - top))
             t3, t4 = self.timers["TIM3"], self.timers["TIM4"]
             self.frames.append((self.t, tuple(t3.ccr + t4.ccr), tuple(t3.ccr_a + t4.ccr_a)))
 
@@ -507,6 +542,9 @@ class Board:
                 continue
             if n is not None:
                 self._enter(n)
+                self._masked_for = 0
+                # Stacking and the vector fetch: the handler starts this much later.
+                self._advance_to(min(end, self.t + ENTRY_CYCLES * (T_HZ // self.rcc.hclk())))
                 continue
             if self.sleeping:
                 if self._advance_to(self._wake_time(end)):
@@ -530,6 +568,19 @@ class Board:
             ev = u.next_event()
             if ev is not None and u.can_wake() and ev > self.t:
                 count = min(count, max(1, -(-(ev - self.t) // units)))
+        # The same for a timer's interrupt (the tick): taken at its time, not at the
+        # end of the quantum it falls in.
+        for tim in self.timers.values():
+            ev = tim.next_interrupt()
+            if ev is not None and ev > self.t:
+                count = min(count, max(1, -(-(ev - self.t) // units)))
+        # An interrupt held out by PRIMASK or BASEPRI is taken within a few
+        # instructions of the code letting it in, as on the chip.
+        if not self._masked():
+            self._masked_for = 0
+        elif self._masked_for < MASKED_PRECISE:
+            count = min(count, MASKED_STEP)
+            self._masked_for += count
         try:
             uc.emu_start(self.pc | 1, 0, 0, count)
             error = None
@@ -552,7 +603,7 @@ class Board:
                 self.sleeping = stop[0]
         elif pc >= 0xFFFF_FF00:
             self._exit(pc | 1)
-        elif stop and stop[0] == "flash":
+        elif stop and stop[0] in ("flash", "priority"):
             self.pc = pc
         elif stop and stop[0] == "flash-wait":
             self.pc = pc

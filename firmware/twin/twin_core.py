@@ -13,7 +13,18 @@ T_HZ = 336_000_000
 HSI_HZ = 16_000_000
 LSI_HZ = 32_000
 QUANTUM = 2000
-"""Instructions per run of the CPU between two peripheral updates (12 us at 168 MHz)."""
+"""Instructions per run of the CPU between two peripheral updates (12 us at 168 MHz);
+a run also ends at the next USART or timer event that raises an interrupt."""
+ENTRY_CYCLES = 12
+"""Core cycles from an interrupt's acceptance to its handler's first instruction
+(PM0214 and the Cortex-M4 TRM: 12 cycles, stacking in parallel with the vector fetch,
+with zero-wait-state memory)."""
+MASKED_STEP = 4
+"""Instructions per run while an interrupt waits for PRIMASK or BASEPRI to let it in:
+it is taken within this many instructions of the unmasking."""
+MASKED_PRECISE = 20_000
+"""Instructions of one masked stretch stepped at `MASKED_STEP`; a longer one (a wait
+for a flash operation) goes on in whole quanta."""
 
 FLASH_BASE, FLASH_SIZE = 0x0800_0000, 1024 * 1024
 BANK_BASE, BANK_SIZE = 0x080C_0000, 256 * 1024
@@ -283,6 +294,14 @@ class Timer:
 
     def irq_line(self):
         return bool(self.sr & self.dier & 0x5F)
+
+    def next_interrupt(self):
+        """Time of the next event whose interrupt is enabled in DIER, or None."""
+        ev = self.next_event()
+        if ev is None:
+            return None
+        flag = 1 if ev[1] == "update" else 2 << ev[1]
+        return ev[0] if self.dier & flag else None
 
     # -- bus
     def clocked(self):

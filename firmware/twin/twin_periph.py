@@ -206,7 +206,10 @@ class Nvic:
             self.pending &= ~((v << (32 * ((off - 0x280) // 4))) << 16)
         elif 0x400 <= off < 0x4F0:
             n = 16 + off - 0x400
+            old = bytes(self.ipr[n:n + size])
             self.ipr[n:n + size] = v.to_bytes(size, "little")
+            if old != bytes(self.ipr[n:n + size]):
+                b.priority_changed(range(n, n + size))
         elif 0xD18 <= off < 0xD24:
             n = 4 + off - 0xD18
             self.ipr[n:n + size] = v.to_bytes(size, "little")

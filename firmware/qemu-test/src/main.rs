@@ -418,14 +418,14 @@ fn SysTick() {
             Job::Engine(engine) => {
                 let edges = [scenario::edge(t)];
                 let start = SYST::get_current();
-                engine.tick(edges, |_| {});
+                engine.tick(edges, |_| {}, || {});
                 let end = SYST::get_current();
                 (engine.sink().0, None, start, end)
             }
             Job::Linked(engine, port, bank) => {
                 host_side(t, port, *bank);
                 let start = SYST::get_current();
-                engine.tick([None], |_| {});
+                engine.tick([None], |_| {}, || {});
                 let end = SYST::get_current();
                 // `faulted` marks here that the stream still plays near its end (not 0 A).
                 let frame = engine.sink().0;

@@ -182,6 +182,15 @@ impl Controller<'_> {
                 self.send(Answer::Refused(seq, e));
             }
             report => {
+                // Its first frame goes out in this tick, once computed (`tick_with`):
+                // the player's steps then run one tick ahead of the clock.
+                let first = if self.playing.is_some() {
+                    self.ahead = true;
+                    self.keyframes.0 = self.now.wrapping_sub(1);
+                    self.now
+                } else {
+                    first
+                };
                 // Answered by the next tick (`send_later`).
                 self.later.play = Some((seq, wire_slot, first));
                 match report {

@@ -99,6 +99,11 @@ const FOLLOW_REPORTS: u8 = 2;
 /// tick some 45 instructions each; pending this costs it a store.
 const FOLLOW_UP: interrupt::Interrupt = interrupt::Interrupt::SPI3;
 
+/// The tick's priority while it computes the frame after a commanded start's
+/// first (see [`Engine::tick`]): below the link's interrupts, level with the
+/// follow-up, which the tick pends only after it.
+const AHEAD_PRIORITY: Priority = Priority::P3;
+
 /// The engine in its place for the tick, before the tick runs.
 pub struct Tick {
     engine: &'static mut SleeveEngine,
@@ -184,11 +189,26 @@ fn TIM7() {
     };
     let edges = core::array::from_fn(|i| EDGES[i].take());
     let mut follow = 0;
-    engine.tick(edges, |report| {
-        if reports.enqueue(report).is_ok() {
-            follow |= FOLLOW_REPORTS;
-        }
-    });
+    let mut lowered = false;
+    engine.tick(
+        edges,
+        |report| {
+            if reports.enqueue(report).is_ok() {
+                follow |= FOLLOW_REPORTS;
+            }
+        },
+        || {
+            // A slot a command started wrote its first frame; the frame for the
+            // next tick is computed below the link's interrupts (USART2, OTG_FS at
+            // P2), so that they wait no longer than for any tick. TIM7 is active:
+            // it cannot preempt itself, so the engine stays this handler's alone.
+            interrupt::TIM7.set_priority(AHEAD_PRIORITY);
+            lowered = true;
+        },
+    );
+    if lowered {
+        interrupt::TIM7.set_priority(Priority::P0);
+    }
     if engine.controller().link_answered() {
         follow |= FOLLOW_LINK;
     }

@@ -21,9 +21,20 @@ use crate::control::{Controller, Report};
 use crate::engine::{Engine, Watchdog};
 use crate::output::{device_config, Frame};
 
-/// Every frame the engine wrote, in order (index = tick).
+/// What the outputs hold once each tick's handler returned (index = tick).
 #[derive(Debug, Default)]
 pub struct Outputs(pub Vec<Frame>);
+
+impl Outputs {
+    /// Ends a tick that began with `before` frames recorded: a tick that starts a
+    /// slot by command writes twice (its first frame follows the last tick's), and
+    /// the outputs hold the second.
+    fn settle(&mut self, before: usize) {
+        if self.0.len() > before + 1 {
+            self.0.drain(before..self.0.len() - 1);
+        }
+    }
+}
 
 impl OutputSink for Outputs {
     fn write(&mut self, codes: &Frame) {
@@ -120,7 +131,9 @@ impl Device {
     pub fn tick(&mut self) {
         let tick = self.engine.controller().now();
         let reports = &mut self.reports;
-        self.engine.tick([None], |r| reports.push((tick, r)));
+        let before = self.engine.sink().0.len();
+        self.engine.tick([None], |r| reports.push((tick, r)), || {});
+        self.engine.sink_mut().settle(before);
         let to_host = &mut self.to_host;
         self.server.poll(&mut |f: &[u8]| to_host.extend(f));
         self.ms += 1;

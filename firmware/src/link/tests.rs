@@ -256,6 +256,23 @@ fn an_erased_region_reports_the_builtin_bank_and_a_bad_one_its_led_code() {
     assert_eq!(h.call(Command::Slot { slot: 0 }), Err(LinkError::NoBank));
 }
 
+/// A `Play` waiting for the tick is taken by it, and that tick writes the slot's
+/// first frame itself, not the next one: a request that just missed a tick is on
+/// the outputs at the following one (the link's 2 ms wherever it lands).
+#[test]
+fn a_play_is_on_the_outputs_in_the_tick_that_takes_it() {
+    let mut h = host();
+    h.run(5);
+    h.send(Command::Play { slot: 1 });
+    let next = h.dev.outputs().len();
+    h.run(10);
+    let first = h.dev.outputs().iter().position(|f| *f != IDLE_FRAME);
+    assert_eq!(first, Some(next), "the slot's first frame in the next tick");
+    assert!(h
+        .events
+        .contains(&(next as u32, Event::Started(Source::Slot(1)))));
+}
+
 #[test]
 fn play_answers_the_tick_of_the_first_frame_and_stop_the_ramp() {
     let mut h = host();
@@ -495,7 +512,15 @@ fn a_play_waits_for_its_player() {
         n: usize,
     ) {
         for _ in 0..n {
-            frames.push(c.next_frame().0);
+            // As the engine writes them: a slot a command started goes out in the
+            // tick that started it, over what that tick wrote first.
+            let mut first = None;
+            c.send_later(&mut |_| {});
+            let frame = c.tick_with(|_| {}, |f| first = Some(*f));
+            if let Some(first) = first {
+                *frames.last_mut().expect("a tick before the play") = first;
+            }
+            frames.push(frame);
             while let Some(a) = port.receive() {
                 answers.push(a);
             }
