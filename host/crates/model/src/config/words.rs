@@ -1,15 +1,43 @@
-//! A knob out of range in words: [`ConfigError`]'s `Display`, in the terms of the config
-//! file (`section.key`, the range and its unit). The command line adds the flag that sets
-//! a knob where one does.
+//! A layer in error or a knob out of range in words: [`ConfigError`]'s `Display`, in the
+//! terms of the config file (`section.key`, the range and its unit). The command line
+//! words the layers by its flags, and adds the flag that sets a knob where one does.
 
 use std::fmt;
 
-use super::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
+use super::{ConfigError, DerivedLimit, Knob, OffTable, Preset, SamplingKnob, Unit};
 use crate::display::Shortest;
 
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            ConfigError::Preset { preset, message } => write!(
+                f,
+                "the {} preset does not serialise as TOML: {message}",
+                preset.name()
+            ),
+            ConfigError::File { name, .. } => write!(f, "{name}: invalid config"),
+            ConfigError::AssignmentSyntax { assignment } => {
+                write!(f, "`{assignment}`: expected SECTION.KEY=VALUE")
+            }
+            ConfigError::AssignmentValue { assignment, .. } => {
+                write!(f, "`{assignment}`: not a TOML value")
+            }
+            ConfigError::Keys {
+                assignments,
+                off,
+                preset,
+                ..
+            } => {
+                for (i, a) in assignments.iter().enumerate() {
+                    write!(f, "{}`{a}`", if i == 0 { "" } else { ", " })?;
+                }
+                let sep = if assignments.is_empty() { "" } else { ": " };
+                write!(f, "{sep}invalid parameter")?;
+                for t in off {
+                    write!(f, "; {}", off_words(t, *preset))?;
+                }
+                Ok(())
+            }
             ConfigError::OutOfRange {
                 knob,
                 value,
@@ -86,6 +114,18 @@ impl fmt::Display for ConfigError {
             }
         }
     }
+}
+
+/// Why an assignment into a table `preset` leaves out cannot be taken alone, and what
+/// would do.
+fn off_words(t: &OffTable, preset: Preset) -> String {
+    format!(
+        "`{}` is off under the {} preset: set its keys ({}) or start from the {} preset",
+        t.table,
+        preset.name(),
+        t.keys.join(", "),
+        Preset::default().name()
+    )
 }
 
 /// What a knob became at the recording's sampling, and the bound it had to meet.
