@@ -12,8 +12,9 @@ use touch_protocol::{Limits, CHANNELS};
 use touchc_encoding::keyframes::KeyframeError;
 use touchc_input::recording::{Recording, RecordingError};
 use touchc_input::warning::InputWarning;
-use touchc_model::config::Config;
-use touchc_model::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
+use touchc_model::config::{
+    Config, ConfigError, Metadata, MetadataOverrides, Sampling, ValidConfig,
+};
 use touchc_model::crop::Crop;
 use touchc_model::layout::Layout;
 use touchc_model::stage::{Stage, StageSeconds};
@@ -36,8 +37,9 @@ pub use warning::Warning;
 /// Everything `compile` needs besides the recording.
 #[derive(Debug, Clone)]
 pub struct CompileOptions {
-    /// Algorithm parameters (the paper's by default).
-    pub config: Config,
+    /// Algorithm parameters, validated (the default preset's by default); what they
+    /// become at the recording's sampling is checked before any stage runs.
+    pub config: ValidConfig,
     /// The actuator layout (the paper's sleeve by default).
     pub layout: Layout,
     /// The actuator profile's safety limits the signal must pass.
@@ -61,7 +63,7 @@ pub struct CompileOptions {
 impl Default for CompileOptions {
     fn default() -> Self {
         CompileOptions {
-            config: Config::default(),
+            config: ValidConfig::default(),
             layout: Layout::paper(),
             limits: Limits::SLEEVE,
             fit: false,
@@ -183,7 +185,7 @@ pub struct Report {
     pub metadata: Metadata,
     /// Every algorithm parameter this compile used (preset and overrides applied), so
     /// the report says how to reproduce it.
-    pub config: Config,
+    pub config: ValidConfig,
     /// The actuator layout's id.
     pub layout: String,
 }

@@ -78,6 +78,13 @@ impl Layers {
         self.preset
     }
 
+    /// The same layers over `preset` instead.
+    #[must_use]
+    pub fn on(mut self, preset: Preset) -> Self {
+        self.preset = preset;
+        self
+    }
+
     /// Adds a config file's keys (TOML `text`; `name` names it in errors) over the
     /// preset and the files before; keys it lacks keep their values.
     #[must_use]
@@ -467,15 +474,12 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        let (kept, left_out) = layers.where_it_applies();
+        let (kept, left_out) = layers.clone().where_it_applies();
         assert_eq!(left_out, off);
         let config = kept.build().unwrap();
         assert_eq!((config.detect.sigma_k, config.track.entry_cost), (1.5, 4.0));
         assert_eq!(config.track.regions, None);
         // Under a preset that has the table, nothing is off.
-        assert!(Layers::new(Preset::Touch)
-            .set("track.regions.seed_psi=0.1")
-            .off_tables()
-            .is_empty());
+        assert!(layers.on(Preset::Touch).off_tables().is_empty());
     }
 }
