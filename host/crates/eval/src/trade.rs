@@ -254,6 +254,31 @@ mod tests {
         assert_eq!(score_gap_pct(0.0, 0.0), 0.0);
     }
 
+    /// The preset asked takes every assignment, and an assignment into a table it
+    /// leaves out is an error; the others leave such an assignment out and say so.
+    #[test]
+    fn overrides_apply_to_each_preset_where_they_can() {
+        let layers = Layers::new(Preset::Touch)
+            .set("detect.sigma_k=1.5")
+            .set("track.regions.seed_psi=0.12");
+        let (both, skipped) = configs(
+            &layers,
+            &[Preset::Touch, Preset::Paper],
+            Some(Preset::Touch),
+        )
+        .unwrap();
+        assert!(both.iter().all(|(_, c)| c.detect.sigma_k == 1.5));
+        assert_eq!(both[0].1.track.regions.map(|r| r.seed_psi), Some(0.12));
+        assert_eq!(both[1].1.track.regions, None);
+        assert_eq!(skipped.len(), 1);
+        assert_eq!(skipped[0].0, Preset::Paper);
+        assert_eq!(skipped[0].1.table, "track.regions");
+        assert!(matches!(
+            configs(&layers, &[Preset::Paper], Some(Preset::Paper)),
+            Err(ConfigError::Keys { .. })
+        ));
+    }
+
     #[test]
     fn nothing_tracked_twice_agrees() {
         assert_eq!(track_agreement(None, None), 1.0);

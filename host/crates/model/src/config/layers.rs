@@ -165,7 +165,7 @@ impl Layers {
         for (name, text) in &self.files {
             let file = |source| ConfigError::File {
                 name: name.clone(),
-                source,
+                source: Box::new(source),
             };
             let over: toml::Table = toml::from_str(text).map_err(file)?;
             merge(&mut table, over);
@@ -182,7 +182,7 @@ impl Layers {
             assignments: self.assignments.clone(),
             off: self.off_tables(),
             preset: self.preset,
-            source,
+            source: Box::new(source),
         })?;
         config.validated()
     }
@@ -211,7 +211,7 @@ fn parse_assignment(assignment: &str) -> Result<toml::Table, ConfigError> {
     let doc = format!("[{section}]\n{field} = {value}\n");
     toml::from_str(&doc).map_err(|source| ConfigError::AssignmentValue {
         assignment: assignment.to_string(),
-        source,
+        source: Box::new(source),
     })
 }
 

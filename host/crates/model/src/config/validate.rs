@@ -98,7 +98,7 @@ pub enum ConfigError {
         /// The file, as the caller named it.
         name: String,
         /// Where and what.
-        source: toml::de::Error,
+        source: Box<toml::de::Error>,
     },
     /// An assignment is not `SECTION.KEY=VALUE`.
     AssignmentSyntax {
@@ -110,7 +110,7 @@ pub enum ConfigError {
         /// The assignment as given.
         assignment: String,
         /// Where and what.
-        source: toml::de::Error,
+        source: Box<toml::de::Error>,
     },
     /// The keys laid over the preset do not make a config (a key the config lacks, a
     /// value of the wrong kind, a table missing keys).
@@ -122,7 +122,7 @@ pub enum ConfigError {
         /// The preset under the layers.
         preset: Preset,
         /// What serde refused.
-        source: toml::de::Error,
+        source: Box<toml::de::Error>,
     },
     /// A real-valued knob is not finite or outside `[min, max]`.
     OutOfRange {
