@@ -262,13 +262,13 @@ fn a_batch_with_a_plateau_and_bombs_compiles_its_good_files() {
 /// (an hour's is 4.7 GB) or the detections.
 #[test]
 fn tracking_streams_like_the_compile() {
-    use touchc_pipeline::track::{track_streaming, track_with};
+    use touchc_pipeline::track::track_streaming;
     let rec =
         Recording::from_array("blobs", crate::common::moving_blobs(400, 3, 5).view()).unwrap();
     for preset in [Preset::Touch, Preset::Paper] {
         let cfg = ValidConfig::preset(preset);
         let none = MetadataOverrides::default();
-        let kept = track_with(&rec, &cfg, &none).unwrap();
+        let kept = track(&rec, &cfg).unwrap();
         let streamed = track_streaming(&rec, &cfg, &none).unwrap();
         assert_eq!(streamed.blurred.frames.dim().0, 0);
         assert!(streamed.detections.all.is_empty());

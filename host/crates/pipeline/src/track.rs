@@ -10,23 +10,15 @@ use touchc_tracking::track::TrackOutput;
 use crate::compile::CompileError;
 
 /// Stages 0-3: tare, upsample and blur, detect, track, at the rate and pitch of the file
-/// or the config (see [`track_with`]).
+/// or the config, keeping the blurred movie and the detections. What the config's knobs
+/// become at the recording's sampling is checked first.
 pub fn track(rec: &Recording, cfg: &ValidConfig) -> Result<TrackOutput, CompileError> {
-    track_with(rec, cfg, &MetadataOverrides::default())
-}
-
-/// [`track`] with the rate and pitch of `overrides` where given (`--rate`, `--pitch-mm`).
-/// What the config's knobs become at the recording's sampling is checked first.
-pub fn track_with(
-    rec: &Recording,
-    cfg: &ValidConfig,
-    overrides: &MetadataOverrides,
-) -> Result<TrackOutput, CompileError> {
     // The compile's driver on the whole recording, keeping the blurred movie.
-    track_whole(rec, cfg, overrides, true)
+    track_whole(rec, cfg, &MetadataOverrides::default(), true)
 }
 
-/// [`track_with`] streaming through the frames as the compile does: the same
+/// [`track`] with the rate and pitch of `overrides` where given (`--rate`, `--pitch-mm`),
+/// streaming through the frames as the compile does: the same
 /// statistics and trajectories, bit for bit, but neither the blurred movie (`blurred`
 /// has no frames) nor the detections are kept, so memory follows the touch, not the
 /// recording's length (an hour's movie is 4.7 GB).

@@ -18,8 +18,10 @@ pub(super) fn read(path: &Path) -> anyhow::Result<String> {
 /// `e` as a usage error (exit status 2) that names the flag of the layer in error
 /// (`--config`'s file, the `--set`s, `--preset`); a knob out of range in its own words.
 pub(super) fn words(e: ConfigError) -> anyhow::Error {
-    let within =
-        |source: toml::de::Error, what: String| message(&anyhow::Error::new(source).context(what));
+    // The TOML error itself, not its box, so that the message gives it in one line.
+    let within = |source: Box<toml::de::Error>, what: String| {
+        message(&anyhow::Error::new(*source).context(what))
+    };
     let text = match e {
         ConfigError::File { name, source } => within(source, format!("{name}: invalid config")),
         ConfigError::AssignmentSyntax { assignment } => {

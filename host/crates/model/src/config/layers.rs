@@ -7,7 +7,8 @@
 //! gives only the keys it changes and the rest keep the preset's values, including
 //! inside an optional table (`detect.split`) the preset has. A key of a table the preset
 //! leaves out cannot be given alone (the table's other keys have nothing to keep), so
-//! [`Layers::off_tables`] names those tables and the keys that would turn them on.
+//! [`Layers::where_it_applies`] leaves such assignments out and names the tables and the
+//! keys that would turn them on.
 
 use super::{Config, ConfigError, Knob, Preset, ValidConfig};
 
@@ -116,7 +117,7 @@ impl Layers {
 
     /// The assignments into a table the preset leaves out and [`Preset::default`] has
     /// (see the module docs).
-    pub fn off_tables(&self) -> Vec<OffTable> {
+    fn off_tables(&self) -> Vec<OffTable> {
         let (Ok(base), Ok(full)) = (
             toml::Table::try_from(Config::preset(self.preset)),
             toml::Table::try_from(Config::preset(Preset::default())),
