@@ -27,17 +27,7 @@ impl fmt::Display for ConfigError {
                 off,
                 preset,
                 ..
-            } => {
-                for (i, a) in assignments.iter().enumerate() {
-                    write!(f, "{}`{a}`", if i == 0 { "" } else { ", " })?;
-                }
-                let sep = if assignments.is_empty() { "" } else { ": " };
-                write!(f, "{sep}invalid parameter")?;
-                for t in off {
-                    write!(f, "; {}", off_words(t, *preset))?;
-                }
-                Ok(())
-            }
+            } => keys_words(f, assignments, off, *preset),
             ConfigError::OutOfRange {
                 knob,
                 value,
@@ -114,6 +104,25 @@ impl fmt::Display for ConfigError {
             }
         }
     }
+}
+
+/// Keys laid over `preset` that do not make a config: the assignments given (any may be
+/// the one), and the tables among them that the preset leaves out.
+fn keys_words(
+    f: &mut fmt::Formatter<'_>,
+    assignments: &[String],
+    off: &[OffTable],
+    preset: Preset,
+) -> fmt::Result {
+    for (i, a) in assignments.iter().enumerate() {
+        write!(f, "{}`{a}`", if i == 0 { "" } else { ", " })?;
+    }
+    let sep = if assignments.is_empty() { "" } else { ": " };
+    write!(f, "{sep}invalid parameter")?;
+    for t in off {
+        write!(f, "; {}", off_words(t, preset))?;
+    }
+    Ok(())
 }
 
 /// Why an assignment into a table `preset` leaves out cannot be taken alone, and what
