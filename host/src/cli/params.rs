@@ -4,11 +4,12 @@
 //! one before, and the recording's `--rate` and `--pitch-mm`.
 //!
 //! The layers mean what [`Layers`] says they mean (the library merges and validates
-//! them); this module only reads the flags into layers and words the library's errors
-//! by the flags. The knob flags are one table ([`KNOBS`]) of config knobs ([`Knob`],
-//! whose own table names each knob's section and key once): each flag is a typed
-//! shorthand for a `--set` ([`Setting`]), and its help prints the key's value in
-//! [`Config::default`], so neither a default nor a field is written twice.
+//! them); this module only reads the flags into layers (`params/layers.rs`), and
+//! `cli/report.rs` words the library's errors by the flags. The knob flags are one
+//! table ([`KNOBS`]) of config knobs ([`Knob`], whose own table names each knob's
+//! section and key once): each flag is a typed shorthand for a `--set` ([`Setting`]),
+//! and its help prints the key's value in [`Config::default`], so neither a default nor
+//! a field is written twice.
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
@@ -327,8 +328,8 @@ impl ConfigArgs {
         presets: &[Preset],
     ) -> anyhow::Result<(Vec<(Preset, ValidConfig)>, Vec<String>)> {
         let layers = self.layers(self.preset.unwrap_or_default())?;
-        let (configs, off) =
-            touchc_eval::trade::configs(&layers, presets, self.preset).map_err(layers::words)?;
+        let (configs, off) = touchc_eval::trade::configs(&layers, presets, self.preset)
+            .map_err(super::report::config_usage)?;
         self.check_sampling()?;
         let skipped = off
             .iter()
@@ -352,23 +353,9 @@ impl ConfigArgs {
         self.build(&self.layers(preset)?)
     }
 
-    /// The layers these flags give over `preset`: the `--config` file read, the
-    /// `--set`s and the knob flags.
-    fn layers(&self, preset: Preset) -> anyhow::Result<Layers> {
-        let mut layers = Layers::new(preset);
-        if let Some(path) = &self.config {
-            layers = layers.file(path.display().to_string(), layers::read(path)?);
-        }
-        Ok(self
-            .knobs
-            .0
-            .iter()
-            .fold(layers.sets(&self.set), |l, &(k, s)| l.knob(k, s)))
-    }
-
     /// `layers` built, its error in the flags' words, and the sampling flags checked.
     fn build(&self, layers: &Layers) -> anyhow::Result<ValidConfig> {
-        let config = layers.build().map_err(layers::words)?;
+        let config = layers.build().map_err(super::report::config_usage)?;
         self.check_sampling()?;
         Ok(config)
     }
