@@ -194,6 +194,35 @@ mod tests {
     use super::*;
     use crate::config::Sampling;
 
+    /// A layer in error in the config file's words, naming no command-line flag: the
+    /// layer, then (as the error's source) what TOML or serde said.
+    #[test]
+    fn every_layer_error_reads_without_flags() {
+        use crate::config::{Layers, Preset};
+        let file = Layers::new(Preset::Touch)
+            .file("mine.toml", "[detect")
+            .build();
+        let value = Layers::new(Preset::Touch).set("detect.sigma_k=one").build();
+        let keys = Layers::new(Preset::Paper)
+            .set("track.regions.seed_psi=0.1")
+            .build();
+        let words: Vec<String> = [file, value, keys]
+            .into_iter()
+            .map(|r| r.unwrap_err().to_string())
+            .collect();
+        assert_eq!(
+            words,
+            [
+                "mine.toml: invalid config",
+                "`detect.sigma_k=one`: not a TOML value",
+                "`track.regions.seed_psi=0.1`: invalid parameter; `track.regions` is off under \
+                 the paper preset: set its keys (footprint_psi, join_cells, seed_psi) or start \
+                 from the touch preset",
+            ]
+        );
+        assert!(words.iter().all(|w| !w.contains("--")), "{words:?}");
+    }
+
     /// Each error in its words.
     #[test]
     fn every_config_error_reads_in_the_config_files_words() {
