@@ -9,7 +9,7 @@ use touchc_testkit as common;
 use criterion::{criterion_group, criterion_main, Criterion};
 use touchc_encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, Preset};
+use touchc_model::config::{Preset, ValidConfig};
 use touchc_model::layout::Layout;
 use touchc_pipeline::compile::{compile, CompileOptions};
 use touchc_placement::place;
@@ -37,7 +37,7 @@ fn bench(c: &mut Criterion) {
     // The whole compile, per preset.
     for preset in Preset::ALL {
         let opts = CompileOptions {
-            config: Config::preset(preset),
+            config: ValidConfig::preset(preset),
             ..CompileOptions::default()
         };
         for (cores, pool) in &pools {
@@ -49,7 +49,7 @@ fn bench(c: &mut Criterion) {
 
     // Stage by stage, on the inputs the paper preset's compile hands each stage.
     let opts = CompileOptions {
-        config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
+        config: touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper),
         // The detect stage below runs on the blurred movie the compile otherwise drops.
         keep_scene: true,
         ..CompileOptions::default()
@@ -84,7 +84,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| track::link(black_box(&tracked.detections), &cfg.track, &paper).expect("link"))
     });
     for preset in Preset::ALL {
-        let p = Config::preset(preset);
+        let p = ValidConfig::preset(preset);
         // The placement stage sees the preset's own trajectories.
         let own = compile(
             &rec,

@@ -14,7 +14,7 @@ use touchc_tracking::preprocess::preprocess;
 use touchc_tracking::track::link;
 
 fn stages(c: &mut Criterion) {
-    let cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
+    let cfg = touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper);
     let paper = touchc_model::config::Sampling::PAPER;
     let data = common::moving_blobs(705, 4, 42);
     let mut bytes = Vec::new();

@@ -22,7 +22,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, Preset};
+use touchc_model::config::{Preset, ValidConfig};
 use touchc_model::stage::Stage;
 use touchc_pipeline::compile::{compile_owned, CompileOptions};
 use touchc_synth::cases::real_like_on;
@@ -93,7 +93,7 @@ fn run(preset: Preset, threads: usize, minutes: usize) -> anyhow::Result<()> {
     let rec = real_like(minutes)?;
     let frames = rec.data().dim().0;
     let opts = CompileOptions {
-        config: Config::preset(preset),
+        config: ValidConfig::preset(preset),
         fit: true,
         metadata: touchc_model::config::MetadataOverrides {
             rate_hz: Some(RATE_HZ),

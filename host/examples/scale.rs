@@ -20,7 +20,7 @@ use std::process::Command;
 use touchc_testkit as common;
 
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, Preset};
+use touchc_model::config::{Preset, ValidConfig};
 use touchc_pipeline::compile::{compile, compile_owned, CompileOptions};
 
 /// One case: a recording (the shipped example repeated, or the bench's synthetic one)
@@ -112,7 +112,7 @@ fn run_case(case: &Case) -> anyhow::Result<()> {
         .build_global()?;
     let rec = recording(case.repeat)?;
     let opts = CompileOptions {
-        config: Config::preset(case.preset),
+        config: ValidConfig::preset(case.preset),
         fit: true,
         ..CompileOptions::default()
     };

@@ -29,7 +29,7 @@ use ndarray::Array3;
 use touch_protocol::{Limits, CHANNELS};
 use touchc_encoding::keyframes::{encode, HeaderFields, KeyframeOptions};
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, MetadataOverrides, Preset};
+use touchc_model::config::{Config, MetadataOverrides, Preset, ValidConfig};
 use touchc_pipeline::compile::{compile, stimulus_name, CompileOptions};
 use touchc_synth::{self as synth, Gesture, Sensor, SynthSpec};
 
@@ -81,7 +81,7 @@ fn main() -> anyhow::Result<()> {
         let rec = Recording::from_array(input.name.clone(), input.data.view())?;
         for preset in [Preset::Touch, Preset::Paper] {
             let opts = CompileOptions {
-                config: Config::preset(preset),
+                config: ValidConfig::preset(preset),
                 fit: true,
                 metadata: input.metadata,
                 ..CompileOptions::default()

@@ -40,7 +40,7 @@ use touchc_tracking::preprocess::preprocess;
 use touchc_tracking::track::link;
 
 fn main() -> anyhow::Result<()> {
-    let cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
+    let cfg = touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper);
     let dir = tempfile::tempdir()?;
     let path = match std::env::args().nth(1) {
         Some(p) => p.into(),

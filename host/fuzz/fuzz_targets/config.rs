@@ -1,9 +1,11 @@
 //! Any text as a config file and as a layout file: parsing and validation returns a value or an error and never panics; what parses writes back
-//! to text that parses to the same value.
+//! to text that parses to the same value. The text also goes through the config's layers
+//! (`touchc --config`, `--set`) as the command line lays them: as a file over each
+//! preset, and each of its lines as a `SECTION.KEY=VALUE` assignment.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use touchc_model::config::Config;
+use touchc_model::config::{Config, Layers, Preset};
 use touchc_model::layout::Layout;
 
 fuzz_target!(|data: &[u8]| {
@@ -16,8 +18,19 @@ fuzz_target!(|data: &[u8]| {
         let again: Config = toml::from_str(&once).expect("a written config parses");
         assert_eq!(toml::to_string(&again).expect("serialises"), once);
         // Validation names the knob it refuses and never panics, on any value.
-        if let Err(e) = cfg.validate() {
+        if let Err(e) = cfg.validated() {
             assert!(!e.to_string().is_empty());
+        }
+    }
+    for preset in Preset::ALL {
+        // What the layers build is valid, and a layer in error is named.
+        match Layers::new(preset).file("fuzz.toml", text).build() {
+            Ok(valid) => assert!(valid.validate().is_ok()),
+            Err(e) => assert!(!e.to_string().is_empty()),
+        }
+        match Layers::new(preset).sets(text.lines()).build() {
+            Ok(valid) => assert!(valid.validate().is_ok()),
+            Err(e) => assert!(!e.to_string().is_empty()),
         }
     }
     match Layout::from_toml_str(text, "fuzz.toml") {

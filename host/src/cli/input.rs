@@ -92,16 +92,12 @@ pub(crate) fn load_recording(path: &Path) -> anyhow::Result<touchc_input::record
 /// config are left to the library's usage error.
 pub(crate) fn check_file_sampling(
     recording: &touchc_input::recording::Recording,
-    config: &touchc_model::config::Config,
+    config: &touchc_model::config::ValidConfig,
     overrides: &touchc_model::config::MetadataOverrides,
 ) -> anyhow::Result<()> {
     use touchc_model::config::{Metadata, Sampling, Source};
     let metadata = Metadata::resolve(overrides, &recording.file_metadata(), config);
     if metadata.rate_hz.source != Source::File && metadata.pitch_mm.source != Source::File {
-        return Ok(());
-    }
-    if config.validate().is_err() {
-        // A knob wrong whatever the sampling: the command line's mistake, told as such.
         return Ok(());
     }
     let sampling = Sampling::new(&metadata, config);

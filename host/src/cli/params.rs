@@ -3,23 +3,24 @@
 //! `--set SECTION.KEY=VALUE`, then one flag per common knob, each layer overriding the
 //! one before, and the recording's `--rate` and `--pitch-mm`.
 //!
-//! The knob flags are one table ([`KNOBS`]) of config knobs ([`Knob`], whose own table
-//! names each knob's section and key once): each flag is a typed
-//! shorthand for a `--set`, laid over the same TOML image of the config, and its help
-//! prints the key's value in [`Config::default`], so neither a default nor a field is
-//! written twice.
+//! The layers mean what [`Layers`] says they mean (the library merges and validates
+//! them); this module only reads the flags into layers (`params/layers.rs`), and
+//! `cli/report.rs` words the library's errors by the flags. The knob flags are one
+//! table ([`KNOBS`]) of config knobs ([`Knob`], whose own table names each knob's
+//! section and key once): each flag is a typed shorthand for a `--set` ([`Setting`]),
+//! and its help prints the key's value in [`Config::default`], so neither a default nor
+//! a field is written twice.
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use anyhow::Context;
 use clap::{Arg, ArgMatches, FromArgMatches};
-use touchc_model::config::{CoarseToFine, Config, Knob, MetadataOverrides, Preset};
+use touchc_model::config::{
+    CoarseToFine, Config, Knob, Layers, MetadataOverrides, Preset, Setting, ValidConfig,
+};
 use touchc_model::display::Shortest;
 
 mod layers;
-
-use layers::{layered, off_tables};
 
 /// `--help` heading of the recording's sampling flags.
 pub const INPUT_AND_SENSOR: &str = "Input and sensor";
@@ -120,51 +121,6 @@ fn lookup(table: &toml::Table, knob: Knob) -> Option<&toml::Value> {
         v = v?.as_table()?.get(part);
     }
     v
-}
-
-/// What a knob flag writes into a config's TOML image.
-#[derive(Debug, Clone)]
-enum Assignment {
-    /// The knob's value (its optional table created if absent).
-    Set(Knob, toml::Value),
-    /// The optional table that holds the knob removed (`--coarse-to-fine off`).
-    Clear(Knob),
-}
-
-impl Assignment {
-    /// The knob written.
-    fn knob(&self) -> Knob {
-        match self {
-            Assignment::Set(k, _) | Assignment::Clear(k) => *k,
-        }
-    }
-
-    /// Writes the assignment into `table`, a config's TOML image.
-    fn apply(&self, table: &mut toml::Table) {
-        let knob = self.knob();
-        let mut parts: Vec<&str> = std::iter::once(knob.section())
-            .chain(knob.key().split('.'))
-            .collect();
-        if let Assignment::Clear(_) = self {
-            // The key's own table goes, not the key alone.
-            parts.pop();
-        }
-        let Some(last) = parts.pop() else { return };
-        let mut t = table;
-        for part in parts {
-            let entry = t
-                .entry(part)
-                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-            let Some(inner) = entry.as_table_mut() else {
-                return;
-            };
-            t = inner;
-        }
-        match self {
-            Assignment::Set(_, v) => t.insert(last.to_string(), v.clone()),
-            Assignment::Clear(_) => t.remove(last),
-        };
-    }
 }
 
 /// One knob flag: `--flag` sets the knobs of its `kind`.
@@ -293,26 +249,25 @@ impl Flag {
         }
     }
 
-    /// What the flag's value in `m` writes.
-    fn assignments(&self, m: &ArgMatches) -> Vec<Assignment> {
-        let int = |n: usize| toml::Value::Integer(i64::try_from(n).unwrap_or(i64::MAX));
+    /// The knob settings the flag's value in `m` gives.
+    fn settings(&self, m: &ArgMatches) -> Vec<(Knob, Setting)> {
         match self.kind {
             Kind::Count(k) => m
                 .get_one::<usize>(self.flag)
-                .map(|&n| vec![Assignment::Set(k, int(n))]),
+                .map(|&n| vec![(k, Setting::Count(n))]),
             Kind::Real(k) => m
                 .get_one::<f64>(self.flag)
-                .map(|&v| vec![Assignment::Set(k, toml::Value::Float(v))]),
+                .map(|&v| vec![(k, Setting::Real(v))]),
             Kind::Grid { x, y } => m
                 .get_one::<(usize, usize)>(self.flag)
-                .map(|&(gx, gy)| vec![Assignment::Set(x, int(gx)), Assignment::Set(y, int(gy))]),
+                .map(|&(gx, gy)| vec![(x, Setting::Count(gx)), (y, Setting::Count(gy))]),
             Kind::Search { stride, keep } => {
                 m.get_one::<Search>(self.flag).map(|Search(s)| match s {
                     Some(s) => vec![
-                        Assignment::Set(stride, int(s.stride)),
-                        Assignment::Set(keep, int(s.keep)),
+                        (stride, Setting::Count(s.stride)),
+                        (keep, Setting::Count(s.keep)),
                     ],
-                    None => vec![Assignment::Clear(stride)],
+                    None => vec![(stride, Setting::Off)],
                 })
             }
         }
@@ -320,9 +275,9 @@ impl Flag {
     }
 }
 
-/// The knob flags given, as assignments to the config's TOML image.
+/// The knob flags given, as knob settings (the last layer).
 #[derive(Debug, Clone, Default)]
-pub struct Knobs(Vec<Assignment>);
+pub struct Knobs(Vec<(Knob, Setting)>);
 
 impl FromArgMatches for Knobs {
     fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
@@ -333,11 +288,11 @@ impl FromArgMatches for Knobs {
 
     fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
         for flag in KNOBS {
-            let assignments = flag.assignments(m);
-            if !assignments.is_empty() {
+            let settings = flag.settings(m);
+            if !settings.is_empty() {
                 let knobs = flag.kind.knobs();
-                self.0.retain(|a| !knobs.contains(&a.knob()));
-                self.0.extend(assignments);
+                self.0.retain(|(k, _)| !knobs.contains(k));
+                self.0.extend(settings);
             }
         }
         Ok(())
@@ -360,52 +315,47 @@ struct Search(Option<CoarseToFine>);
 
 impl ConfigArgs {
     /// The config these flags describe, on the preset given (else the default one).
-    pub fn resolve(&self) -> anyhow::Result<Config> {
+    pub fn resolve(&self) -> anyhow::Result<ValidConfig> {
         self.resolve_on(self.preset.unwrap_or_default())
     }
 
-    /// [`Self::resolve_on`] without the `--set`s into a table `preset` leaves out (a
-    /// reference preset in a comparison), and a sentence for each one left out.
-    pub fn resolve_where_it_applies(
+    /// Each of `presets` with these flags laid over it as a comparison does
+    /// ([`touchc_eval::trade::configs`]: the `--preset` asked takes every `--set`, the
+    /// others those their tables have), and a sentence for each `--set` left out.
+    #[allow(clippy::type_complexity)]
+    pub fn resolve_presets(
         &self,
-        preset: Preset,
-    ) -> anyhow::Result<(Config, Vec<String>)> {
-        let base =
-            toml::Table::try_from(Config::preset(preset)).context("cannot serialise the preset")?;
-        let off = off_tables(&base, &self.set);
-        if off.is_empty() {
-            return Ok((self.resolve_on(preset)?, Vec::new()));
-        }
-        let skipped: Vec<String> = off
+        presets: &[Preset],
+    ) -> anyhow::Result<(Vec<(Preset, ValidConfig)>, Vec<String>)> {
+        let layers = self.layers(self.preset.unwrap_or_default())?;
+        let (configs, off) = touchc_eval::trade::configs(&layers, presets, self.preset)
+            .map_err(super::report::config_usage)?;
+        self.check_sampling()?;
+        let skipped = off
             .iter()
-            .map(|t| {
+            .map(|(preset, t)| {
                 format!(
                     "--set {} is not applied to --preset {}: `{}` is off there",
-                    super::report::clip(&self.set[t.set]),
+                    super::report::clip(&t.assignment),
                     preset.name(),
                     t.table
                 )
             })
             .collect();
-        let kept: Vec<String> = (0..self.set.len())
-            .filter(|&i| !off.iter().any(|t| t.set == i))
-            .map(|i| self.set[i].clone())
-            .collect();
-        Ok((self.resolve_with(preset, &kept)?, skipped))
+        Ok((configs, skipped))
     }
 
     /// The config these flags describe, laid over `preset` whatever `--preset` says.
     /// Every error is a usage error (exit status 2): the parameters are how the command
     /// was called, the `--config` file included. So are `--rate` and `--pitch-mm`
     /// outside the ranges any recording may have.
-    pub fn resolve_on(&self, preset: Preset) -> anyhow::Result<Config> {
-        self.resolve_with(preset, &self.set)
+    pub fn resolve_on(&self, preset: Preset) -> anyhow::Result<ValidConfig> {
+        self.build(&self.layers(preset)?)
     }
 
-    /// [`Self::resolve_on`] with `sets` in place of the `--set`s given.
-    fn resolve_with(&self, preset: Preset, sets: &[String]) -> anyhow::Result<Config> {
-        let config = layered(preset, self.config.as_deref(), sets, &self.knobs)
-            .map_err(|e| super::report::usage(super::report::message(&e)))?;
+    /// `layers` built, its error in the flags' words, and the sampling flags checked.
+    fn build(&self, layers: &Layers) -> anyhow::Result<ValidConfig> {
+        let config = layers.build().map_err(super::report::config_usage)?;
         self.check_sampling()?;
         Ok(config)
     }
@@ -476,7 +426,11 @@ mod tests {
         let m = cmd
             .try_get_matches_from(std::iter::once("t").chain(args.iter().copied()))
             .unwrap();
-        ConfigArgs::from_arg_matches(&m).unwrap().resolve().unwrap()
+        ConfigArgs::from_arg_matches(&m)
+            .unwrap()
+            .resolve()
+            .unwrap()
+            .into_config()
     }
 
     /// The value of `knob` in `config`'s TOML image, found by the knob's section and key.

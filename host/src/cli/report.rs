@@ -5,6 +5,8 @@
 use std::path::Path;
 use std::process::ExitCode;
 
+use touchc_model::config::{ConfigError, OffTable, Preset};
+
 use super::input::input_name;
 
 /// A mistake in how the command was called (exit status 2, like clap's own): a flag's
@@ -91,7 +93,7 @@ pub(crate) fn message(err: &anyhow::Error) -> String {
 /// file can put right.
 fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
     use touchc_input::recording::RecordingError;
-    use touchc_model::config::{ConfigError, SamplingKnob};
+    use touchc_model::config::SamplingKnob;
     use touchc_pipeline::compile::CompileError;
     use touchc_tracking::track::TrackError;
     if let Some(touch_protocol::Error::BadMagic { found, .. }) = cause.downcast_ref() {
@@ -139,6 +141,63 @@ fn advice(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
         )),
         _ => None,
     }
+}
+
+/// A config layer's error as a usage error (exit status 2) that names the flag of the
+/// layer in error
+/// (`--config`'s file, the `--set`s, `--preset`); a knob out of range in its own words
+/// (`config/words.rs` in the model words the layers without flags).
+pub(crate) fn config_usage(e: ConfigError) -> anyhow::Error {
+    // The TOML error itself, not its box, so that the message gives it in one line.
+    let within = |source: Box<toml::de::Error>, what: String| {
+        message(&anyhow::Error::new(*source).context(what))
+    };
+    let text = match e {
+        ConfigError::File { name, source } => within(source, format!("{name}: invalid config")),
+        ConfigError::AssignmentSyntax { assignment } => {
+            format!("--set {}: expected SECTION.KEY=VALUE", clip(&assignment))
+        }
+        ConfigError::AssignmentValue { assignment, source } => within(
+            source,
+            format!("--set {}: not a TOML value", clip(&assignment)),
+        ),
+        ConfigError::Keys {
+            assignments,
+            off,
+            preset,
+            source,
+        } => {
+            let what = if assignments.is_empty() {
+                "invalid parameter".to_string()
+            } else {
+                let sets: Vec<String> = assignments.iter().map(|s| clip(s)).collect();
+                format!("--set {}: invalid parameter", sets.join(" --set "))
+            };
+            let text = within(source, what);
+            let mut off: Vec<String> = off.iter().map(|t| explain(t, preset)).collect();
+            off.sort();
+            off.dedup();
+            if off.is_empty() {
+                text
+            } else {
+                format!("{text}; {}", off.join("; "))
+            }
+        }
+        other => message(&anyhow::Error::new(other).context("config")),
+    };
+    usage(text)
+}
+
+/// Why a `--set` into a table `preset` leaves out cannot be taken alone, and what would
+/// do.
+fn explain(t: &OffTable, preset: Preset) -> String {
+    format!(
+        "`{}` is off under --preset {}: set its keys ({}) or start from --preset {}",
+        t.table,
+        preset.name(),
+        t.keys.join(", "),
+        Preset::default().name()
+    )
 }
 
 /// A TOML error in one line: `line 2, column 9: <what>`, or `<what> (in `key`)` for a

@@ -9,7 +9,7 @@ use anyhow::Context;
 use touchc::viz::trade::plot_svg;
 use touchc_eval::cases::{run_case, CaseRow};
 use touchc_eval::trade::{trade, TradeRow};
-use touchc_model::config::Preset;
+use touchc_model::config::{Preset, ValidConfig};
 use touchc_model::stage::Stage;
 use touchc_pipeline::compile::CompileOptions;
 use touchc_synth::cases::Bar;
@@ -165,7 +165,7 @@ fn truths(args: &Args) -> anyhow::Result<Vec<Truth>> {
 }
 
 /// Each preset compared, with its config: `--preset` and `exact`, or every preset.
-fn configs(args: &Args) -> anyhow::Result<Vec<(Preset, touchc_model::config::Config)>> {
+fn configs(args: &Args) -> anyhow::Result<Vec<(Preset, ValidConfig)>> {
     let presets: Vec<Preset> = match args.config.preset {
         Some(p) if p != Preset::Exact => vec![p, Preset::Exact],
         Some(p) => vec![p],
@@ -177,22 +177,10 @@ fn configs(args: &Args) -> anyhow::Result<Vec<(Preset, touchc_model::config::Con
 /// `presets` with their configs. The preset asked for takes every knob; the others
 /// (the `exact` reference among them) take those their tables have, and a note says
 /// which they do not.
-fn configs_of(
-    args: &Args,
-    presets: Vec<Preset>,
-) -> anyhow::Result<Vec<(Preset, touchc_model::config::Config)>> {
-    let mut configs = Vec::new();
-    for p in presets {
-        let config = if args.config.preset == Some(p) {
-            args.config.resolve_on(p)?
-        } else {
-            let (config, skipped) = args.config.resolve_where_it_applies(p)?;
-            for line in skipped {
-                eprintln!("touchc: note: {line}");
-            }
-            config
-        };
-        configs.push((p, config));
+fn configs_of(args: &Args, presets: Vec<Preset>) -> anyhow::Result<Vec<(Preset, ValidConfig)>> {
+    let (configs, skipped) = args.config.resolve_presets(&presets)?;
+    for line in skipped {
+        eprintln!("touchc: note: {line}");
     }
     Ok(configs)
 }

@@ -3,7 +3,9 @@
 
 use ndarray::{Array2, Array3};
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, Metadata, MetadataOverrides, Preset, Sampling, Split};
+use touchc_model::config::{
+    Config, Metadata, MetadataOverrides, Preset, Sampling, Split, ValidConfig,
+};
 use touchc_pipeline::track::track;
 use touchc_tracking::detect::{frame_points, local_maxima};
 use touchc_tracking::preprocess::{Blur, BlurOperator};
@@ -84,7 +86,7 @@ fn a_saturated_sensor_tracks_with_bounded_work() {
     ] {
         let rec = Recording::from_array(name, rec.view()).unwrap();
         for preset in [Preset::Touch, Preset::Paper] {
-            let cfg = Config::preset(preset);
+            let cfg = ValidConfig::preset(preset);
             let out = track(&rec, &cfg).unwrap();
             let frames = out.detections.frames();
             let most = out
@@ -122,6 +124,7 @@ fn the_tracking_graph_stops_at_its_edge_limit() {
     // The flow's graph: the default without regions (its lattice of flat contacts).
     let mut cfg = Config::default();
     cfg.track.regions = None;
+    let cfg = cfg.validated().unwrap();
     let out = track(&rec, &cfg).unwrap();
     let sampling = Sampling::new(
         &Metadata::resolve(&MetadataOverrides::default(), &rec.file_metadata(), &cfg),
@@ -259,13 +262,13 @@ fn a_batch_with_a_plateau_and_bombs_compiles_its_good_files() {
 /// (an hour's is 4.7 GB) or the detections.
 #[test]
 fn tracking_streams_like_the_compile() {
-    use touchc_pipeline::track::{track_streaming, track_with};
+    use touchc_pipeline::track::track_streaming;
     let rec =
         Recording::from_array("blobs", crate::common::moving_blobs(400, 3, 5).view()).unwrap();
     for preset in [Preset::Touch, Preset::Paper] {
-        let cfg = Config::preset(preset);
+        let cfg = ValidConfig::preset(preset);
         let none = MetadataOverrides::default();
-        let kept = track_with(&rec, &cfg, &none).unwrap();
+        let kept = track(&rec, &cfg).unwrap();
         let streamed = track_streaming(&rec, &cfg, &none).unwrap();
         assert_eq!(streamed.blurred.frames.dim().0, 0);
         assert!(streamed.detections.all.is_empty());

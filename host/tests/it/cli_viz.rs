@@ -476,7 +476,7 @@ fn preview_gif_and_compile(
         fit: true,
         crop: false,
         keep_scene: true,
-        config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
+        config: touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper),
         ..Default::default()
     };
     let compiled = touchc_pipeline::compile::compile(&rec, &opts).unwrap();

@@ -6,7 +6,7 @@ use crate::common;
 use bin::{ok, refused, touchc};
 
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, Split};
+use touchc_model::config::{Config, Split, ValidConfig};
 use touchc_model::layout::Layout;
 use touchc_pipeline::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc_synth::{self as synth, Gesture, SynthSpec};
@@ -24,7 +24,7 @@ fn compile_default(rec: &Recording) -> Compiled {
     compile(
         rec,
         &CompileOptions {
-            config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
+            config: touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper),
             ..CompileOptions::default()
         },
     )
@@ -149,7 +149,9 @@ fn cropping_does_not_change_the_result() {
         let cropped = compile(
             rec,
             &CompileOptions {
-                config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
+                config: touchc_model::config::ValidConfig::preset(
+                    touchc_model::config::Preset::Paper,
+                ),
                 ..CompileOptions::default()
             },
         )
@@ -158,7 +160,9 @@ fn cropping_does_not_change_the_result() {
             rec,
             &CompileOptions {
                 crop: false,
-                config: touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
+                config: touchc_model::config::ValidConfig::preset(
+                    touchc_model::config::Preset::Paper,
+                ),
                 ..CompileOptions::default()
             },
         )
@@ -290,7 +294,7 @@ fn reaching_the_trajectory_limit_is_a_warning_with_the_figure() {
     let roomy = compile(
         &rec,
         &CompileOptions {
-            config: config.clone(),
+            config: config.clone().validated().unwrap(),
             ..CompileOptions::default()
         },
     )
@@ -311,7 +315,7 @@ fn reaching_the_trajectory_limit_is_a_warning_with_the_figure() {
     let capped = compile(
         &rec,
         &CompileOptions {
-            config,
+            config: config.validated().unwrap(),
             ..CompileOptions::default()
         },
     )
@@ -371,7 +375,7 @@ fn a_fitted_long_touch_still_encodes() {
             &rec,
             &CompileOptions {
                 fit: true,
-                config,
+                config: config.validated().unwrap(),
                 ..CompileOptions::default()
             },
         )
@@ -409,7 +413,7 @@ fn dense_noise_tracks_well_within_the_flow_budget() {
     config.track.regions = None;
     config.detect.split = Some(Split::LATTICE);
     let opts = CompileOptions {
-        config,
+        config: config.validated().unwrap(),
         ..CompileOptions::default()
     };
     let c = compile(&rec, &opts).unwrap();
@@ -433,7 +437,7 @@ fn compiling_an_owned_recording_gives_the_same_stimulus() {
         touchc_model::config::Preset::Paper,
     ] {
         let opts = CompileOptions {
-            config: touchc_model::config::Config::preset(preset),
+            config: touchc_model::config::ValidConfig::preset(preset),
             fit: true,
             ..CompileOptions::default()
         };
@@ -483,7 +487,7 @@ fn the_densest_scenes_encode_within_150_bytes_per_second() {
     }
     for (rec, preset, metadata) in cases {
         let opts = CompileOptions {
-            config: Config::preset(preset),
+            config: ValidConfig::preset(preset),
             fit: true,
             metadata,
             ..CompileOptions::default()

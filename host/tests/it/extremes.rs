@@ -11,7 +11,8 @@ use touchc_pipeline::track::track;
 use touchc_tracking::track::TrackOutput;
 
 fn run_cfg(a: &Array3<f64>, cfg: &Config) -> TrackOutput {
-    track(&Recording::from_array("synthetic", a.view()).unwrap(), cfg).unwrap()
+    let cfg = cfg.clone().validated().unwrap();
+    track(&Recording::from_array("synthetic", a.view()).unwrap(), &cfg).unwrap()
 }
 
 fn run(a: &Array3<f64>) -> TrackOutput {
@@ -144,7 +145,7 @@ fn shorter_than_the_tare_buffer_is_an_error() {
     let rec = Recording::from_array("short", a.view()).unwrap();
     let err = track(
         &rec,
-        &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
+        &touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper),
     )
     .unwrap_err();
     assert!(matches!(

@@ -13,11 +13,13 @@ fn recording() -> Recording {
     Recording::from_array("knobs", common::moving_blobs(100, 1, 5).view()).unwrap()
 }
 
+/// Compiles the recording under `cfg`, which is validated first (a knob out of range
+/// stops the compile as it stops the command line's layers).
 fn run(cfg: Config) -> Result<Compiled, CompileError> {
     compile(
         &recording(),
         &CompileOptions {
-            config: cfg,
+            config: cfg.validated()?,
             ..CompileOptions::default()
         },
     )

@@ -58,7 +58,7 @@ fn compiled(npy: &Path, config: Config, name: &str) -> Compiled {
     compile(
         &rec,
         &CompileOptions {
-            config,
+            config: config.validated().unwrap(),
             name: name.into(),
             ..CompileOptions::default()
         },

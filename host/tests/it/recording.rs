@@ -132,7 +132,7 @@ fn too_short_for_the_tare_says_the_minimum() {
     let rec = Recording::load(&p).unwrap();
     let err = track(
         &rec,
-        &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
+        &touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper),
     )
     .unwrap_err();
     let msg = err.to_string();
@@ -144,7 +144,7 @@ fn too_short_for_the_tare_says_the_minimum() {
     assert_eq!(
         track(
             &ok,
-            &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper)
+            &touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper)
         )
         .unwrap()
         .frames()
@@ -172,7 +172,7 @@ fn fortran_order_and_f32_load_the_same_values() {
             .all(|(p, q)| p == q || (p.is_nan() && q.is_nan()))
     };
     assert!(nan_eq(&c64, &f64_) && nan_eq(&c64, &c32));
-    let cfg = touchc_model::config::Config::preset(touchc_model::config::Preset::Paper);
+    let cfg = touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper);
     let (t64, t32) = (track(&c64, &cfg).unwrap(), track(&c32, &cfg).unwrap());
     assert!(!t64.trajectories.is_empty());
     assert_eq!(t64, t32);

@@ -17,14 +17,14 @@ fn check(name: &str) {
     let reference = common::Reference::load(name);
     let out = track(
         &rec,
-        &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper),
+        &touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper),
     )
     .unwrap();
     // The pipeline finds maxima during the blur; the standalone stage must agree.
     assert_eq!(
         detect(
             &out.blurred,
-            &touchc_model::config::Config::preset(touchc_model::config::Preset::Paper).detect
+            &touchc_model::config::ValidConfig::preset(touchc_model::config::Preset::Paper).detect
         ),
         out.detections
     );

@@ -6,14 +6,14 @@ use ndarray::Array3;
 use touchc_input::recording::Recording;
 use touchc_input::sanity::SanityWarning;
 use touchc_input::warning::{ErasedBy, InputWarning};
-use touchc_model::config::{Config, Preset};
+use touchc_model::config::{Preset, ValidConfig};
 use touchc_pipeline::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc_synth::{self as synth, Gesture, SynthSpec};
 
 fn compiled(data: &Array3<f64>, preset: Preset) -> Compiled {
     let rec = Recording::from_array("rec", data.view()).unwrap();
     let opts = CompileOptions {
-        config: Config::preset(preset),
+        config: ValidConfig::preset(preset),
         ..CompileOptions::default()
     };
     compile(&rec, &opts).unwrap()

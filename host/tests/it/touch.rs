@@ -4,7 +4,7 @@
 use crate::common;
 use touchc_eval::evaluate::{evaluate_compiled, Evaluation};
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, MetadataOverrides, Preset};
+use touchc_model::config::{Config, MetadataOverrides, Preset, ValidConfig};
 use touchc_pipeline::compile::{compile, CompileOptions, Compiled, Warning};
 use touchc_rendering::signals::Source;
 use touchc_synth::{self as synth, Gesture, Sensor, SynthSpec};
@@ -33,7 +33,7 @@ fn run(case: &Case, preset: Preset, seed: u64) -> (Evaluation, Compiled) {
     let compiled = compile(
         &rec,
         &CompileOptions {
-            config: Config::preset(preset),
+            config: ValidConfig::preset(preset),
             metadata: MetadataOverrides {
                 rate_hz: Some(truth.rate_hz),
                 pitch_mm: Some(truth.pitch_mm),
@@ -220,7 +220,7 @@ fn fifteen_strokes_stay_fifteen_trajectories_under_the_default() {
         .into_iter()
         .find(|c| c.name.starts_with("15 strokes"))
         .expect("the case");
-    let configs = [Preset::Touch, Preset::Paper].map(|p| (p, Config::preset(p)));
+    let configs = [Preset::Touch, Preset::Paper].map(|p| (p, ValidConfig::preset(p)));
     let rows = run_case(&case, 1, &CompileOptions::default(), &configs).unwrap();
     let (touch, paper) = (&rows[0], &rows[1]);
     assert_eq!(touch.contacts, 15);
@@ -245,7 +245,7 @@ fn a_broad_contacts_rim_does_not_pull_the_placement_off_its_pressure() {
     let default = compile(
         &rec,
         &CompileOptions {
-            config: lattice.clone(),
+            config: lattice.clone().validated().unwrap(),
             ..CompileOptions::default()
         },
     )
@@ -258,7 +258,7 @@ fn a_broad_contacts_rim_does_not_pull_the_placement_off_its_pressure() {
     let top = compile(
         &rec,
         &CompileOptions {
-            config: top_only,
+            config: top_only.validated().unwrap(),
             ..CompileOptions::default()
         },
     )
@@ -288,7 +288,7 @@ fn a_broad_contacts_rim_does_not_pull_the_placement_off_its_pressure() {
 #[test]
 fn fast_swipes_and_a_vigorous_rub_stay_whole_under_the_default() {
     use touchc_eval::cases::run_case;
-    let configs = [(Preset::Touch, Config::preset(Preset::Touch))];
+    let configs = [(Preset::Touch, ValidConfig::preset(Preset::Touch))];
     let mut failures = Vec::new();
     for sensor in [Sensor::Sleeve, Sensor::Grid10] {
         for rate in synth::cases::RATES_HZ {

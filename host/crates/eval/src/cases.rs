@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use touchc_input::recording::{Recording, RecordingError};
-use touchc_model::config::{Config, MetadataOverrides, Preset};
+use touchc_model::config::{MetadataOverrides, Preset, ValidConfig};
 use touchc_pipeline::compile::{compile, CompileError, CompileOptions};
 use touchc_synth::cases::{Bar, Case};
 use touchc_synth::{self as synth, SynthSpec};
@@ -105,7 +105,7 @@ pub fn run_case(
     case: &Case,
     seed: u64,
     base: &CompileOptions,
-    configs: &[(Preset, Config)],
+    configs: &[(Preset, ValidConfig)],
 ) -> Result<Vec<CaseRow>, CaseError> {
     let spec = SynthSpec {
         seed,

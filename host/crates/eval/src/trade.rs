@@ -19,7 +19,7 @@ use crate::evaluate::evaluate_compiled;
 use touch_protocol::CHANNELS;
 use touchc_encoding::keyframes::KeyframeOptions;
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, Preset};
+use touchc_model::config::{ConfigError, Layers, OffTable, Preset, ValidConfig};
 use touchc_model::geometry::pixel_centre_mm;
 use touchc_model::stage::{Stage, StageSeconds};
 use touchc_pipeline::compile::{compile, CompileError, CompileOptions, Compiled};
@@ -57,17 +57,44 @@ pub struct TradeRow {
     pub recall: Option<f64>,
 }
 
+/// `presets`, each with its config: `layers` over it (`touchc trade`'s `--config`,
+/// `--set` and knob flags). The preset `asked` takes every layer; the others (the
+/// `exact` reference among them) take the assignments their tables have, and the ones
+/// left out are returned with their preset, so one set of overrides means the same
+/// under every preset it can apply to.
+#[allow(clippy::type_complexity)]
+pub fn configs(
+    layers: &Layers,
+    presets: &[Preset],
+    asked: Option<Preset>,
+) -> Result<(Vec<(Preset, ValidConfig)>, Vec<(Preset, OffTable)>), ConfigError> {
+    let mut configs = Vec::new();
+    let mut skipped = Vec::new();
+    for &p in presets {
+        let on = layers.clone().on(p);
+        let config = if asked == Some(p) {
+            on.build()?
+        } else {
+            let (kept, off) = on.where_it_applies();
+            skipped.extend(off.into_iter().map(|t| (p, t)));
+            kept.build()?
+        };
+        configs.push((p, config));
+    }
+    Ok((configs, skipped))
+}
+
 /// Compiles `rec` under every preset of `configs` with its config (each `repeats`
 /// times, keeping the fastest) and compares each with the `exact` entry; no rows
 /// without one. `base` supplies everything but the config. With the `truth` of a
 /// synthetic recording (`touchc synth --truth`), each row also gets its recall.
 ///
-/// `configs` is usually [`Preset::ALL`] with [`Config::preset`]; the command line
-/// lays its `--config` and `--set` over each preset.
+/// `configs` is usually [`Preset::ALL`] with [`ValidConfig::preset`], or [`configs`]
+/// with overrides laid over each preset.
 pub fn trade(
     rec: &Recording,
     base: &CompileOptions,
-    configs: &[(Preset, Config)],
+    configs: &[(Preset, ValidConfig)],
     repeats: usize,
     truth: Option<&Truth>,
 ) -> Result<Vec<TradeRow>, CompileError> {
@@ -225,6 +252,31 @@ mod tests {
         assert_eq!(score_gap_pct(-9.0, -10.0), 10.0);
         assert_eq!(score_gap_pct(-10.0, -10.0), 0.0);
         assert_eq!(score_gap_pct(0.0, 0.0), 0.0);
+    }
+
+    /// The preset asked takes every assignment, and an assignment into a table it
+    /// leaves out is an error; the others leave such an assignment out and say so.
+    #[test]
+    fn overrides_apply_to_each_preset_where_they_can() {
+        let layers = Layers::new(Preset::Touch)
+            .set("detect.sigma_k=1.5")
+            .set("track.regions.seed_psi=0.12");
+        let (both, skipped) = configs(
+            &layers,
+            &[Preset::Touch, Preset::Paper],
+            Some(Preset::Touch),
+        )
+        .unwrap();
+        assert!(both.iter().all(|(_, c)| c.detect.sigma_k == 1.5));
+        assert_eq!(both[0].1.track.regions.map(|r| r.seed_psi), Some(0.12));
+        assert_eq!(both[1].1.track.regions, None);
+        assert_eq!(skipped.len(), 1);
+        assert_eq!(skipped[0].0, Preset::Paper);
+        assert_eq!(skipped[0].1.table, "track.regions");
+        assert!(matches!(
+            configs(&layers, &[Preset::Paper], Some(Preset::Paper)),
+            Err(ConfigError::Keys { .. })
+        ));
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! second per case in a debug build.
 
 use touchc_eval::cases::{run_case, CaseRow};
-use touchc_model::config::{Config, Preset};
+use touchc_model::config::{Preset, ValidConfig};
 use touchc_pipeline::compile::CompileOptions;
 use touchc_synth::cases::{real_like_on, Bar};
 use touchc_synth::Sensor;
@@ -25,7 +25,7 @@ const EXPECTED_TO_FAIL: [(&str, &str); 4] = [
 ];
 
 fn rows() -> Vec<CaseRow> {
-    let configs = [(Preset::Touch, Config::preset(Preset::Touch))];
+    let configs = [(Preset::Touch, ValidConfig::preset(Preset::Touch))];
     [Sensor::Sleeve, Sensor::Grid10]
         .into_iter()
         .flat_map(|s| real_like_on(s, 20.0))

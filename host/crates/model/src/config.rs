@@ -21,6 +21,8 @@ mod bounds;
 mod contacts;
 mod sampling;
 mod knob;
+mod layers;
+mod valid;
 mod validate;
 mod words;
 
@@ -29,7 +31,9 @@ pub use bounds::{
 };
 pub use contacts::{Bridge, Regions, Split};
 pub use knob::{Knob, Unit};
+pub use layers::{Layers, OffTable, Setting};
 pub use sampling::{FileMetadata, Metadata, MetadataOverrides, Sampling, Source, Sourced};
+pub use valid::ValidConfig;
 pub use validate::{ConfigError, DerivedLimit, SamplingKnob};
 
 /// All stage parameters. `Config::default()` is the `touch` preset;

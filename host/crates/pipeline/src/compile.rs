@@ -12,8 +12,9 @@ use touch_protocol::{Limits, CHANNELS};
 use touchc_encoding::keyframes::KeyframeError;
 use touchc_input::recording::{Recording, RecordingError};
 use touchc_input::warning::InputWarning;
-use touchc_model::config::Config;
-use touchc_model::config::{ConfigError, Metadata, MetadataOverrides, Sampling};
+use touchc_model::config::{
+    Config, ConfigError, Metadata, MetadataOverrides, Sampling, ValidConfig,
+};
 use touchc_model::crop::Crop;
 use touchc_model::layout::Layout;
 use touchc_model::stage::{Stage, StageSeconds};
@@ -29,15 +30,16 @@ mod finish;
 mod warning;
 
 use clock::Clock;
-use finish::{finish, Finish};
+use finish::Read;
 
 pub use warning::Warning;
 
 /// Everything `compile` needs besides the recording.
 #[derive(Debug, Clone)]
 pub struct CompileOptions {
-    /// Algorithm parameters (the paper's by default).
-    pub config: Config,
+    /// Algorithm parameters, validated (the default preset's by default); what they
+    /// become at the recording's sampling is checked before any stage runs.
+    pub config: ValidConfig,
     /// The actuator layout (the paper's sleeve by default).
     pub layout: Layout,
     /// The actuator profile's safety limits the signal must pass.
@@ -61,7 +63,7 @@ pub struct CompileOptions {
 impl Default for CompileOptions {
     fn default() -> Self {
         CompileOptions {
-            config: Config::default(),
+            config: ValidConfig::default(),
             layout: Layout::paper(),
             limits: Limits::SLEEVE,
             fit: false,
@@ -183,7 +185,7 @@ pub struct Report {
     pub metadata: Metadata,
     /// Every algorithm parameter this compile used (preset and overrides applied), so
     /// the report says how to reproduce it.
-    pub config: Config,
+    pub config: ValidConfig,
     /// The actuator layout's id.
     pub layout: String,
 }
@@ -266,30 +268,50 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
     let (_, rows, cols) = rec.dim();
     cfg.validate_for(&sampling, (rows, cols))?;
 
-    let shape = rec.dim();
     let (tared, mut warnings, silent) = tare_stage(&rec, cfg, &sampling)?;
-    // Nothing reads the raw frames after this: only the name.
-    let input_name = rec.name().to_string();
+    // Nothing reads the raw frames after this: only the name and shape.
+    let read = Read {
+        name: rec.name().to_string(),
+        shape: rec.dim(),
+        metadata,
+    };
     drop(rec);
     clock.stage(Stage::Tare);
-    if silent {
-        let signal = vec![[0.0; CHANNELS]];
-        return finish(Finish {
-            input_name: &input_name,
-            shape,
-            opts,
-            metadata: &metadata,
-            clock,
-            warnings,
-            signal,
-            fit_scale: 1.0,
-            scene: None,
-        });
-    }
 
+    // A recording without touch compiles to silence.
+    let (signal, fit_scale, scene) = if silent {
+        (vec![[0.0; CHANNELS]], 1.0, None)
+    } else {
+        let (signal, fit_scale, scene) =
+            touch_stages(tared, opts, &sampling, &mut clock, &mut warnings)?;
+        (signal, fit_scale, Some(scene))
+    };
+
+    let encoding = finish::encode(signal, fit_scale, opts, &mut warnings)?;
+    clock.stage(Stage::Keyframes);
+    Ok(finish::compiled(
+        read,
+        scene,
+        encoding,
+        warnings,
+        clock.finish(),
+        opts,
+    ))
+}
+
+/// Stages 1-6 on a recording with touch: the conditioned signal, the factor `--fit`
+/// scaled it by, and what the stages made of the touch.
+fn touch_stages(
+    tared: Array3<f64>,
+    opts: &CompileOptions,
+    sampling: &Sampling,
+    clock: &mut Clock,
+    warnings: &mut Vec<Warning>,
+) -> Result<(Vec<[f64; CHANNELS]>, f64, Scene), CompileError> {
+    let cfg = &opts.config;
     // Stages 1-3, on the active scene only.
     let crop = if opts.crop {
-        scene::active_crop(tared.view(), cfg, &sampling)
+        scene::active_crop(tared.view(), cfg, sampling)
     } else {
         Crop::whole(tared.dim())
     };
@@ -297,14 +319,14 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         tared.view(),
         &crop,
         cfg,
-        &sampling,
+        sampling,
         opts.keep_scene,
         &mut |shares| clock.split(shares),
     )?;
-    let covered = measure_coverage(tared.view(), &tracked, cfg, &sampling, &mut warnings);
+    let covered = measure_coverage(tared.view(), &tracked, cfg, sampling, warnings);
     clock.stage(Stage::Coverage);
 
-    let placement = place_stage(&tracked, &covered.0, tared.dim(), opts, &mut warnings)?;
+    let placement = place_stage(&tracked, &covered.0, tared.dim(), opts, warnings)?;
     clock.stage(Stage::Placement);
 
     let (signals, rendered) = signals_stage(
@@ -313,14 +335,14 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         placement.as_ref(),
         &covered.0,
         opts,
-        &sampling,
-        &mut warnings,
+        sampling,
+        warnings,
     )?;
     // The tared copy of the recording is not read after stage 5.
     drop(tared);
     clock.stage(Stage::Signals);
 
-    let (signal, fit_scale) = condition_stage(&signals, opts, &sampling)?;
+    let (signal, fit_scale) = condition_stage(&signals, opts, sampling)?;
     clock.stage(Stage::Condition);
 
     let scene = Scene {
@@ -331,17 +353,7 @@ fn compile_from(rec: Input<'_>, opts: &CompileOptions) -> Result<Compiled, Compi
         covered,
         rendered,
     };
-    finish(Finish {
-        input_name: &input_name,
-        shape,
-        opts,
-        metadata: &metadata,
-        clock,
-        warnings,
-        signal,
-        fit_scale,
-        scene: Some(scene),
-    })
+    Ok((signal, fit_scale, scene))
 }
 
 /// Stage 0: tare and trim, and the paper's "no touch" filter. Returns the tared frames,

@@ -2,7 +2,7 @@
 //! as the compile's ([`track_cropped`]), without a crop.
 
 use touchc_input::recording::Recording;
-use touchc_model::config::{Config, Metadata, MetadataOverrides, Sampling};
+use touchc_model::config::{Metadata, MetadataOverrides, Sampling, ValidConfig};
 use touchc_model::crop::Crop;
 use touchc_tracking::scene::track_cropped;
 use touchc_tracking::track::TrackOutput;
@@ -10,29 +10,21 @@ use touchc_tracking::track::TrackOutput;
 use crate::compile::CompileError;
 
 /// Stages 0-3: tare, upsample and blur, detect, track, at the rate and pitch of the file
-/// or the config (see [`track_with`]).
-pub fn track(rec: &Recording, cfg: &Config) -> Result<TrackOutput, CompileError> {
-    track_with(rec, cfg, &MetadataOverrides::default())
-}
-
-/// [`track`] with the rate and pitch of `overrides` where given (`--rate`, `--pitch-mm`).
-/// The config is validated first, against the recording's sampling.
-pub fn track_with(
-    rec: &Recording,
-    cfg: &Config,
-    overrides: &MetadataOverrides,
-) -> Result<TrackOutput, CompileError> {
+/// or the config, keeping the blurred movie and the detections. What the config's knobs
+/// become at the recording's sampling is checked first.
+pub fn track(rec: &Recording, cfg: &ValidConfig) -> Result<TrackOutput, CompileError> {
     // The compile's driver on the whole recording, keeping the blurred movie.
-    track_whole(rec, cfg, overrides, true)
+    track_whole(rec, cfg, &MetadataOverrides::default(), true)
 }
 
-/// [`track_with`] streaming through the frames as the compile does: the same
+/// [`track`] with the rate and pitch of `overrides` where given (`--rate`, `--pitch-mm`),
+/// streaming through the frames as the compile does: the same
 /// statistics and trajectories, bit for bit, but neither the blurred movie (`blurred`
 /// has no frames) nor the detections are kept, so memory follows the touch, not the
 /// recording's length (an hour's movie is 4.7 GB).
 pub fn track_streaming(
     rec: &Recording,
-    cfg: &Config,
+    cfg: &ValidConfig,
     overrides: &MetadataOverrides,
 ) -> Result<TrackOutput, CompileError> {
     track_whole(rec, cfg, overrides, false)
@@ -41,7 +33,7 @@ pub fn track_streaming(
 /// Stages 0-3 on the whole recording (no crop), keeping the scene or not.
 fn track_whole(
     rec: &Recording,
-    cfg: &Config,
+    cfg: &ValidConfig,
     overrides: &MetadataOverrides,
     keep_scene: bool,
 ) -> Result<TrackOutput, CompileError> {

@@ -11,7 +11,8 @@ use std::fmt;
 
 use super::knob::{Range, Value};
 use super::{
-    grid_size, Config, Knob, Sampling, Unit, MAX_TRANSFORMS, PITCH_MM_RANGE, RATE_HZ_RANGE,
+    grid_size, Config, Knob, OffTable, Preset, Sampling, Unit, MAX_TRANSFORMS, PITCH_MM_RANGE,
+    RATE_HZ_RANGE,
 };
 
 /// The recording's sampling, as resolved (from the caller, the file or the config).
@@ -78,11 +79,51 @@ pub enum DerivedLimit {
     },
 }
 
-/// A knob outside its range: the knob, the value and the range as values, worded by its
+/// A layer that does not read as config keys ([`super::Layers`]), or a knob outside its
+/// range: the layer, the knob, the value and the range as values, worded by its
 /// `Display` (`config/words.rs`) in the terms of the config file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ConfigError {
+    /// A preset's parameters did not serialise as TOML (a bug: every preset does).
+    Preset {
+        /// The preset.
+        preset: Preset,
+        /// The serialiser's message.
+        message: String,
+    },
+    /// A config file is not TOML, or holds a key the config lacks or a value of the
+    /// wrong kind.
+    File {
+        /// The file, as the caller named it.
+        name: String,
+        /// Where and what.
+        source: Box<toml::de::Error>,
+    },
+    /// An assignment is not `SECTION.KEY=VALUE`.
+    AssignmentSyntax {
+        /// The assignment as given.
+        assignment: String,
+    },
+    /// An assignment's value (or key) is not TOML.
+    AssignmentValue {
+        /// The assignment as given.
+        assignment: String,
+        /// Where and what.
+        source: Box<toml::de::Error>,
+    },
+    /// The keys laid over the preset do not make a config (a key the config lacks, a
+    /// value of the wrong kind, a table missing keys).
+    Keys {
+        /// The assignments given, any of which may be the one.
+        assignments: Vec<String>,
+        /// The assignments into tables the preset leaves out (the likely cause).
+        off: Vec<OffTable>,
+        /// The preset under the layers.
+        preset: Preset,
+        /// What serde refused.
+        source: Box<toml::de::Error>,
+    },
     /// A real-valued knob is not finite or outside `[min, max]`.
     OutOfRange {
         /// The knob.

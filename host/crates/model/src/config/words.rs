@@ -1,15 +1,33 @@
-//! A knob out of range in words: [`ConfigError`]'s `Display`, in the terms of the config
-//! file (`section.key`, the range and its unit). The command line adds the flag that sets
-//! a knob where one does.
+//! A layer in error or a knob out of range in words: [`ConfigError`]'s `Display`, in the
+//! terms of the config file (`section.key`, the range and its unit). The command line
+//! words the layers by its flags, and adds the flag that sets a knob where one does.
 
 use std::fmt;
 
-use super::{ConfigError, DerivedLimit, Knob, SamplingKnob, Unit};
+use super::{ConfigError, DerivedLimit, Knob, OffTable, Preset, SamplingKnob, Unit};
 use crate::display::Shortest;
 
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            ConfigError::Preset { preset, message } => write!(
+                f,
+                "the {} preset does not serialise as TOML: {message}",
+                preset.name()
+            ),
+            ConfigError::File { name, .. } => write!(f, "{name}: invalid config"),
+            ConfigError::AssignmentSyntax { assignment } => {
+                write!(f, "`{assignment}`: expected SECTION.KEY=VALUE")
+            }
+            ConfigError::AssignmentValue { assignment, .. } => {
+                write!(f, "`{assignment}`: not a TOML value")
+            }
+            ConfigError::Keys {
+                assignments,
+                off,
+                preset,
+                ..
+            } => keys_words(f, assignments, off, *preset),
             ConfigError::OutOfRange {
                 knob,
                 value,
@@ -88,6 +106,37 @@ impl fmt::Display for ConfigError {
     }
 }
 
+/// Keys laid over `preset` that do not make a config: the assignments given (any may be
+/// the one), and the tables among them that the preset leaves out.
+fn keys_words(
+    f: &mut fmt::Formatter<'_>,
+    assignments: &[String],
+    off: &[OffTable],
+    preset: Preset,
+) -> fmt::Result {
+    for (i, a) in assignments.iter().enumerate() {
+        write!(f, "{}`{a}`", if i == 0 { "" } else { ", " })?;
+    }
+    let sep = if assignments.is_empty() { "" } else { ": " };
+    write!(f, "{sep}invalid parameter")?;
+    for t in off {
+        write!(f, "; {}", off_words(t, preset))?;
+    }
+    Ok(())
+}
+
+/// Why an assignment into a table `preset` leaves out cannot be taken alone, and what
+/// would do.
+fn off_words(t: &OffTable, preset: Preset) -> String {
+    format!(
+        "`{}` is off under the {} preset: set its keys ({}) or start from the {} preset",
+        t.table,
+        preset.name(),
+        t.keys.join(", "),
+        Preset::default().name()
+    )
+}
+
 /// What a knob became at the recording's sampling, and the bound it had to meet.
 fn derived_words(limit: DerivedLimit) -> (String, String) {
     match limit {
@@ -144,6 +193,35 @@ fn unit_suffix(unit: Unit) -> &'static str {
 mod tests {
     use super::*;
     use crate::config::Sampling;
+
+    /// A layer in error in the config file's words, naming no command-line flag: the
+    /// layer, then (as the error's source) what TOML or serde said.
+    #[test]
+    fn every_layer_error_reads_without_flags() {
+        use crate::config::{Layers, Preset};
+        let file = Layers::new(Preset::Touch)
+            .file("mine.toml", "[detect")
+            .build();
+        let value = Layers::new(Preset::Touch).set("detect.sigma_k=one").build();
+        let keys = Layers::new(Preset::Paper)
+            .set("track.regions.seed_psi=0.1")
+            .build();
+        let words: Vec<String> = [file, value, keys]
+            .into_iter()
+            .map(|r| r.unwrap_err().to_string())
+            .collect();
+        assert_eq!(
+            words,
+            [
+                "mine.toml: invalid config",
+                "`detect.sigma_k=one`: not a TOML value",
+                "`track.regions.seed_psi=0.1`: invalid parameter; `track.regions` is off under \
+                 the paper preset: set its keys (footprint_psi, join_cells, seed_psi) or start \
+                 from the touch preset",
+            ]
+        );
+        assert!(words.iter().all(|w| !w.contains("--")), "{words:?}");
+    }
 
     /// Each error in its words.
     #[test]

@@ -1,14 +1,14 @@
-//! Stage 7, the keyframe encoding, and the compile's [`Report`].
+//! Stage 7, the keyframe encoding ([`encode`]), and the compile's result with its
+//! [`Report`] ([`compiled`]).
 
 use touch_protocol::CHANNELS;
 use touchc_encoding::keyframes::{self, HeaderFields, KeyframeError, KeyframeOptions};
 use touchc_input::warning::InputWarning;
 use touchc_model::config::Metadata;
-use touchc_model::stage::Stage;
+use touchc_model::stage::StageSeconds;
 use touchc_rendering::condition;
 
-use super::clock::Clock;
-use super::{stimulus_name, CompileError, CompileOptions, Compiled, Report, Scene, Warning};
+use super::{stimulus_name, CompileOptions, Compiled, Report, Scene, Warning};
 use crate::coverage::Coverage;
 
 /// With `--fit`: the factor by which a fitted signal is scaled again when its encoding
@@ -16,33 +16,63 @@ use crate::coverage::Coverage;
 const REFIT_STEP: f64 = 0.99;
 const MAX_REFITS: u32 = 20;
 
-/// What stage 7 and the report take from the stages before.
-pub(super) struct Finish<'a> {
-    pub(super) input_name: &'a str,
+/// What the compile read, for the report: the recording's name and shape, and its
+/// sampling with where each value came from.
+pub(super) struct Read {
+    pub(super) name: String,
     pub(super) shape: (usize, usize, usize),
-    pub(super) opts: &'a CompileOptions,
-    pub(super) metadata: &'a Metadata,
-    pub(super) clock: Clock,
-    pub(super) warnings: Vec<Warning>,
-    /// The conditioned signal, at the output rate.
-    pub(super) signal: Vec<[f64; CHANNELS]>,
-    /// The factor `--fit` scaled the signal by (1 without it).
-    pub(super) fit_scale: f64,
-    /// `None` for a recording without touch.
-    pub(super) scene: Option<Scene>,
+    pub(super) metadata: Metadata,
 }
 
-/// Stage 7 and the report.
-pub(super) fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
-    let Finish {
-        mut clock,
-        mut warnings,
-        mut signal,
-        mut fit_scale,
-        scene,
-        ..
-    } = f;
-    let opts = f.opts;
+/// Stage 7's output: the stimulus file and its figures, with the signal as encoded
+/// (scaled down again if `--fit` had to refit it) and the factor `--fit` scaled it by in
+/// all (1 without it).
+pub(super) struct Encoding {
+    encoded: keyframes::Encoded,
+    signal: Vec<[f64; CHANNELS]>,
+    fit_scale: f64,
+}
+
+/// Stage 7: the conditioned `signal` (scaled by `fit_scale` so far) encoded as the
+/// stimulus [`CompileOptions::name`]; a signal that was fitted gets its warning.
+pub(super) fn encode(
+    mut signal: Vec<[f64; CHANNELS]>,
+    mut fit_scale: f64,
+    opts: &CompileOptions,
+    warnings: &mut Vec<Warning>,
+) -> Result<Encoding, KeyframeError> {
+    let name = stimulus_name(&opts.name);
+    let (encoded, refits) = encode_refitting(&mut signal, &mut fit_scale, name, opts)?;
+    if fit_scale < 1.0 {
+        warnings.push(Warning::Fitted {
+            scale: fit_scale,
+            refits,
+            refit_step: REFIT_STEP,
+        });
+    }
+    Ok(Encoding {
+        encoded,
+        signal,
+        fit_scale,
+    })
+}
+
+/// The compile's result: the stimulus of `encoding`, the [`Report`] of everything the
+/// stages made (`scene`, `None` for a recording without touch) and took `seconds`
+/// over, and the intermediate results for plots.
+pub(super) fn compiled(
+    read: Read,
+    scene: Option<Scene>,
+    encoding: Encoding,
+    warnings: Vec<Warning>,
+    seconds: StageSeconds,
+    opts: &CompileOptions,
+) -> Compiled {
+    let Encoding {
+        encoded,
+        signal,
+        fit_scale,
+    } = encoding;
     let no_touch = scene.is_none();
     let (tracked, placement, signals, crop, covered, rendered) = match scene {
         Some(s) => (
@@ -58,22 +88,12 @@ pub(super) fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
     let tare_erased = warnings
         .iter()
         .any(|w| matches!(w, Warning::Input(InputWarning::TareErasedTouch { .. })));
-    let name = stimulus_name(&opts.name);
-    let (encoded, refits) = encode_refitting(&mut signal, &mut fit_scale, name, opts)?;
-    if fit_scale < 1.0 {
-        warnings.push(Warning::Fitted {
-            scale: fit_scale,
-            refits,
-            refit_step: REFIT_STEP,
-        });
-    }
-    clock.stage(Stage::Keyframes);
     let duration_s = (signal.len().saturating_sub(1)) as f64 / condition::OUTPUT_RATE_HZ;
     let bytes = encoded.bytes.len();
     let report = Report {
-        input: f.input_name.to_string(),
-        shape: [f.shape.0, f.shape.1, f.shape.2],
-        name: name.to_string(),
+        input: read.name,
+        shape: [read.shape.0, read.shape.1, read.shape.2],
+        name: stimulus_name(&opts.name).to_string(),
         transform: placement.as_ref().map(|p| {
             let t = &p.transform;
             [t.x_mm, t.y_mm, t.scale, t.rotation, t.split_mm]
@@ -91,7 +111,7 @@ pub(super) fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
             .is_some_and(|t| t.trajectories.len() >= opts.config.track.max_trajectories),
         flow_work: tracked.as_ref().map_or(0, |t| t.flow_work),
         flow_budget_reached: tracked.as_ref().is_some_and(|t| t.flow_budget_reached),
-        seconds: clock.finish(),
+        seconds,
         bytes,
         duration_s,
         bytes_per_second: if duration_s > 0.0 {
@@ -114,18 +134,18 @@ pub(super) fn finish(f: Finish<'_>) -> Result<Compiled, CompileError> {
         rendered_detail: rendered.map_or_else(Coverage::default, |r| r.0),
         shortfall: rendered.and_then(|r| r.1),
         warnings,
-        metadata: *f.metadata,
+        metadata: read.metadata,
         config: opts.config.clone(),
         layout: opts.layout.id().to_string(),
     };
-    Ok(Compiled {
+    Compiled {
         stimulus: encoded.bytes,
         report,
         signal,
         tracked,
         placement,
         signals,
-    })
+    }
 }
 
 /// Stage 7: `signal` encoded as stimulus `name`. With `--fit`, a signal whose played
