@@ -80,7 +80,7 @@ fn examples_play_on_the_firmware_exactly_as_compiled() {
             if t == 5 {
                 edges[slot] = Some(true);
             }
-            engine.tick(edges, |r| reports.push(r));
+            engine.tick(edges, |r| reports.push(r), || {});
         }
         assert_eq!(
             reports.first(),
