@@ -68,25 +68,15 @@ impl Out<'_> {
         self.put(&b[..n])
     }
 
-    /// An unsigned LEB128 varint (postcard's for u64).
+    /// An unsigned LEB128 varint (postcard's for u64): the low groups of a value
+    /// over 32 bits, each with its continuation bit, then the 32-bit path for the
+    /// rest.
     fn var(&mut self, mut v: u64) -> Result<(), Full> {
-        if let Ok(small) = u32::try_from(v) {
-            return self.var32(small);
-        }
-        let mut b = [0u8; 10];
-        let mut n = 0;
-        loop {
-            let low = (v & 0x7F) as u8;
+        while v > u64::from(u32::MAX) {
+            self.put(&[(v as u8 & 0x7F) | 0x80])?;
             v >>= 7;
-            if v == 0 {
-                b[n] = low;
-                n += 1;
-                break;
-            }
-            b[n] = low | 0x80;
-            n += 1;
         }
-        self.put(&b[..n])
+        self.var32(v as u32)
     }
 
     /// A zigzag varint (postcard's for i16, i32, i64).
@@ -324,6 +314,8 @@ mod tests {
             16383,
             16384,
             u64::from(u32::MAX),
+            u64::from(u32::MAX) + 1,
+            1 << 49,
             u64::MAX,
         ] {
             same(&x);
