@@ -7,6 +7,7 @@ never from this harness.
 
 import json
 import os
+import re
 import subprocess
 import threading
 import time
@@ -1065,6 +1066,29 @@ def upload(host, image, chunk=link.MAX_CHUNK):
 
 class LinkCodec(unittest.TestCase):
     """`link.py` against the SPEC's example bytes and the protocol's golden ones."""
+
+    def test_names_and_indices_are_the_specs(self):
+        """The commands, frame errors, errors and events of the SPEC's tables, in
+        their index order, are link.py's lists: one table defines each."""
+        spec = (ROOT / "protocol" / "SPEC.md").read_text()
+
+        def table(kind):
+            head = f"| idx | {kind} |"
+            self.assertEqual(spec.count(head), 1, head)
+            rows = spec[spec.index(head):].split("\n")[2:]
+            names = []
+            for row in rows:
+                m = re.match(r"\| (\d+) \| `(\w+)` \|", row)
+                if not m:
+                    break
+                self.assertEqual(int(m[1]), len(names), row)
+                names.append(m[2])
+            return names
+
+        self.assertEqual(table("command"), link.COMMANDS)
+        self.assertEqual(table("error"), link.ERRORS)
+        self.assertEqual(table("event"), link.EVENTS)
+        self.assertEqual(table("reason"), link.FRAME_ERRORS)
 
     def test_requests_are_the_specs_bytes(self):
         self.assertEqual(link.play(300, 3), bytes.fromhex("09 AC 02 09 03 3C 47 B6 6D 00"))
