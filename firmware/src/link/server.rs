@@ -263,7 +263,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
     }
 
     /// What the device says about itself.
-    fn info(&self) -> Info<'a> {
+    fn info(&self) -> Info<&'a str> {
         let d = device_config();
         Info {
             link_version: link::VERSION,
@@ -383,7 +383,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         Ok((next, (room - n) as u16))
     }
 
-    fn slot_info(&self, slot: u8) -> Result<SlotInfo<'a>, LinkError> {
+    fn slot_info(&self, slot: u8) -> Result<SlotInfo<&'a str>, LinkError> {
         if self.locked || self.begin.is_some() {
             return Err(LinkError::Busy(Busy::Uploading));
         }

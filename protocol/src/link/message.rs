@@ -135,9 +135,10 @@ pub enum Reply<'a> {
     },
     /// The device.
     #[serde(borrow)]
-    Info(Info<'a>),
+    Info(Info<&'a str>),
     /// One slot.
-    Slot(SlotInfo<'a>),
+    #[serde(borrow)]
+    Slot(SlotInfo<&'a str>),
     /// The device's state.
     Status(StatusReport),
     /// Bytes of the bank region.
@@ -200,16 +201,17 @@ pub enum Reply<'a> {
     StreamEnd,
 }
 
-/// The device: versions, layout, limits and bank.
+/// The device: versions, layout, limits and bank. Its text is `S`: `&str` on the wire
+/// ([`Reply::Info`]), an owned string where a host keeps it ([`Info::map_text`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Info<'a> {
+pub struct Info<S> {
     /// [`crate::link::VERSION`].
     pub link_version: u16,
     /// The firmware's version (its Cargo version).
-    pub firmware: &'a str,
+    pub firmware: S,
     /// The actuator layout the firmware drives (a layout file's `id`).
-    pub layout: &'a str,
+    pub layout: S,
     /// The layout's geometry hash: a stimulus or bank for another is refused.
     pub layout_hash: u32,
     /// Current at the outputs' full scale, mA.
@@ -257,20 +259,71 @@ pub struct BankSummary {
     pub slots: u8,
 }
 
-/// One slot of the bank.
+/// One slot of the bank. Its text is `S`, as [`Info`]'s.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct SlotInfo<'a> {
+pub struct SlotInfo<S> {
     /// Its index.
     pub slot: u8,
     /// The stimulus's name.
-    pub name: &'a str,
+    pub name: S,
     /// The keyframed signal's length, ms.
     pub duration_ms: u32,
     /// Playback length with the final ramp, ms.
     pub playback_ms: u32,
     /// False if the firmware refuses it (compiled for another layout).
     pub playable: bool,
+}
+
+impl<S> Info<S> {
+    /// The same with its text turned by `f` (`str::to_owned` keeps it past the frame).
+    pub fn map_text<T>(self, mut f: impl FnMut(S) -> T) -> Info<T> {
+        // Every field named, without `..`: one added must be carried here too.
+        let Info {
+            link_version,
+            firmware,
+            layout,
+            layout_hash,
+            full_scale_ma,
+            limits,
+            max_message,
+            max_chunk,
+            bank_capacity,
+            bank,
+        } = self;
+        Info {
+            link_version,
+            firmware: f(firmware),
+            layout: f(layout),
+            layout_hash,
+            full_scale_ma,
+            limits,
+            max_message,
+            max_chunk,
+            bank_capacity,
+            bank,
+        }
+    }
+}
+
+impl<S> SlotInfo<S> {
+    /// The same with its name turned by `f`.
+    pub fn map_text<T>(self, f: impl FnOnce(S) -> T) -> SlotInfo<T> {
+        let SlotInfo {
+            slot,
+            name,
+            duration_ms,
+            playback_ms,
+            playable,
+        } = self;
+        SlotInfo {
+            slot,
+            name: f(name),
+            duration_ms,
+            playback_ms,
+            playable,
+        }
+    }
 }
 
 /// What plays.

@@ -6,9 +6,8 @@ use std::time::{Duration, SystemTime};
 
 use touch_protocol::link::cobs::Decoder;
 use touch_protocol::link::{
-    self, BankState, Command, Event, FrameError, LinkError, Reply, Source, StatusReport, StreamStop,
+    self, Command, Event, FrameError, LinkError, Reply, Source, StatusReport, StreamStop,
 };
-use touch_protocol::Limits;
 
 use super::Transport;
 
@@ -134,76 +133,11 @@ pub enum VerifyError {
     Byte(usize),
 }
 
-/// What a sleeve says about itself ([`link::Info`], owned).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct DeviceInfo {
-    /// The link version.
-    pub link_version: u16,
-    /// The firmware's version.
-    pub firmware: String,
-    /// The actuator layout the firmware drives.
-    pub layout: String,
-    /// The layout's geometry hash.
-    pub layout_hash: u32,
-    /// Current at the outputs' full scale, mA.
-    pub full_scale_ma: u16,
-    /// The device's hard limits.
-    pub limits: Limits,
-    /// Largest postcard message the device takes.
-    pub max_message: u16,
-    /// Largest chunk payload.
-    pub max_chunk: u16,
-    /// Bytes of the bank region.
-    pub bank_capacity: u32,
-    /// The bank it plays.
-    pub bank: BankState,
-}
+/// What a sleeve says about itself: the wire's [`link::Info`], its text owned.
+pub type DeviceInfo = link::Info<String>;
 
-impl From<link::Info<'_>> for DeviceInfo {
-    fn from(info: link::Info<'_>) -> Self {
-        // Every field named, without `..`: a field added to the wire's `Info` fails
-        // to build here until `DeviceInfo` holds it too.
-        let link::Info {
-            link_version,
-            firmware,
-            layout,
-            layout_hash,
-            full_scale_ma,
-            limits,
-            max_message,
-            max_chunk,
-            bank_capacity,
-            bank,
-        } = info;
-        DeviceInfo {
-            link_version,
-            firmware: firmware.to_owned(),
-            layout: layout.to_owned(),
-            layout_hash,
-            full_scale_ma,
-            limits,
-            max_message,
-            max_chunk,
-            bank_capacity,
-            bank,
-        }
-    }
-}
-
-/// One slot of the sleeve's bank ([`link::SlotInfo`], owned).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SlotEntry {
-    /// Its index.
-    pub slot: u8,
-    /// The stimulus's name.
-    pub name: String,
-    /// The keyframed signal's length, ms.
-    pub duration_ms: u32,
-    /// Playback with the final ramp, ms.
-    pub playback_ms: u32,
-    /// False if the firmware refuses it.
-    pub playable: bool,
-}
+/// One slot of the sleeve's bank: the wire's [`link::SlotInfo`], its name owned.
+pub type SlotEntry = link::SlotInfo<String>;
 
 /// An event as the host received it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -312,7 +246,7 @@ impl<T: Transport> Client<T> {
     pub fn info(&mut self) -> Result<DeviceInfo, ClientError> {
         let timeout = self.timeouts.reply;
         self.call(Command::Info, timeout, RETRIES, |r| match r {
-            Reply::Info(i) => Some(DeviceInfo::from(i)),
+            Reply::Info(i) => Some(i.map_text(str::to_owned)),
             _ => None,
         })
     }
@@ -321,13 +255,7 @@ impl<T: Transport> Client<T> {
     pub fn slot(&mut self, slot: u8) -> Result<SlotEntry, ClientError> {
         let timeout = self.timeouts.reply;
         self.call(Command::Slot { slot }, timeout, RETRIES, |r| match r {
-            Reply::Slot(s) => Some(SlotEntry {
-                slot: s.slot,
-                name: s.name.to_owned(),
-                duration_ms: s.duration_ms,
-                playback_ms: s.playback_ms,
-                playable: s.playable,
-            }),
+            Reply::Slot(s) => Some(s.map_text(str::to_owned)),
             _ => None,
         })
     }
