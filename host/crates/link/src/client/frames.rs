@@ -38,7 +38,7 @@ impl<T: Transport> Client<T> {
         let mut attempt = 0;
         loop {
             let seq = self.send(command)?;
-            match self.await_reply(seq, name, timeout, &mut take) {
+            match self.await_reply(seq, name, timeout, &mut take, None) {
                 Err(ClientError::Timeout { .. } | ClientError::Unreadable { .. })
                     if attempt < retries =>
                 {
@@ -63,25 +63,48 @@ impl<T: Transport> Client<T> {
     ) -> Result<R, ClientError> {
         let name = command_name(&command);
         let seq = self.send(command)?;
+        self.await_reply(seq, name, timeout, &mut take, Some(PROBE))
+    }
+
+    /// Sends one request; its sequence number.
+    fn send(&mut self, command: Command<'_>) -> Result<u16, ClientError> {
+        self.seq = self.seq.wrapping_add(1);
+        let seq = self.seq;
+        let mut wire = [0u8; link::MAX_ENCODED];
+        let n = link::encode(&Request { seq, command }, &mut wire)
+            .map_err(|_| ClientError::Protocol("a request too long to send"))?;
+        self.transport.write_all(&wire[..n])?;
+        Ok(seq)
+    }
+
+    /// Waits at most `timeout` for the reply to request `seq` (`command` names it in
+    /// errors). With `probe`, a `Status` follows every `probe` without it, and one
+    /// answered first ends the wait ([`Client::call_watched`]); without, an
+    /// unreadable frame seen meanwhile is the error at the timeout (it may have been
+    /// the request).
+    fn await_reply<R>(
+        &mut self,
+        seq: u16,
+        command: &'static str,
+        timeout: Duration,
+        take: &mut impl FnMut(Reply<'_>) -> Option<R>,
+        probe: Option<Duration>,
+    ) -> Result<R, ClientError> {
         let start = self.transport.now();
         let mut probes = Vec::new();
         let mut result: Option<Result<R, ClientError>> = None;
         let mut unreadable = None;
         loop {
-            let until = (self.transport.now() - start + PROBE).min(timeout);
+            let until = probe.map_or(timeout, |p| (self.transport.now() - start + p).min(timeout));
             while result.is_none() && self.transport.now() - start < until {
                 let left = until.saturating_sub(self.transport.now() - start);
                 self.receive(left, |message| match message {
                     Message::Reply { seq: s, reply } if s == seq => {
-                        result =
-                            Some(take(reply).ok_or(ClientError::UnexpectedReply { command: name }));
+                        result = Some(take(reply).ok_or(ClientError::UnexpectedReply { command }));
                         true
                     }
                     Message::Refused { seq: s, error } if s == seq => {
-                        result = Some(Err(ClientError::Refused {
-                            command: name,
-                            error,
-                        }));
+                        result = Some(Err(ClientError::Refused { command, error }));
                         true
                     }
                     Message::Reply { seq: s, .. } | Message::Refused { seq: s, .. }
@@ -90,11 +113,8 @@ impl<T: Transport> Client<T> {
                         // A frame the device could not read may have been the
                         // command itself: that, rather than a restart.
                         result = Some(Err(match unreadable {
-                            Some(error) => ClientError::Unreadable {
-                                command: name,
-                                error,
-                            },
-                            None => ClientError::Restarted { command: name },
+                            Some(error) => ClientError::Unreadable { command, error },
+                            None => ClientError::Restarted { command },
                         }));
                         true
                     }
@@ -109,65 +129,15 @@ impl<T: Transport> Client<T> {
                 return r;
             }
             if self.transport.now() - start >= timeout {
-                return Err(ClientError::Timeout {
-                    command: name,
-                    waited: timeout,
-                });
-            }
-            probes.push(self.send(Command::Status)?);
-        }
-    }
-
-    /// Sends one request; its sequence number.
-    fn send(&mut self, command: Command<'_>) -> Result<u16, ClientError> {
-        self.seq = self.seq.wrapping_add(1);
-        let seq = self.seq;
-        let mut wire = [0u8; link::MAX_ENCODED];
-        let n = link::encode(&Request { seq, command }, &mut wire)
-            .map_err(|_| ClientError::Protocol("a request too long to send"))?;
-        self.transport.write_all(&wire[..n])?;
-        Ok(seq)
-    }
-
-    fn await_reply<R>(
-        &mut self,
-        seq: u16,
-        command: &'static str,
-        timeout: Duration,
-        take: &mut impl FnMut(Reply<'_>) -> Option<R>,
-    ) -> Result<R, ClientError> {
-        let start = self.transport.now();
-        let mut result: Option<Result<R, ClientError>> = None;
-        let mut unreadable = None;
-        loop {
-            let left = timeout.saturating_sub(self.transport.now() - start);
-            self.receive(left, |message| match message {
-                Message::Reply { seq: s, reply } if s == seq => {
-                    result = Some(take(reply).ok_or(ClientError::UnexpectedReply { command }));
-                    true
-                }
-                Message::Refused { seq: s, error } if s == seq => {
-                    result = Some(Err(ClientError::Refused { command, error }));
-                    true
-                }
-                Message::Unreadable(error) => {
-                    unreadable = Some(error);
-                    false
-                }
-                _ => false,
-            })?;
-            if let Some(r) = result {
-                return r;
-            }
-            if self.transport.now() - start >= timeout {
-                return Err(match unreadable {
-                    Some(error) => ClientError::Unreadable { command, error },
-                    None => ClientError::Timeout {
+                return Err(match (probe, unreadable) {
+                    (None, Some(error)) => ClientError::Unreadable { command, error },
+                    _ => ClientError::Timeout {
                         command,
                         waited: timeout,
                     },
                 });
             }
+            probes.push(self.send(Command::Status)?);
         }
     }
 
