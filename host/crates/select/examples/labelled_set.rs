@@ -2,8 +2,9 @@
 //! recordings and a `manifest.csv` with each recording's person.
 //!
 //! `cargo run --release -p touchc-select --example labelled_set -- DIR [PER_CLASS]
-//! [FRAMES] [CLASSES] [PEOPLE] [realistic|separable]`; the benchmark's set is
-//! `DIR 117 705 6 10` (702 recordings of 705 x 8 x 21 frames, realistic).
+//! [FRAMES] [CLASSES] [PEOPLE] [realistic|separable|gestures]`; the benchmark's set is
+//! `DIR 117 705 6 10` (702 recordings of 705 x 8 x 21 frames, realistic); `gestures`
+//! is seven touch gestures on the 10 x 10 grid at 54 Hz (`DIR 119 540 7 10 gestures`).
 
 use touchc_select::synthetic::{labelled_set, write, Mix, SetSpec};
 use touchc_synth::Sensor;
@@ -11,7 +12,7 @@ use touchc_synth::Sensor;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let dir = args.first().ok_or(
-        "usage: labelled_set DIR [PER_CLASS] [FRAMES] [CLASSES] [PEOPLE] [realistic|separable]",
+        "usage: labelled_set DIR [PER_CLASS] [FRAMES] [CLASSES] [PEOPLE] [realistic|separable|gestures]",
     )?;
     let num = |i: usize, default: usize| -> Result<usize, Box<dyn std::error::Error>> {
         Ok(args
@@ -24,14 +25,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mix = match args.get(5).map_or("realistic", String::as_str) {
         "realistic" => Mix::Realistic,
         "separable" => Mix::Separable,
-        other => return Err(format!("unknown mix {other}: realistic or separable").into()),
+        "gestures" => Mix::Gestures,
+        other => {
+            return Err(format!("unknown mix {other}: realistic, separable or gestures").into())
+        }
     };
     let spec = SetSpec {
         per_class: num(1, 20)?,
         frames: (frames > 0).then_some(frames),
         classes: num(3, 6)?,
         people: num(4, 10)?,
-        sensor: Sensor::Sleeve,
+        sensor: match mix {
+            Mix::Gestures => Sensor::Grid10,
+            Mix::Realistic | Mix::Separable => Sensor::Sleeve,
+        },
         mix,
         seed: 1,
     };

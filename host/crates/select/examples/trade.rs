@@ -2,8 +2,10 @@
 //! cross-validation of recordings of the paper's size, each scorer on the same folds.
 //!
 //! `cargo run --release -p touchc-select --example trade -- [RECORDINGS] [FRAMES]
-//! [FOLDS] [EPOCHS] [SCORERS] [realistic|separable]`; the benchmark of
+//! [FOLDS] [EPOCHS] [SCORERS] [realistic|separable|gestures]`; the benchmark of
 //! `docs/select.md` is `RAYON_NUM_THREADS=2 ... -- 700 705 5 30 features,cnn`.
+//! `gestures` is the seven-gesture set on the 10 x 10 grid at 54 Hz (the sleeve
+//! otherwise).
 
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -55,14 +57,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mix = match args.get(5).map_or("realistic", String::as_str) {
         "realistic" => Mix::Realistic,
         "separable" => Mix::Separable,
-        other => return Err(format!("unknown mix {other}: realistic or separable").into()),
+        "gestures" => Mix::Gestures,
+        other => {
+            return Err(format!("unknown mix {other}: realistic, separable or gestures").into())
+        }
     };
+    let sensor = match mix {
+        Mix::Gestures => Sensor::Grid10,
+        Mix::Realistic | Mix::Separable => Sensor::Sleeve,
+    };
+    let classes = mix.classes().len();
     let t0 = Instant::now();
     let mut data = dataset(&SetSpec {
-        classes: 6,
-        per_class: recordings.div_ceil(6),
+        classes,
+        per_class: recordings.div_ceil(classes),
         people: 10,
-        sensor: Sensor::Sleeve,
+        sensor,
         frames: Some(frames),
         mix,
         seed: 1,

@@ -10,7 +10,9 @@
 //! arm, hold and pause lengths and favourite gestures, every recording varies around its
 //! person's way and starts after its own quiet spell, and the sensor's noise and flicker
 //! differ from one recording to the next. Some recordings of one class then look like
-//! another's and no scorer reaches 1.
+//! another's and no scorer reaches 1. `Gestures`: the classes are touch gestures
+//! themselves, seven of them including no touch ([`GESTURES`]), made the realistic
+//! way: a proxy for a lab's gesture data set of ten people on a 10 x 10 fabric grid.
 
 use ndarray::{s, Array3};
 use touchc_synth::{generate, Gesture, Sensor, SynthSpec, Tuning};
@@ -25,12 +27,26 @@ pub enum Mix {
     /// Classes share gestures in different proportions ([`REALISTIC`]); people and
     /// recordings vary widely, the sensor is noisy and flickers.
     Realistic,
+    /// Seven classes that are touch gestures, including no touch ([`GESTURES`]), each
+    /// mostly its own gesture and at times one a person would mistake for it; people,
+    /// recordings and the sensor vary as in `Realistic`.
+    Gestures,
+}
+
+impl Mix {
+    /// The classes' names, in label order.
+    pub fn classes(self) -> Vec<&'static str> {
+        match self {
+            Mix::Gestures => GESTURES.iter().map(|(name, _)| *name).collect(),
+            Mix::Separable | Mix::Realistic => CLASSES.iter().map(|(name, _)| *name).collect(),
+        }
+    }
 }
 
 /// What to generate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SetSpec {
-    /// Number of classes, 2 to 6 (the paper's scenarios, in [`CLASSES`] order).
+    /// Number of classes, from 2 to all of the mix's ([`Mix::classes`], in order).
     pub classes: usize,
     /// Recordings per class.
     pub per_class: usize,
@@ -127,6 +143,33 @@ pub const REALISTIC: [&[(Gesture, u32)]; 6] = [
     ],
 ];
 
+/// The classes and gesture mixes of [`Mix::Gestures`] (percent, reweighted by the
+/// person's taste): the seven gestures of a touch-gesture data set, no touch among
+/// them. Each class is mostly its own gesture; the rest is what a person asked for one
+/// gesture sometimes does instead (a quick pat is a tap, a slow rub a stroke, a
+/// tickle's fingertips scratch), so the classes overlap as a real set's do.
+pub const GESTURES: [(&str, &[(Gesture, u32)]); 7] = [
+    ("none", &[(Gesture::Rest, 100)]),
+    (
+        "constant",
+        &[(Gesture::Palm, 45), (Gesture::Hand, 35), (Gesture::Squeeze, 20)],
+    ),
+    ("pat", &[(Gesture::Pat, 60), (Gesture::Tap, 40)]),
+    (
+        "rub",
+        &[(Gesture::Rub, 60), (Gesture::Strokes, 25), (Gesture::Stroke, 15)],
+    ),
+    ("scratch", &[(Gesture::Scratch, 60), (Gesture::Tickle, 40)]),
+    (
+        "stroke",
+        &[(Gesture::Stroke, 55), (Gesture::Strokes, 25), (Gesture::Rub, 20)],
+    ),
+    (
+        "tickle",
+        &[(Gesture::Tickle, 60), (Gesture::Scratch, 20), (Gesture::Tap, 20)],
+    ),
+];
+
 /// One labelled recording.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Labelled {
@@ -193,13 +236,13 @@ fn person(spec: &SetSpec, p: usize) -> Person {
 }
 
 /// One recording's gestures: one to three drawn from the class's mix weighted by the
-/// person's taste.
-fn realistic_gestures(class: usize, who: &Person, rng: &mut Rng) -> Vec<Gesture> {
-    let weights: Vec<(Gesture, f64)> = REALISTIC[class]
+/// person's taste (1 for a gesture outside [`POOL`]).
+fn realistic_gestures(mix: &[(Gesture, u32)], who: &Person, rng: &mut Rng) -> Vec<Gesture> {
+    let weights: Vec<(Gesture, f64)> = mix
         .iter()
         .map(|&(g, w)| {
-            let k = POOL.iter().position(|&p| p == g).unwrap_or(0);
-            (g, f64::from(w) * who.taste[k])
+            let taste = POOL.iter().position(|&p| p == g).map_or(1.0, |k| who.taste[k]);
+            (g, f64::from(w) * taste)
         })
         .collect();
     let total: f64 = weights.iter().map(|w| w.1).sum();
@@ -220,8 +263,8 @@ fn realistic_gestures(class: usize, who: &Person, rng: &mut Rng) -> Vec<Gesture>
 
 /// A recording's synthesis: the person's way, varied for this recording.
 fn recording(spec: &SetSpec, class: usize, who: &Person, rng: &mut Rng) -> (SynthSpec, f64, isize) {
-    let mixes = CLASSES[class].1;
     if spec.mix == Mix::Separable {
+        let mixes = CLASSES[class].1;
         let gestures = mixes[rng.below(mixes.len())].to_vec();
         let tuning = Tuning {
             stroke_speed_mps: Some(0.25 * who.speed),
@@ -239,7 +282,11 @@ fn recording(spec: &SetSpec, class: usize, who: &Person, rng: &mut Rng) -> (Synt
         };
         return (synth, who.pressure, who.shift);
     }
-    let gestures = realistic_gestures(class, who, rng);
+    let mix = match spec.mix {
+        Mix::Gestures => GESTURES[class].1,
+        Mix::Separable | Mix::Realistic => REALISTIC[class],
+    };
+    let gestures = realistic_gestures(mix, who, rng);
     // This recording around the person's way: +-15 % speed, +-20 % pressure, now and
     // then a cell further along the arm.
     let speed = who.speed * (0.15 * rng.normal()).exp();
@@ -273,7 +320,9 @@ pub fn labelled_set(spec: &SetSpec) -> Vec<Labelled> {
     let mut out = Vec::new();
     let mut rng = Rng::new(spec.seed);
     let people: Vec<Person> = (0..spec.people.max(1)).map(|p| person(spec, p)).collect();
-    for (class, (name, _)) in CLASSES.iter().enumerate().take(spec.classes.clamp(2, 6)) {
+    let names = spec.mix.classes();
+    let count = spec.classes.clamp(2, names.len());
+    for (class, name) in names.into_iter().enumerate().take(count) {
         for i in 0..spec.per_class {
             let p = i % people.len();
             let (synth, pressure, shift) = recording(spec, class, &people[p], &mut rng);
@@ -341,10 +390,11 @@ fn fitted(x: &Array3<f64>, n: usize, noise: f64, rng: &mut Rng) -> Array3<f64> {
 pub fn dataset(spec: &SetSpec) -> crate::Dataset {
     use crate::dataset::{Item, Listing, Sample};
     let set = labelled_set(spec);
-    let classes: Vec<String> = CLASSES
+    let names = spec.mix.classes();
+    let classes: Vec<String> = names
         .iter()
-        .take(spec.classes.clamp(2, 6))
-        .map(|(c, _)| c.to_string())
+        .take(spec.classes.clamp(2, names.len()))
+        .map(|c| c.to_string())
         .collect();
     let items = set
         .iter()
