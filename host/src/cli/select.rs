@@ -44,7 +44,8 @@ Ctrl-C stops training and writes nothing.";
 enum Scorer {
     /// Logistic regression on duration, pressure, area, speed, location and rhythm.
     Features,
-    /// The paper's 3D convolutional network.
+    /// The paper's 3D convolutional network, globally pooled so it reads what a touch is
+    /// rather than where and when.
     Cnn,
 }
 

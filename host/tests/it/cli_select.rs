@@ -91,7 +91,7 @@ fn the_network_learns_and_scores_the_same_for_a_seed_whatever_the_threads() {
                 "--folds",
                 "3",
                 "--epochs",
-                "6",
+                "30",
             ])
             .args(["--seed", "3", "-o", s(&out)])
             .env("RAYON_NUM_THREADS", threads)

@@ -152,21 +152,37 @@ pub const GESTURES: [(&str, &[(Gesture, u32)]); 7] = [
     ("none", &[(Gesture::Rest, 100)]),
     (
         "constant",
-        &[(Gesture::Palm, 45), (Gesture::Hand, 35), (Gesture::Squeeze, 20)],
+        &[
+            (Gesture::Palm, 45),
+            (Gesture::Hand, 35),
+            (Gesture::Squeeze, 20),
+        ],
     ),
     ("pat", &[(Gesture::Pat, 60), (Gesture::Tap, 40)]),
     (
         "rub",
-        &[(Gesture::Rub, 60), (Gesture::Strokes, 25), (Gesture::Stroke, 15)],
+        &[
+            (Gesture::Rub, 60),
+            (Gesture::Strokes, 25),
+            (Gesture::Stroke, 15),
+        ],
     ),
     ("scratch", &[(Gesture::Scratch, 60), (Gesture::Tickle, 40)]),
     (
         "stroke",
-        &[(Gesture::Stroke, 55), (Gesture::Strokes, 25), (Gesture::Rub, 20)],
+        &[
+            (Gesture::Stroke, 55),
+            (Gesture::Strokes, 25),
+            (Gesture::Rub, 20),
+        ],
     ),
     (
         "tickle",
-        &[(Gesture::Tickle, 60), (Gesture::Scratch, 20), (Gesture::Tap, 20)],
+        &[
+            (Gesture::Tickle, 60),
+            (Gesture::Scratch, 20),
+            (Gesture::Tap, 20),
+        ],
     ),
 ];
 
@@ -241,7 +257,10 @@ fn realistic_gestures(mix: &[(Gesture, u32)], who: &Person, rng: &mut Rng) -> Ve
     let weights: Vec<(Gesture, f64)> = mix
         .iter()
         .map(|&(g, w)| {
-            let taste = POOL.iter().position(|&p| p == g).map_or(1.0, |k| who.taste[k]);
+            let taste = POOL
+                .iter()
+                .position(|&p| p == g)
+                .map_or(1.0, |k| who.taste[k]);
             (g, f64::from(w) * taste)
         })
         .collect();

@@ -3,26 +3,45 @@
 
 use super::*;
 
+/// Widths small enough for the tests' recordings of a dozen frames.
+const SMALL: Arch = Arch {
+    c1: 3,
+    c2: 4,
+    c3: 5,
+    k3: 2,
+};
+
 /// The analytic gradient matches a finite difference of the loss for a few weights
 /// of every layer.
 #[test]
 fn gradients_match_finite_differences() {
     let mut rng = Rng::new(3);
-    let frames = ndarray::Array3::from_shape_fn((9, 7, 8), |_| rng.uniform() as f32);
+    let frames = ndarray::Array3::from_shape_fn((13, 7, 8), |_| rng.uniform() as f32);
     let sample = Sample {
         frames,
         rate_hz: 20.0,
         pitch_mm: 25.4,
     };
-    let mut net = Net::new(9, 7, 8, 3, 1.0, 5);
+    let mut net = Net::new(13, 7, 8, 3, SMALL, 1.0, 5);
     // Biases off zero so every ReLU is away from its kink for a small step.
     for p in net.params.iter_mut() {
         *p += 0.05;
     }
     let x = net.input_of(&sample);
     let (_, g) = net.backward(&x, &net.forward(&x), 1);
-    let o = offsets(net.input, 3);
-    for j in [0, 2, o.b1, o.w2 + 3, o.b2 + 1, o.wd + 2, o.bd] {
+    let o = offsets(net.arch, 3);
+    for j in [
+        0,
+        2,
+        o.b1,
+        o.w2 + 3,
+        o.b2 + 1,
+        o.w3 + 4,
+        o.b3 + 2,
+        o.wd + 2,
+        o.wd + 9,
+        o.bd,
+    ] {
         let h = 1e-2f32;
         let mut up = net.clone();
         up.params[j] += h;
@@ -40,9 +59,11 @@ fn gradients_match_finite_differences() {
 }
 
 /// The network as its definition reads, one output at a time: Keras's Conv3D
-/// (1, 2, 2) "valid" with ReLU, MaxPooling3D (2, 2, 2), Dense, softmax.
+/// (1, 2, 2) "valid" with ReLU, MaxPooling3D (2, 2, 2), twice; Conv3D (k3, 1, 1)
+/// "valid" with ReLU; GlobalAveragePooling3D and GlobalMaxPooling3D concatenated;
+/// Dense, softmax.
 fn reference(net: &Net, x: &[f32]) -> Vec<f32> {
-    let o = offsets(net.input, net.classes);
+    let (a, o) = (net.arch, offsets(net.arch, net.classes));
     let p = &net.params;
     let conv = |x: &[f32], d: Dims, w: &[f32], b: &[f32], cout: usize| {
         let (h, wd) = (d.h - 1, d.w - 1);
@@ -93,14 +114,37 @@ fn reference(net: &Net, x: &[f32]) -> Vec<f32> {
         }
         (y, o)
     };
-    let (a1, d1) = conv(x, net.input, &p[..o.b1], &p[o.b1..o.w2], C1);
+    let (a1, d1) = conv(x, net.input, &p[..o.b1], &p[o.b1..o.w2], a.c1);
     let (p1, d1) = pool(&a1, d1);
-    let (a2, d2) = conv(&p1, d1, &p[o.w2..o.b2], &p[o.b2..o.wd], C2);
-    let (p2, _) = pool(&a2, d2);
+    let (a2, d2) = conv(&p1, d1, &p[o.w2..o.b2], &p[o.b2..o.w3], a.c2);
+    let (p2, d2) = pool(&a2, d2);
+    // The time convolution and the global pooling of each of its channels.
+    let (w3, b3) = (&p[o.w3..o.b3], &p[o.b3..o.wd]);
+    let t3 = d2.t + 1 - a.k3;
+    let mut g = vec![0.0f32; 2 * a.c3];
+    g[a.c3..].iter_mut().for_each(|v| *v = f32::NEG_INFINITY);
+    for co in 0..a.c3 {
+        for t in 0..t3 {
+            for i in 0..d2.h {
+                for j in 0..d2.w {
+                    let mut v = b3[co];
+                    for ci in 0..d2.c {
+                        for dt in 0..a.k3 {
+                            let k = w3[(co * d2.c + ci) * a.k3 + dt];
+                            v += k * p2[((ci * d2.t + t + dt) * d2.h + i) * d2.w + j];
+                        }
+                    }
+                    let v = v.max(0.0);
+                    g[co] += v / (t3 * d2.h * d2.w) as f32;
+                    g[a.c3 + co] = g[a.c3 + co].max(v);
+                }
+            }
+        }
+    }
     let mut z: Vec<f32> = (0..net.classes)
         .map(|k| {
-            let row = &p[o.wd + k * p2.len()..][..p2.len()];
-            p[o.bd + k] + row.iter().zip(&p2).map(|(a, b)| a * b).sum::<f32>()
+            let row = &p[o.wd + k * g.len()..][..g.len()];
+            p[o.bd + k] + row.iter().zip(&g).map(|(a, b)| a * b).sum::<f32>()
         })
         .collect();
     softmax(&mut z);
@@ -112,14 +156,14 @@ fn reference(net: &Net, x: &[f32]) -> Vec<f32> {
 #[test]
 fn the_network_matches_its_definition() {
     let mut rng = Rng::new(11);
-    for (t, h, w) in [(9, 7, 8), (12, 8, 21), (17, 10, 13)] {
+    for (t, h, w) in [(9, 7, 8), (12, 8, 21), (17, 10, 13), (31, 10, 10)] {
         let frames = ndarray::Array3::from_shape_fn((t, h, w), |_| rng.uniform() as f32);
         let sample = Sample {
             frames,
             rate_hz: 20.0,
             pitch_mm: 25.4,
         };
-        let mut net = Net::new(t, h, w, 4, 1.0, 7);
+        let mut net = Net::new(t, h, w, 4, SMALL, 1.0, 7);
         for p in net.params.iter_mut() {
             *p += 0.02;
         }
@@ -130,4 +174,38 @@ fn the_network_matches_its_definition() {
             assert!((a - b).abs() < 1e-5, "{t}x{h}x{w}: {fast:?} vs {slow:?}");
         }
     }
+}
+
+/// The same touch somewhere else along the arm and later in the recording scores the
+/// same: the network reads what a touch is, not where or when (moved by whole strides
+/// of the two poolings, 4 frames and 4 cells, with quiet all around it).
+#[test]
+fn a_touch_moved_in_time_and_space_scores_the_same() {
+    let mut rng = Rng::new(21);
+    let (t, h, w) = (64, 8, 21);
+    let mut first = ndarray::Array3::<f32>::zeros((t, h, w));
+    let mut moved = first.clone();
+    for dt in 0..16 {
+        for r in 2..6 {
+            for c in 0..4 {
+                let v = rng.uniform() as f32;
+                first[[8 + dt, r, 6 + c]] = v;
+                moved[[8 + 24 + dt, r, 6 + 4 + c]] = v;
+            }
+        }
+    }
+    let sample = |frames| Sample {
+        frames,
+        rate_hz: 20.0,
+        pitch_mm: 25.4,
+    };
+    let net = Net::new(t, h, w, 3, SMALL, 1.0, 4);
+    let (a, b) = (net.predict(&sample(first)), net.predict(&sample(moved)));
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-5, "{a:?} vs {b:?}");
+    }
+    assert!(
+        a.iter().any(|p| (p - 1.0 / 3.0).abs() > 1e-3),
+        "{a:?}: a network that reads nothing"
+    );
 }
