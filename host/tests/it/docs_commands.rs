@@ -69,6 +69,10 @@ const NOT_RUN: &[(&str, &str)] = &[
         "RAYON_NUM_THREADS=2 nice timeout 2400 target/release/examples/trade",
         "the selection's benchmark, minutes; it writes nothing",
     ),
+    (
+        "bash scripts/select-oracle.sh",
+        "the features scorer against scikit-learn: release builds and a venv, minutes",
+    ),
 ];
 
 /// The workspace root (the clone).

@@ -19,7 +19,7 @@
 //! recording scored later keeps its last frames), and scaled by the training set's RMS
 //! pressure.
 //!
-//! The layers are written out here with their gradients ([`layers`]). Each sample's
+//! The layers are written out here with their gradients (`cnn/layers.rs`). Each sample's
 //! gradient is computed in parallel and the batch's are summed in sample order, so
 //! training gives the same weights for a seed whatever the number of threads.
 
