@@ -66,7 +66,7 @@ impl Arch {
     /// The widths `touchc select` trains (`docs/select.md` has the measurements).
     pub const DEFAULT: Arch = Arch {
         c1: 4,
-        c2: 16,
+        c2: 8,
         c3: 16,
         k3: 9,
     };
