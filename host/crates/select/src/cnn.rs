@@ -16,8 +16,9 @@
 //! pooled features a view of 4 x K3 frames, long enough for a tap's rhythm or a
 //! stroke's sweep, which a (1, 2, 2) filter alone never sees. Recordings are
 //! zero-padded in front to the longest of the training set, as the paper did (a longer
-//! recording scored later keeps its last frames), and scaled by the training set's RMS
-//! pressure.
+//! recording scored later keeps its last frames), and each is divided by its own RMS
+//! pressure: a person who presses twice as hard makes the same input (0.695 to 0.717
+//! on the seven-gesture set, 0.689 to 0.667 on the benchmark: `docs/select.md`).
 //!
 //! The layers are written out here with their gradients (`cnn/layers.rs`). Each sample's
 //! gradient is computed in parallel and the batch's are summed in sample order, so
@@ -78,8 +79,6 @@ pub struct Net {
     input: Dims,
     classes: usize,
     arch: Arch,
-    /// Multiplies the pressure (1 / the training set's RMS).
-    scale: f32,
     /// Every weight: conv 1 `[c1][1][2][2]` and its biases, conv 2 `[c2][c1][2][2]`
     /// and its biases, conv 3 `[c3][c2][k3]` and its biases, the dense layer
     /// `[classes][2 c3]` and its biases.
@@ -175,15 +174,7 @@ impl Net {
     /// A network of widths `arch` for recordings of `rows` x `cols` cells padded to
     /// `frames`, with Glorot-uniform weights from `seed` and zero biases (Keras's
     /// defaults).
-    fn new(
-        frames: usize,
-        rows: usize,
-        cols: usize,
-        classes: usize,
-        arch: Arch,
-        scale: f32,
-        seed: u64,
-    ) -> Self {
+    fn new(frames: usize, rows: usize, cols: usize, classes: usize, arch: Arch, seed: u64) -> Self {
         let input = Dims {
             c: 1,
             t: frames,
@@ -207,7 +198,6 @@ impl Net {
             input,
             classes,
             arch,
-            scale,
             params,
         }
     }
@@ -234,22 +224,24 @@ impl Net {
             && a.c3 > 0
             && Self::fits(self.input, a)
             && self.params.len() == offsets(a, classes).len
-            && self.scale.is_finite()
             && self.params.iter().all(|p| p.is_finite())
     }
 
     /// A sample as the network reads it: padded in front with zeros to the network's
-    /// length (or its last frames kept), scaled.
+    /// length (or its last frames kept), divided by its own RMS pressure.
     fn input_of(&self, s: &Sample) -> Vec<f32> {
         let d = self.input;
         let (t, _, _) = s.frames.dim();
         let mut x = vec![0.0f32; d.len()];
         let keep = t.min(d.t);
         let plane = d.h * d.w;
+        let n = s.frames.len().max(1) as f64;
+        let rms = (s.frames.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / n).sqrt();
+        let scale = if rms > 0.0 { (1.0 / rms) as f32 } else { 1.0 };
         for (k, frame) in s.frames.outer_iter().skip(t - keep).enumerate() {
             let dst = &mut x[(d.t - keep + k) * plane..][..plane];
             for (v, p) in dst.iter_mut().zip(frame.iter()) {
-                *v = p * self.scale;
+                *v = p * scale;
             }
         }
         x
@@ -425,15 +417,7 @@ pub fn train(
             4 * arch.k3
         )));
     }
-    let (sum2, count) = samples.iter().fold((0.0f64, 0usize), |(s, n), x| {
-        (
-            s + x.frames.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>(),
-            n + x.frames.len(),
-        )
-    });
-    let rms = (sum2 / count.max(1) as f64).sqrt();
-    let scale = if rms > 0.0 { (1.0 / rms) as f32 } else { 1.0 };
-    let mut net = Net::new(frames, rows, cols, classes, arch, scale, seed);
+    let mut net = Net::new(frames, rows, cols, classes, arch, seed);
     let inputs: Vec<Vec<f32>> = samples.par_iter().map(|s| net.input_of(s)).collect();
     let n = net.params.len();
     let (mut m, mut v) = (vec![0.0f32; n], vec![0.0f32; n]);

@@ -22,7 +22,7 @@ fn gradients_match_finite_differences() {
         rate_hz: 20.0,
         pitch_mm: 25.4,
     };
-    let mut net = Net::new(13, 7, 8, 3, SMALL, 1.0, 5);
+    let mut net = Net::new(13, 7, 8, 3, SMALL, 5);
     // Biases off zero so every ReLU is away from its kink for a small step.
     for p in net.params.iter_mut() {
         *p += 0.05;
@@ -163,7 +163,7 @@ fn the_network_matches_its_definition() {
             rate_hz: 20.0,
             pitch_mm: 25.4,
         };
-        let mut net = Net::new(t, h, w, 4, SMALL, 1.0, 7);
+        let mut net = Net::new(t, h, w, 4, SMALL, 7);
         for p in net.params.iter_mut() {
             *p += 0.02;
         }
@@ -199,7 +199,7 @@ fn a_touch_moved_in_time_and_space_scores_the_same() {
         rate_hz: 20.0,
         pitch_mm: 25.4,
     };
-    let net = Net::new(t, h, w, 3, SMALL, 1.0, 4);
+    let net = Net::new(t, h, w, 3, SMALL, 4);
     let (a, b) = (net.predict(&sample(first)), net.predict(&sample(moved)));
     for (x, y) in a.iter().zip(&b) {
         assert!((x - y).abs() < 1e-5, "{a:?} vs {b:?}");
