@@ -4,20 +4,12 @@
 # synthetic set (10 x 10 grid at 54 Hz, 833 recordings, ten people): prints both
 # accuracies and fails when touchc is more than 3 points below. About a minute of CPU
 # after the release builds; not part of check.sh (docs/select.md has the table).
-# Python runs here only, in the venv under target/ that scripts/study-oracle.sh uses.
+# Python runs here only, in the venv scripts/oracle-venv.sh makes (shared with
+# scripts/study-oracle.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-venv=target/study-oracle-venv
-if ! "$venv/bin/python" -c 'import numpy, scipy, sklearn' 2>/dev/null; then
-    if ! python3 -c 'import ensurepip' 2>/dev/null; then
-        sudo=""; [ "$(id -u)" = 0 ] || sudo=sudo
-        $sudo apt-get update -q && $sudo apt-get install -y -q python3-venv
-    fi
-    rm -rf "$venv"
-    python3 -m venv "$venv"
-    "$venv/bin/pip" install -q --disable-pip-version-check numpy scipy scikit-learn
-fi
+source scripts/oracle-venv.sh
 cargo build --locked -q --release -p touchc --bin touchc
 cargo build --locked -q --release -p touchc-select --example labelled_set
 work=$(mktemp -d)
