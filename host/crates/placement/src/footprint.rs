@@ -8,14 +8,23 @@
 //! then. So each transform tests each distinct pixel once, then ORs bit masks per
 //! frame. Trajectories with one point a frame (every preset but `touch`) keep the
 //! published per-point sums, bit for bit.
+//!
+//! Every region of a scene lies on the same few pixels (a contact's cells), so a
+//! transform tests each of those pixels once for all the regions ([`PixelMemo`]), and a
+//! footprint holds only its pixels' indexes and summed costs: an hour of touch has
+//! thousands of regions over the same cells, and reading 12 bytes a pixel instead of a
+//! whole point is what the scoring of a transform costs.
 
 use super::scoring::{InCircle, Point, Scratch};
+use touchc_model::layout::CHANNELS;
 
 /// A region trajectory's distinct pixels and its frames.
 pub(super) struct Footprint {
-    /// Distinct pixels, in order of first appearance, each with the summed cost of the
-    /// trajectory's points there.
-    pub(super) pixels: Vec<Point>,
+    /// Distinct pixels (row-major index on the scene's pixel grid), in order of first
+    /// appearance.
+    pixels: Vec<u32>,
+    /// Per distinct pixel: the summed cost of the trajectory's points there.
+    costs: Vec<f64>,
     /// Per frame group: its frame.
     frames: Vec<usize>,
     /// `refs[start[g]..start[g + 1]]` are the pixels group `g` covers.
@@ -25,20 +34,25 @@ pub(super) struct Footprint {
 }
 
 impl Footprint {
-    /// The footprint of `points` (frame order) when some frame holds two or more of
-    /// them; `None` for a trajectory with one point a frame. Only the frames where
-    /// `shared` holds (another trajectory is present) are kept as groups: elsewhere
-    /// nothing can conflict with it.
-    pub(super) fn of(points: &[Point], shared: impl Fn(usize) -> bool) -> Option<Footprint> {
+    /// The footprint of `points` (frame order) on a scene `cols` pixels wide when some
+    /// frame holds two or more of them; `None` for a trajectory with one point a frame.
+    /// Only the frames where `shared` holds (another trajectory is present) are kept as
+    /// groups: elsewhere nothing can conflict with it.
+    pub(super) fn of(
+        points: &[Point],
+        cols: usize,
+        shared: impl Fn(usize) -> bool,
+    ) -> Option<Footprint> {
         if !points.windows(2).any(|w| w[0].frame == w[1].frame) {
             return None;
         }
         let mut index = std::collections::HashMap::new();
         let mut fp = Footprint {
             pixels: Vec::new(),
+            costs: Vec::new(),
             frames: Vec::new(),
             start: Vec::new(),
-            refs: Vec::with_capacity(points.len()),
+            refs: Vec::new(),
         };
         for p in points {
             let keep = shared(p.frame);
@@ -46,11 +60,13 @@ impl Footprint {
                 fp.frames.push(p.frame);
                 fp.start.push(fp.refs.len());
             }
-            let i = *index.entry((p.row, p.col)).or_insert_with(|| {
-                fp.pixels.push(Point { cost: 0.0, ..*p });
+            let pixel = (p.row * cols + p.col) as u32;
+            let i = *index.entry(pixel).or_insert_with(|| {
+                fp.pixels.push(pixel);
+                fp.costs.push(0.0);
                 fp.pixels.len() - 1
             });
-            fp.pixels[i].cost += p.cost;
+            fp.costs[i] += p.cost;
             if keep {
                 fp.refs.push(i as u32);
             }
@@ -60,33 +76,87 @@ impl Footprint {
     }
 }
 
+/// Per pixel of the scene: the circles of the current transform that hold it and its
+/// weight, computed the first time a footprint asks under that transform.
+pub(super) struct PixelMemo {
+    /// Per pixel: the transform the entry was computed for, its circles and its weight.
+    entries: Vec<(u32, u32, f64)>,
+    /// The current transform's stamp (never 0, which marks an empty entry).
+    stamp: u32,
+    /// The scene's pixel centres: y per row, x per column.
+    row_y: Vec<f64>,
+    col_x: Vec<f64>,
+}
+
+impl PixelMemo {
+    /// An empty memo for a scene of these pixel centres.
+    pub(super) fn new(row_y: &[f64], col_x: &[f64]) -> PixelMemo {
+        PixelMemo {
+            entries: Vec::new(),
+            stamp: 0,
+            row_y: row_y.to_vec(),
+            col_x: col_x.to_vec(),
+        }
+    }
+
+    /// Forgets every entry: a new transform.
+    pub(super) fn next_transform(&mut self) {
+        if self.entries.is_empty() {
+            self.entries = vec![(0, 0, 0.0); self.row_y.len() * self.col_x.len()];
+        }
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.stamp == 0 {
+            self.entries.fill((0, 0, 0.0));
+            self.stamp = 1;
+        }
+    }
+
+    /// The circles of `test` that hold `pixel`, and its weight. Every circle is tested:
+    /// one that holds a pixel of a trajectory is near that trajectory (its ranges,
+    /// with their slack, hold the pixel), so the masks a trajectory would narrow the
+    /// test to never drop it.
+    #[inline]
+    fn get(&mut self, test: &InCircle, pixel: u32) -> (u32, f64) {
+        let e = &mut self.entries[pixel as usize];
+        if e.0 != self.stamp {
+            let cols = self.col_x.len();
+            let (row, col) = (pixel as usize / cols, pixel as usize % cols);
+            let pt = Point {
+                x: self.col_x[col],
+                y: self.row_y[row],
+                frame: 0,
+                cost: 0.0,
+                row,
+                col,
+            };
+            let (mask, weight) = test.test(&pt, (1 << CHANNELS) - 1);
+            *e = (self.stamp, mask, weight);
+        }
+        (e.1, e.2)
+    }
+}
+
 /// [`super::scoring`]'s per-trajectory test for a footprint: whether a pixel lies in a
 /// circle and the sum of `cost x weight` over those that do; a candidate's frames with a
 /// pixel inside are chained as one hit each, in the circles of all its pixels then.
 pub(super) fn footprint_hits(
     test: &InCircle,
     fp: &Footprint,
-    near: u32,
-    per_point: bool,
     candidate: bool,
     s: &mut Scratch,
 ) -> (bool, f64) {
     let mut masks = std::mem::take(&mut s.pixel_masks);
     masks.clear();
     let mut sum = 0.0;
-    for px in &fp.pixels {
-        let bits = if per_point {
-            near & s.col_mask[px.col] & s.row_mask[px.row]
-        } else {
-            near
-        };
-        let (mask, weight) = test.test(px, bits);
+    let mut inside = false;
+    for (&pixel, &cost) in fp.pixels.iter().zip(&fp.costs) {
+        let (mask, weight) = s.memo.get(test, pixel);
         if mask != 0 {
-            sum += px.cost * weight;
+            sum += cost * weight;
+            inside = true;
         }
         masks.push(mask);
     }
-    let inside = masks.iter().any(|&m| m != 0);
     if candidate && inside {
         for (g, &frame) in fp.frames.iter().enumerate() {
             let refs = &fp.refs[fp.start[g]..fp.start[g + 1]];

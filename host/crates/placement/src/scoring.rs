@@ -13,7 +13,7 @@ use touchc_model::layout::CHANNELS;
 use touchc_model::trajectory::Trajectory;
 
 use crate::bnb::SubsetProblem;
-use crate::footprint::{footprint_hits, Footprint};
+use crate::footprint::{footprint_hits, Footprint, PixelMemo};
 
 /// A trajectory point in mm, with what scoring and conflicts need.
 #[derive(Debug, Clone, Copy)]
@@ -99,6 +99,8 @@ pub(super) struct Scratch {
     pub(super) node_budget: u64,
     /// Per distinct pixel of a footprint: the circles it is in ([`footprint_hits`]).
     pub(super) pixel_masks: Vec<u32>,
+    /// Per pixel of the scene: its circles under the current transform.
+    pub(super) memo: PixelMemo,
 }
 
 impl Scene {
@@ -146,7 +148,7 @@ impl Scene {
             }
         }
         let footprints = (0..trajs.len())
-            .map(|t| Footprint::of(&points[start[t]..start[t + 1]], |f| present[f] > 1))
+            .map(|t| Footprint::of(&points[start[t]..start[t + 1]], cols, |f| present[f] > 1))
             .collect();
         Scene {
             points,
@@ -182,6 +184,7 @@ impl Scratch {
             inexact: false,
             node_budget,
             pixel_masks: Vec::new(),
+            memo: PixelMemo::new(&scene.row_y, &scene.col_x),
         }
     }
 
@@ -279,6 +282,7 @@ pub(super) fn score_transform(
     if s.near.is_empty() {
         return None;
     }
+    s.memo.next_transform();
     let test = InCircle {
         circles,
         r2: circles.map(|c| c.r_mm * c.r_mm),
@@ -363,20 +367,22 @@ fn collect_hits(test: &InCircle, scene: &Scene, s: &mut Scratch) -> bool {
         }
         // Conflicts only involve trajectories that can be chosen (positive gain) and
         // that meet a circle; the rest are chosen or dropped on their own and never score.
-        // A trajectory near many circles (a long one, or noise) tests each point only
-        // against the circles its row and column allow; near one or two, the exact test
-        // costs less than the look-ups.
-        let per_point = near.count_ones() > 2;
-        if per_point && !row_mask_ready {
-            let lines = test.circles.map(|c| (c.y_mm, c.r_mm));
-            mask_lines(&mut s.row_mask, &scene.row_y, lines);
-            row_mask_ready = true;
-        }
         let candidate = scene.gains[t] > 0.0;
-        let points = &scene.points[scene.start[t]..scene.start[t + 1]];
         let (inside, sum) = match &scene.footprints[t] {
-            Some(fp) => footprint_hits(test, fp, near, per_point, candidate, s),
-            None => trajectory_hits(test, points, near, per_point, candidate, s),
+            Some(fp) => footprint_hits(test, fp, candidate, s),
+            None => {
+                // A trajectory near many circles (a long one, or noise) tests each point
+                // only against the circles its row and column allow; near one or two,
+                // the exact test costs less than the look-ups.
+                let per_point = near.count_ones() > 2;
+                if per_point && !row_mask_ready {
+                    let lines = test.circles.map(|c| (c.y_mm, c.r_mm));
+                    mask_lines(&mut s.row_mask, &scene.row_y, lines);
+                    row_mask_ready = true;
+                }
+                let points = &scene.points[scene.start[t]..scene.start[t + 1]];
+                trajectory_hits(test, points, near, per_point, candidate, s)
+            }
         };
         touched |= inside;
         if candidate && inside {
