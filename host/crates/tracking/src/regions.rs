@@ -131,7 +131,13 @@ pub fn link_regions(
         let (over, kept): (Vec<Contact>, Vec<Contact>) = live
             .into_iter()
             .partition(|c| t - c.last_frame > missing + 1);
-        done.extend(over);
+        // A contact's points grew by doubling; what it no longer needs goes back now, for
+        // the contacts still to come, not when the hour is tracked (a quarter of the
+        // trajectories' memory).
+        done.extend(over.into_iter().map(|mut c| {
+            c.points.shrink_to_fit();
+            c
+        }));
         live = kept;
         if found.is_empty() {
             continue;

@@ -96,8 +96,13 @@ fn region() -> impl Strategy<Value = Trajectory> {
         prop::collection::btree_set((0i32..3, 0i32..3), 1..=5),
         prop::collection::vec(prop::sample::select(vec![-0.5, -1.0, -2.0, -0.75]), 5),
     );
-    (0usize..5, 4usize..18, 8usize..50, prop::collection::vec(frame, 1..=6)).prop_map(
-        |(start, r0, c0, frames)| {
+    (
+        0usize..5,
+        4usize..18,
+        8usize..50,
+        prop::collection::vec(frame, 1..=6),
+    )
+        .prop_map(|(start, r0, c0, frames)| {
             let (mut r, mut c) = (r0 as i32, c0 as i32);
             let mut points = Vec::new();
             for (f, ((dr, dc), cells, costs)) in frames.into_iter().enumerate() {
@@ -115,8 +120,7 @@ fn region() -> impl Strategy<Value = Trajectory> {
                 }
             }
             Trajectory { points }
-        },
-    )
+        })
 }
 
 fn close(a: f64, b: f64) -> bool {
