@@ -276,12 +276,10 @@ impl<'a> Player<'a> {
     ) -> Self {
         let limits = h.limits.min(device.limits);
         let device_ua = i64::from(device.full_scale_ma.max(1)) * 1000;
-        // One output step, rounded up: device full scale / 2048.
-        let step_ua = ((device_ua + 2047) / 2048) as u32;
+        let (step_ua, half_step_ua) = output_step_ua(device_ua);
         let ramp_ms = u32::from(h.ramp_ms.max(1));
         let peak_ua = peak_bound_ua(limits.peak_ma, device_ua);
         let slew_ua = slew_bound_ua(limits.slew_ma_per_ms, step_ua);
-        let half_step_ua = step_ua / 2 + 1;
         let mut player = Player {
             source,
             underrun: false,
@@ -403,6 +401,25 @@ impl Iterator for Player<'_> {
 
 fn widen(k: [i16; CHANNELS]) -> [i32; CHANNELS] {
     k.map(i32::from)
+}
+
+/// One output step of a device of `device_ua` full scale (its full scale / 2048,
+/// rounded up), and half of it plus one: the most a code stands for beyond the value
+/// it was rounded from, uA.
+#[inline(always)]
+fn output_step_ua(device_ua: i64) -> (u32, u32) {
+    let step_ua = ((device_ua + 2047) / 2048) as u32;
+    (step_ua, step_ua / 2 + 1)
+}
+
+/// The most the player's heat accounting adds to a tick's current on a device of
+/// `device_full_scale_ma`, uA: each tick is accounted at the current its code stands
+/// for (up to half an output step above the value) rounded up to a whole mA. A
+/// compiler that fits a signal to the thermal budget in real numbers leaves this much
+/// room per tick, or a long touch trips the player's limit.
+pub fn heat_accounting_margin_ua(device_full_scale_ma: u16) -> u32 {
+    let (_, half_step_ua) = output_step_ua(i64::from(device_full_scale_ma.max(1)) * 1000);
+    half_step_ua + 999
 }
 
 /// The current a code stands for on a device, in amperes (for plots and CSV).

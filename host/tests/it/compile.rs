@@ -359,10 +359,13 @@ fn a_fitted_long_touch_still_encodes() {
         "104 s of this touch exceeds the 30 A^2 s budget"
     );
     // Fitted to the default share of the budget: one encode. Fitted to the whole
-    // budget: the played codes trip the player's limit and the refit steps in.
-    for (share, refits) in [(0.96, false), (1.0, true)] {
+    // budget with keyframes ten times as loose: the played codes trip the player's
+    // limit and the refit steps in.
+    for (share, loose, refits) in [(0.96, 1.0, false), (1.0, 10.0, true)] {
         let mut config = Config::default();
         config.signal.fit_thermal_share = share;
+        config.keyframes.max_rms_error_fs *= loose;
+        config.keyframes.max_abs_error_fs *= loose;
         // The touch whose played codes tripped the limit: the lattice of flat contacts
         // (the default before regions) on the top of each contact only (below it, the
         // signal differs and the player's rounding happens to stay within the limit).
@@ -382,7 +385,10 @@ fn a_fitted_long_touch_still_encodes() {
         .unwrap();
         let r = &fitted.report;
         assert!(r.fit_scale < 1.0, "{}", r.fit_scale);
-        assert!(r.max_error_fs <= 0.02 && r.rms_error_fs <= 0.005, "{r:?}");
+        assert!(
+            r.max_error_fs <= 0.02 * loose && r.rms_error_fs <= 0.005 * loose,
+            "{r:?}"
+        );
         let warning = r
             .warnings
             .iter()

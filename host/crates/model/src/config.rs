@@ -453,10 +453,12 @@ pub struct SignalConfig {
     /// Length of the ramps from 0 A to the pre-dent and back, in seconds.
     pub ramp_s: f64,
     /// With `--fit`, the share of the coil's thermal budget a signal that exceeds it is
-    /// fitted to: the played codes heat the coil a little more than the f64 signal (the
-    /// keyframes' error), so a signal fitted to the whole budget trips the player's
-    /// limit and is encoded again, 1% quieter. At an hour of touch 0.96 costs 0.05 dB
-    /// against the whole budget and saves that second encode.
+    /// fitted to: the played codes heat the coil a little more or less than the f64
+    /// signal (the keyframes' error), and the player keeps a reserve for its ramp down,
+    /// so a signal fitted to the whole budget can trip the player's limit and be
+    /// encoded again, 1% quieter. (The player's accounting of each tick at its code's
+    /// current rounded up grows with the touch's length; the fit leaves room for it
+    /// apart, in the leak.) 0.96 costs 0.05 dB against the whole budget.
     pub fit_thermal_share: f64,
 }
 

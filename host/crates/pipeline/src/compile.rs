@@ -492,10 +492,18 @@ fn condition_stage(
     let limits = condition::Limits::from(opts.limits);
     let fit_scale = if opts.fit {
         // The played codes heat the coil a little more than the f64 signal (the
-        // keyframes' error): fitted to the whole thermal budget, a long touch trips the
-        // player's limit and is encoded again (a second stage 7, 1 s at an hour). Fitted
-        // to a share of it, once; the refit in stage 7 stays the backstop.
-        condition::fit_to(&mut signal, &limits, cfg.signal.fit_thermal_share)?
+        // keyframes' error, and the player's accounting of each tick at its code's
+        // current rounded up): fitted to the whole thermal budget, a long touch trips
+        // the player's limit and is encoded again (a second stage 7, 0.4 s at an hour).
+        // Fitted with room for both, once; the refit in stage 7 stays the backstop.
+        let device = touch_protocol::DeviceConfig::default();
+        let accounting_ua = touch_protocol::player::heat_accounting_margin_ua(device.full_scale_ma);
+        condition::fit_to(
+            &mut signal,
+            &limits,
+            cfg.signal.fit_thermal_share,
+            f64::from(accounting_ua) / 1e6,
+        )?
     } else {
         condition::check_limits(&signal, &limits)?;
         1.0

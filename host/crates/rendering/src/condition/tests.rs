@@ -634,17 +634,61 @@ fn fit_to_a_share_of_the_thermal_budget() {
     // the budget of 30 but over 80% of it.
     let mut warm = constant(60_000, 0.9);
     assert!(check_limits(&warm, &limits).is_ok() && check_limits(&warm, &under).is_err());
-    assert_eq!(fit_to(&mut warm, &limits, share), Ok(1.0));
+    assert_eq!(fit_to(&mut warm, &limits, share, 0.0), Ok(1.0));
     // 80 s: over the whole budget, fitted to 80% of it.
     let hot = constant(80_000, 0.9);
     let mut shared = hot.clone();
-    let s = fit_to(&mut shared, &limits, share).unwrap();
+    let s = fit_to(&mut shared, &limits, share, 0.0).unwrap();
     let mut alone = hot.clone();
     assert_eq!(fit(&mut alone, &under), Ok(s));
     assert_eq!(check_limits(&shared, &under), Ok(()));
     let mut whole = hot.clone();
     let mut one = hot;
-    assert_eq!(fit_to(&mut whole, &limits, 1.0), fit(&mut one, &limits));
+    assert_eq!(
+        fit_to(&mut whole, &limits, 1.0, 0.0),
+        fit(&mut one, &limits)
+    );
+}
+
+/// Room for the player's accounting (each tick's current rounded up): a fitted signal's
+/// bucket leaks as if every sample carried `accounting` more current, so it is the
+/// signal `fit` makes against a continuous rating lowered by `2 accounting peak +
+/// accounting^2`; a signal within the real limits is still left alone; a negative or
+/// non-finite room is refused.
+#[test]
+fn fit_to_leaves_room_for_the_players_accounting() {
+    let limits = Limits::default();
+    let (share, accounting) = (0.96, 0.0012);
+    let extra = accounting * (2.0 * limits.peak_a + accounting);
+    let slower = Limits {
+        thermal_budget_a2s: limits.thermal_budget_a2s * share,
+        continuous_a: (limits.continuous_a.powi(2) - extra).sqrt(),
+        ..limits
+    };
+    // 5 minutes at 0.675 A: the real leak (0.36 A^2) leaves 0.0956 A^2 a second, 28.7
+    // A^2 s by the end, the slower one 0.0980 (29.4, over 96% of the 30 A^2 s budget):
+    // within the budget only at the real rating.
+    let mut warm = constant(300_000, 0.675);
+    assert!(check_limits(&warm, &limits).is_ok() && check_limits(&warm, &slower).is_err());
+    assert_eq!(fit_to(&mut warm, &limits, share, accounting), Ok(1.0));
+    // Over the budget at both: fitted as `fit` fits it at the slower leak, which the
+    // room costs 0.1% of the factor here.
+    let hot = constant(300_000, 0.72);
+    let (mut roomy, mut alone, mut tight) = (hot.clone(), hot.clone(), hot);
+    let s = fit_to(&mut roomy, &limits, share, accounting).unwrap();
+    assert_eq!(fit(&mut alone, &slower), Ok(s));
+    assert_eq!(roomy, alone);
+    let without = fit_to(&mut tight, &limits, share, 0.0).unwrap();
+    assert!(s < without && s > 0.99 * without, "{s} {without}");
+    for bad in [-1e-3, f64::NAN, f64::INFINITY] {
+        assert!(matches!(
+            fit_to(&mut constant(10, 0.5), &limits, share, bad),
+            Err(LimitViolation::InvalidLimits {
+                name: "accounting_a",
+                ..
+            })
+        ));
+    }
 }
 
 #[test]

@@ -31,32 +31,54 @@ use crate::condition::CHANNELS;
 /// # Ok::<(), touchc_rendering::condition::LimitViolation>(())
 /// ```
 pub fn fit(signal: &mut [[f64; CHANNELS]], limits: &Limits) -> Result<f64, LimitViolation> {
-    fit_to(signal, limits, 1.0)
+    fit_to(signal, limits, 1.0, 0.0)
 }
 
-/// [`fit`], but a signal that breaks `limits` is fitted to `thermal_share` of the
-/// thermal budget (peak and slew in full): room for what the encoding adds to the heat
-/// (`signal.fit_thermal_share`). A signal that passes `limits` is left alone, so the
-/// factor is 1 exactly when [`fit`]'s is.
+/// [`fit`], but a signal that breaks `limits` is fitted with room for what the
+/// encoding and the player add to the heat: to `thermal_share` of the thermal budget
+/// (`signal.fit_thermal_share`: the keyframes' error and the player's ramp-down
+/// reserve), with the bucket leaking as if each sample carried `accounting_a` more
+/// current (the player accounts each tick at its code's current rounded up,
+/// [`touch_protocol::player::heat_accounting_margin_ua`]; at the peak that is
+/// `2 accounting_a peak + accounting_a^2` more A^2 a second, which over an hour of
+/// touch is a fifth of the budget, more than any fixed share leaves). Peak and slew
+/// in full. A signal that passes `limits` is left alone, so the factor is 1 exactly
+/// when [`fit`]'s is.
 pub fn fit_to(
     signal: &mut [[f64; CHANNELS]],
     limits: &Limits,
     thermal_share: f64,
+    accounting_a: f64,
 ) -> Result<f64, LimitViolation> {
     validate_limits(limits)?;
+    if !(accounting_a.is_finite() && accounting_a >= 0.0) {
+        return Err(LimitViolation::InvalidLimits {
+            name: "accounting_a",
+            value: accounting_a,
+        });
+    }
+    let extra = accounting_a * (2.0 * limits.peak_a + accounting_a);
     let shared = &Limits {
         thermal_budget_a2s: limits.thermal_budget_a2s * thermal_share,
+        continuous_a: (limits.continuous_a * limits.continuous_a - extra)
+            .max(0.0)
+            .sqrt(),
         ..*limits
     };
     validate_limits(shared)?;
-    // One scan at scale 1 answers for both budgets: the budget only decides where a
-    // thermal violation is named, not the levels, and a scan that did not stop breaks
-    // a budget exactly when its hottest level is above it.
+    // One scan at scale 1 answers for both budgets when the leak is the same: the
+    // budget only decides where a thermal violation is named, not the levels, and a
+    // scan that did not stop breaks a budget exactly when its hottest level is above
+    // it. A slower leak makes the levels higher: a signal within the budget there is
+    // within it at the real leak, and one that is not is scanned at the real leak.
     let at_one = scan(signal, 1.0, shared);
     if let Some(e @ LimitViolation::NotFinite { .. }) = at_one.violation {
         return Err(e);
     }
-    if !at_one.stopped && at_one.level <= limits.thermal_budget_a2s {
+    let within = |level: f64| level <= limits.thermal_budget_a2s;
+    if !at_one.stopped
+        && (within(at_one.level) || (extra > 0.0 && within(scan(signal, 1.0, limits).level)))
+    {
         return Ok(1.0);
     }
     let linear = linear_limit(signal, shared);
