@@ -7,6 +7,7 @@ mod cli;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    touchc::memory::return_freed_memory();
     let args = match cli::parse() {
         Ok(args) => args,
         Err(err) => return cli::parse_error(&err),

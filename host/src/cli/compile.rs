@@ -79,6 +79,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         fit: args.fit,
         crop: !args.no_crop,
         metadata: args.config.overrides(),
+        // Only the stimulus and the report are written.
+        keep_trajectories: false,
         ..CompileOptions::default()
     };
     match (&args.out_dir, args.recordings.as_slice()) {

@@ -529,3 +529,31 @@ fn the_densest_scenes_encode_within_150_bytes_per_second() {
         );
     }
 }
+
+/// A compile that frees its trajectories after stage 5 (as `touchc compile` does, for
+/// its memory) makes the same stimulus and the same report, counts included; only
+/// `tracked` has no trajectories left.
+#[test]
+fn a_compile_that_keeps_no_trajectories_reports_and_encodes_the_same() {
+    let rec = Recording::load(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/combination.npy"),
+    )
+    .unwrap();
+    let kept = compile(&rec, &CompileOptions::default()).unwrap();
+    let freed = compile(
+        &rec,
+        &CompileOptions {
+            keep_trajectories: false,
+            ..CompileOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(kept.stimulus, freed.stimulus);
+    assert!(kept.report.trajectories > 1, "{}", kept.report.trajectories);
+    let mut report = kept.report.clone();
+    report.seconds = freed.report.seconds.clone();
+    assert_eq!(report, freed.report);
+    let trajectories = |c: &Compiled| c.tracked.as_ref().unwrap().trajectories.len();
+    assert_eq!(trajectories(&kept), kept.report.trajectories);
+    assert_eq!(trajectories(&freed), 0);
+}

@@ -74,6 +74,7 @@ pub(super) fn compiled(
         fit_scale,
     } = encoding;
     let no_touch = scene.is_none();
+    let trajectories = scene.as_ref().map(|s| s.trajectories);
     let (tracked, placement, signals, crop, covered, rendered) = match scene {
         Some(s) => (
             Some(s.tracked),
@@ -102,13 +103,12 @@ pub(super) fn compiled(
         selected: placement
             .as_ref()
             .map_or_else(Vec::new, |p| p.selected.clone()),
-        trajectories: tracked.as_ref().map_or(0, |t| t.trajectories.len()),
+        trajectories: trajectories.unwrap_or(0),
         transforms: placement.as_ref().map_or(0, |p| p.scores.len()),
         transforms_evaluated: placement.as_ref().map_or(0, |p| p.transforms_evaluated),
         transforms_inexact: placement.as_ref().map_or(0, |p| p.transforms_inexact),
-        trajectory_limit_reached: tracked
-            .as_ref()
-            .is_some_and(|t| t.trajectories.len() >= opts.config.track.max_trajectories),
+        trajectory_limit_reached: trajectories
+            .is_some_and(|n| n >= opts.config.track.max_trajectories),
         flow_work: tracked.as_ref().map_or(0, |t| t.flow_work),
         flow_budget_reached: tracked.as_ref().is_some_and(|t| t.flow_budget_reached),
         seconds,
