@@ -397,15 +397,17 @@ mod tests {
                 offset: 3,
                 bytes: &bytes,
             },
-            Reply::Play {
+            Reply::Play(PlayReply {
                 slot: 1,
                 tick: 1 << 30,
                 now: false,
-            },
-            Reply::Stop {
+            }),
+            Reply::Stop(StopReply {
                 source: None,
                 tick: 0,
-            },
+            }),
+            Reply::StreamBegin(StreamBeginReply { capacity: 300 }),
+            Reply::StreamEnd,
         ];
         for r in replies {
             same(&Message::Reply {
