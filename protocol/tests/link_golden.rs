@@ -3,7 +3,8 @@
 
 use touch_protocol::link::{
     self, cobs, BankState, BankSummary, Busy, Command, Event, FrameError, Gesture, Info, Limit,
-    LinkError, Message, Reply, Request, SlotInfo, Source, StatusReport, StreamParams, StreamStop,
+    LinkError, Message, PlayReply, Reply, Request, SlotInfo, Source, StatusReport, StopReply,
+    StreamBeginReply, StreamParams, StreamStop,
 };
 use touch_protocol::Limits;
 
@@ -227,26 +228,26 @@ fn replies_are_pinned() {
     pin_message(
         reply(
             300,
-            Reply::Play {
+            Reply::Play(PlayReply {
                 slot: 3,
                 tick: 123_456,
                 now: true,
-            },
+            }),
         ),
         &[0x00, 0xAC, 0x02, 0x09, 0x03, 0xC0, 0xC4, 0x07, 0x01],
     );
     pin_message(
         reply(
             10,
-            Reply::Stop {
+            Reply::Stop(StopReply {
                 source: Some(Source::Stream),
                 tick: 5,
-            },
+            }),
         ),
         &[0x00, 0x0A, 0x0A, 0x01, 0x01, 0x05],
     );
     pin_message(
-        reply(11, Reply::StreamBegin { capacity: 32 }),
+        reply(11, Reply::StreamBegin(StreamBeginReply { capacity: 32 })),
         &[0x00, 0x0B, 0x0B, 0x20],
     );
     pin_message(
@@ -362,11 +363,11 @@ fn frames_are_pinned() {
     );
     let play = Message::Reply {
         seq: 300,
-        reply: Reply::Play {
+        reply: Reply::Play(PlayReply {
             slot: 3,
             tick: 123_456,
             now: true,
-        },
+        }),
     };
     let n = link::encode(&play, &mut wire).unwrap();
     // The message starts with a zero (Reply): COBS code 01 stands for it.

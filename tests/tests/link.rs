@@ -170,7 +170,7 @@ fn raw_bytes(c: &mut Client<Sim>, bytes: &[u8]) -> Vec<Message<'static>> {
                         link::Reply::BankChunk { next } => link::Reply::BankChunk { next },
                         link::Reply::BankAbort => link::Reply::BankAbort,
                         link::Reply::StreamEnd => link::Reply::StreamEnd,
-                        link::Reply::Stop { source, tick } => link::Reply::Stop { source, tick },
+                        link::Reply::Stop(s) => link::Reply::Stop(s),
                         other => panic!("a reply these tests do not send for: {other:?}"),
                     },
                 }),

@@ -1,12 +1,12 @@
 //! What the host and the log hear: reports turned into link events, and what the
 //! tick that starts a slot leaves to the next tick to send.
 
-use touch_protocol::link::{self as wire, Source};
+use touch_protocol::link::{self as wire, PlayReply, Source, TickReply};
 use touch_protocol::thermal::TooHot;
 
 use super::{Controller, Report, StreamReport};
 use crate::button::Event;
-use crate::link::{Answer, TickReply};
+use crate::link::Answer;
 
 /// What the tick that starts a slot leaves to the next tick to tell the host (it
 /// has no room left for it): the same messages, with the same ticks, a
@@ -44,11 +44,11 @@ impl Controller<'_> {
     fn send_later_now(&mut self, log: &mut dyn FnMut(Report)) {
         let later = core::mem::take(&mut self.later);
         if let Some((seq, slot, tick)) = later.play {
-            let reply = TickReply::Play {
+            let reply = TickReply::Play(PlayReply {
                 slot,
                 tick,
                 now: true,
-            };
+            });
             self.send(Answer::Reply(seq, reply));
         }
         if let Some((gesture, tick)) = later.gesture {

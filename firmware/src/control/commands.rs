@@ -1,13 +1,15 @@
 //! The link's commands in the tick: at most one a tick, answered at once or by
 //! the next tick.
 
-use touch_protocol::link::{self as wire, LinkError, StreamStop};
+use touch_protocol::link::{
+    self as wire, LinkError, PlayReply, StopReply, StreamBeginReply, StreamStop, TickReply,
+};
 use touch_protocol::Error;
 
 use super::stream::{StreamClock, StreamState};
 use super::{source, Controller, Report};
 use crate::link::port::ANSWER_MARGIN;
-use crate::link::{Answer, Control, TickReply};
+use crate::link::{Answer, Control};
 
 impl Controller<'_> {
     /// Takes at most one link command per tick and answers it; what it did goes to
@@ -38,10 +40,10 @@ impl Controller<'_> {
                     StreamState::Armed(_) => self.stop_stream(StreamStop::Ended),
                     _ => self.stop(),
                 };
-                let reply = TickReply::Stop {
+                let reply = TickReply::Stop(StopReply {
                     source,
                     tick: if source.is_some() { first } else { self.now },
-                };
+                });
                 self.send(Answer::Reply(seq, reply));
                 if let Some(r) = report {
                     self.emit(r, log);
@@ -67,7 +69,10 @@ impl Controller<'_> {
                         ended: false,
                     };
                     let capacity = self.link.as_ref().map_or(0, |p| p.keyframe_capacity());
-                    self.send(Answer::Reply(seq, TickReply::StreamBegin { capacity }));
+                    self.send(Answer::Reply(
+                        seq,
+                        TickReply::StreamBegin(StreamBeginReply { capacity }),
+                    ));
                 }
             }
             Control::StreamEnd { seq } => {
@@ -146,11 +151,11 @@ impl Controller<'_> {
             // As a press on another slot: the one playing ramps down first.
             let report = self.stop();
             self.queue(slot);
-            let reply = TickReply::Play {
+            let reply = TickReply::Play(PlayReply {
                 slot: wire_slot,
                 tick: first,
                 now: false,
-            };
+            });
             self.send(Answer::Reply(seq, reply));
             if let Some(r) = report {
                 self.emit(r, log);

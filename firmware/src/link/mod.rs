@@ -11,7 +11,7 @@ pub mod server;
 #[cfg(any(test, feature = "sim"))]
 pub mod sim;
 
-pub use port::{Answer, Channels, Control, LinkPort, Snapshot, TickPort, TickReply};
+pub use port::{Answer, Channels, Control, LinkPort, Snapshot, TickPort};
 pub use server::{Identity, LinkServer};
 
 #[cfg(test)]

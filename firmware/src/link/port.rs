@@ -21,7 +21,7 @@ use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use heapless::spsc::{Consumer, Producer, Queue};
-use touch_protocol::link::{LinkError, Reply, Source, StreamParams};
+use touch_protocol::link::{LinkError, StreamParams, TickReply};
 use touch_protocol::{Player, Thermal};
 
 use status::Published;
@@ -75,46 +75,6 @@ pub enum Control {
         /// The request's sequence number.
         seq: u16,
     },
-}
-
-/// The tick's replies: the variants of [`Reply`] it gives, small (an answer is
-/// copied into the queue in the tick; the state for a `Status` is published apart).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TickReply {
-    /// [`Reply::Play`].
-    Play {
-        /// The slot.
-        slot: u8,
-        /// The tick of its first frame, or of the ramp down before it.
-        tick: u32,
-        /// True if it starts at `tick`.
-        now: bool,
-    },
-    /// [`Reply::Stop`].
-    Stop {
-        /// What was stopped.
-        source: Option<Source>,
-        /// The tick the ramp down began.
-        tick: u32,
-    },
-    /// [`Reply::StreamBegin`].
-    StreamBegin {
-        /// Keyframes the device buffers.
-        capacity: u16,
-    },
-    /// [`Reply::StreamEnd`].
-    StreamEnd,
-}
-
-impl From<TickReply> for Reply<'static> {
-    fn from(r: TickReply) -> Self {
-        match r {
-            TickReply::Play { slot, tick, now } => Reply::Play { slot, tick, now },
-            TickReply::Stop { source, tick } => Reply::Stop { source, tick },
-            TickReply::StreamBegin { capacity } => Reply::StreamBegin { capacity },
-            TickReply::StreamEnd => Reply::StreamEnd,
-        }
-    }
 }
 
 /// What the tick tells the link.
@@ -478,6 +438,3 @@ impl<'a> TickPort<'_, 'a> {
         self.fed.load(Ordering::Acquire)
     }
 }
-
-#[cfg(test)]
-mod tests;

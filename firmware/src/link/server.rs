@@ -8,15 +8,13 @@
 
 use touch_protocol::link::{
     self, cobs, BankState, Busy, Command, FrameError, Info, LinkError, Message, Reply, Request,
-    SlotInfo, StatusReport, StreamParams, MAX_CHUNK, MAX_ENCODED, MAX_MESSAGE,
+    SlotInfo, StatusReport, StreamParams, TickReply, MAX_CHUNK, MAX_ENCODED, MAX_MESSAGE,
     MAX_STREAM_KEYFRAMES,
 };
 use touch_protocol::{Bank, Player, Thermal};
 
 use super::bank::{BankWriter, Flash};
-use super::port::{
-    Answer, Control, LinkPort, Snapshot, TickReply, STAGED_STREAM, STAGED_STREAM_ONE,
-};
+use super::port::{Answer, Control, LinkPort, Snapshot, STAGED_STREAM, STAGED_STREAM_ONE};
 use crate::output::{device_config, LAYOUT_HASH};
 
 /// What the device says about itself in `Info`.
@@ -462,7 +460,7 @@ impl<'a, F: Flash> LinkServer<'a, F> {
         };
         match a {
             Answer::Reply(seq, reply) => {
-                if matches!(reply, TickReply::StreamBegin { .. }) {
+                if matches!(reply, TickReply::StreamBegin(_)) {
                     self.stream_next = Some(0);
                 }
                 let reply = reply.into();

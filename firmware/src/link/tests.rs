@@ -4,8 +4,8 @@
 //! deadline.
 
 use touch_protocol::link::{
-    self, cobs, BankState, Busy, Command, Event, FrameError, LinkError, Message, Reply, Request,
-    Source, StreamStop,
+    self, cobs, BankState, Busy, Command, Event, FrameError, LinkError, Message, PlayReply, Reply,
+    Request, Source, StopReply, StreamBeginReply, StreamStop,
 };
 use touch_protocol::{Limits, Stimulus, CHANNELS, IDLE_CODE};
 
@@ -278,11 +278,11 @@ fn play_answers_the_tick_of_the_first_frame_and_stop_the_ramp() {
     let mut h = host();
     h.run(5);
     let f = h.call(Command::Play { slot: 1 }).unwrap();
-    let Reply::Play {
+    let Reply::Play(PlayReply {
         slot: 1,
         tick,
         now: true,
-    } = reply(&f)
+    }) = reply(&f)
     else {
         panic!("{:?}", reply(&f))
     };
@@ -303,10 +303,10 @@ fn play_answers_the_tick_of_the_first_frame_and_stop_the_ramp() {
         (Some(Source::Slot(1)), 1, false)
     );
     let f = h.call(Command::Stop).unwrap();
-    let Reply::Stop {
+    let Reply::Stop(StopReply {
         source: Some(Source::Slot(1)),
         tick: stop,
-    } = reply(&f)
+    }) = reply(&f)
     else {
         panic!()
     };
@@ -323,7 +323,10 @@ fn play_answers_the_tick_of_the_first_frame_and_stop_the_ramp() {
         .any(|e| e.1 == Event::Finished(Source::Slot(1))));
     // Stop with nothing playing: answered, nothing to stop.
     let f = h.call(Command::Stop).unwrap();
-    assert!(matches!(reply(&f), Reply::Stop { source: None, .. }));
+    assert!(matches!(
+        reply(&f),
+        Reply::Stop(StopReply { source: None, .. })
+    ));
     assert_eq!(
         h.call(Command::Play { slot: 7 }),
         Err(LinkError::NoSuchSlot { slot: 7, slots: 2 })
@@ -338,11 +341,11 @@ fn play_over_a_playing_slot_ramps_it_down_first() {
     let f = h.call(Command::Play { slot: 1 }).unwrap();
     assert!(matches!(
         reply(&f),
-        Reply::Play {
+        Reply::Play(PlayReply {
             slot: 1,
             now: false,
             ..
-        }
+        })
     ));
     h.run(300);
     let started: Vec<_> = h
@@ -500,8 +503,9 @@ fn the_tick_takes_the_staged_player_and_the_link_builds_in_the_other_place() {
 /// staged the `Play` starts and is answered with the tick of its first frame.
 #[test]
 fn a_play_waits_for_its_player() {
-    use super::{Answer, Channels, Control, LinkPort, TickReply};
+    use super::{Answer, Channels, Control, LinkPort};
     use crate::control::Controller;
+    use touch_protocol::link::TickReply;
     use touch_protocol::{Player, Thermal};
 
     fn run(
@@ -548,11 +552,11 @@ fn a_play_waits_for_its_player() {
     let reply = answers.iter().find_map(|a| match a {
         Answer::Reply(
             7,
-            TickReply::Play {
+            TickReply::Play(PlayReply {
                 slot: 1,
                 tick,
                 now: true,
-            },
+            }),
         ) => Some(*tick),
         _ => None,
     });
@@ -640,7 +644,7 @@ fn a_status_is_not_answered_on_a_keyframe_tick() {
     let mut h = Host::new(Device::boot(&bank(&[s]), &builtin()));
     h.run(5);
     let f = h.call(Command::Play { slot: 0 }).unwrap();
-    let Reply::Play { tick: first, .. } = reply(&f) else {
+    let Reply::Play(PlayReply { tick: first, .. }) = reply(&f) else {
         panic!()
     };
     // The tick that started it computed its first frame.
@@ -811,11 +815,11 @@ fn an_upload_commits_and_the_device_restarts_into_it() {
     let f = h.call(Command::Play { slot: 2 }).unwrap();
     assert!(matches!(
         reply(&f),
-        Reply::Play {
+        Reply::Play(PlayReply {
             slot: 2,
             now: true,
             ..
-        }
+        })
     ));
 }
 
@@ -931,7 +935,10 @@ fn an_upload_cut_at_every_chunk_leaves_the_builtin_bank() {
             "cut after chunk {cut}"
         );
         let f = h.call(Command::Play { slot: 0 }).unwrap();
-        assert!(matches!(reply(&f), Reply::Play { now: true, .. }));
+        assert!(matches!(
+            reply(&f),
+            Reply::Play(PlayReply { now: true, .. })
+        ));
     }
 }
 
@@ -992,7 +999,10 @@ fn an_upload_abandoned_for_10_s_restarts_into_the_builtin_bank() {
     assert!(matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))));
     assert_eq!(h.call(Command::BankCommit), Err(LinkError::NoUpload));
     let f = h.call(Command::Play { slot: 0 }).unwrap();
-    assert!(matches!(reply(&f), Reply::Play { now: true, .. }));
+    assert!(matches!(
+        reply(&f),
+        Reply::Play(PlayReply { now: true, .. })
+    ));
 }
 
 /// `BankAbort` (what `touchc sleeve abort` sends) ends a stale upload at once: the
@@ -1018,7 +1028,10 @@ fn an_abort_ends_a_stale_upload_into_the_builtin_bank() {
     let f = h.call(Command::Info).unwrap();
     assert!(matches!(reply(&f), Reply::Info(i) if matches!(i.bank, BankState::Builtin(_))));
     let f = h.call(Command::Play { slot: 0 }).unwrap();
-    assert!(matches!(reply(&f), Reply::Play { now: true, .. }));
+    assert!(matches!(
+        reply(&f),
+        Reply::Play(PlayReply { now: true, .. })
+    ));
     // Nothing left to abort.
     assert_eq!(h.call(Command::BankAbort), Err(LinkError::NoUpload));
 }
@@ -1076,7 +1089,7 @@ fn stored_codes(ks: &[[i16; 8]]) -> Vec<[u16; 8]> {
 fn stream_with_gaps(ks: &[[i16; 8]], mut gap: impl FnMut(usize) -> usize) -> (Host, usize) {
     let mut h = host();
     let f = h.call(Command::StreamBegin(stream_params())).unwrap();
-    let Reply::StreamBegin { capacity } = reply(&f) else {
+    let Reply::StreamBegin(StreamBeginReply { capacity }) = reply(&f) else {
         panic!()
     };
     assert_eq!(capacity, 32);
@@ -1297,10 +1310,10 @@ fn stream_rules() {
     let f = h.call(Command::Stop).unwrap();
     assert!(matches!(
         reply(&f),
-        Reply::Stop {
+        Reply::Stop(StopReply {
             source: Some(Source::Stream),
             ..
-        }
+        })
     ));
     h.run(200);
     assert_eq!(*h.dev.outputs().last().unwrap(), IDLE_FRAME);

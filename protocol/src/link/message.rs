@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::link::FrameError;
+use crate::link::{FrameError, PlayReply, StopReply, StreamBeginReply};
 use crate::Limits;
 
 /// One request from the host: a sequence number the reply echoes, and the command.
@@ -167,29 +167,12 @@ pub enum Reply<'a> {
     },
     /// The upload is abandoned.
     BankAbort,
-    /// The slot plays: its first frame goes out at `tick` (a slot already playing
-    /// ramps down first; then `tick` is when that ramp down began, and
-    /// [`Event::Started`] follows with the first frame's tick).
-    Play {
-        /// The slot.
-        slot: u8,
-        /// The tick of the first frame, or of the start of the ramp down before it.
-        tick: u32,
-        /// True if the slot starts at `tick`; false if it waits for a ramp down.
-        now: bool,
-    },
-    /// The ramp to 0 A began at `tick` (or nothing played: `source` is `None`).
-    Stop {
-        /// What was stopped.
-        source: Option<Source>,
-        /// The tick the ramp down began.
-        tick: u32,
-    },
+    /// The slot plays (or waits for a ramp down first).
+    Play(PlayReply),
+    /// The ramp to 0 A began (or nothing played).
+    Stop(StopReply),
     /// The stream is ready; send keyframes.
-    StreamBegin {
-        /// Keyframes the device buffers ahead of the one playing.
-        capacity: u16,
-    },
+    StreamBegin(StreamBeginReply),
     /// Keyframes taken.
     StreamData {
         /// Index of the next keyframe the device expects.

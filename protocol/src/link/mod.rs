@@ -35,12 +35,14 @@
 
 pub mod cobs;
 mod message;
+mod playback;
 mod ser;
 
 pub use message::{
     BankState, BankSummary, Busy, Command, Event, FaultRecord, Gesture, Info, Limit, LinkError,
     Message, Reply, Request, SlotInfo, Source, StatusReport, StreamParams, StreamStop,
 };
+pub use playback::{PlayReply, StopReply, StreamBeginReply, TickReply};
 
 use serde::{Deserialize, Serialize};
 

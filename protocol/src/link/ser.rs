@@ -92,6 +92,23 @@ pub(crate) fn to_slice<T: Serialize + ?Sized>(value: &T, buf: &mut [u8]) -> Resu
     Ok(out.at)
 }
 
+/// The variants with fields, tuple or struct: the variant's index, then the fields
+/// (written by the compound forms' impls below).
+macro_rules! variants_with_fields {
+    ($($method:ident),*) => {$(
+        fn $method(
+            self,
+            _: &'static str,
+            index: u32,
+            _: &'static str,
+            _: usize,
+        ) -> Result<Self, Full> {
+            self.var32(index)?;
+            Ok(self)
+        }
+    )*};
+}
+
 impl ser::Serializer for &mut Out<'_> {
     type Ok = ();
     type Error = Full;
@@ -198,16 +215,6 @@ impl ser::Serializer for &mut Out<'_> {
     fn serialize_tuple_struct(self, _: &'static str, _: usize) -> Result<Self, Full> {
         Ok(self)
     }
-    fn serialize_tuple_variant(
-        self,
-        _: &'static str,
-        index: u32,
-        _: &'static str,
-        _: usize,
-    ) -> Result<Self, Full> {
-        self.var32(index)?;
-        Ok(self)
-    }
     fn serialize_map(self, len: Option<usize>) -> Result<Self, Full> {
         self.var(len.ok_or(Full)? as u64)?;
         Ok(self)
@@ -215,16 +222,7 @@ impl ser::Serializer for &mut Out<'_> {
     fn serialize_struct(self, _: &'static str, _: usize) -> Result<Self, Full> {
         Ok(self)
     }
-    fn serialize_struct_variant(
-        self,
-        _: &'static str,
-        index: u32,
-        _: &'static str,
-        _: usize,
-    ) -> Result<Self, Full> {
-        self.var32(index)?;
-        Ok(self)
-    }
+    variants_with_fields!(serialize_tuple_variant, serialize_struct_variant);
     fn collect_str<T: fmt::Display + ?Sized>(self, _: &T) -> Result<(), Full> {
         Err(Full)
     }
@@ -397,15 +395,17 @@ mod tests {
                 offset: 3,
                 bytes: &bytes,
             },
-            Reply::Play {
+            Reply::Play(PlayReply {
                 slot: 1,
                 tick: 1 << 30,
                 now: false,
-            },
-            Reply::Stop {
+            }),
+            Reply::Stop(StopReply {
                 source: None,
                 tick: 0,
-            },
+            }),
+            Reply::StreamBegin(StreamBeginReply { capacity: 300 }),
+            Reply::StreamEnd,
         ];
         for r in replies {
             same(&Message::Reply {

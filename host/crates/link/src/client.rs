@@ -6,7 +6,8 @@ use std::time::{Duration, SystemTime};
 
 use touch_protocol::link::cobs::Decoder;
 use touch_protocol::link::{
-    self, Command, Event, FrameError, LinkError, Reply, Source, StatusReport, StreamStop,
+    self, Command, Event, FrameError, LinkError, PlayReply, Reply, Source, StatusReport, StopReply,
+    StreamStop,
 };
 
 use super::Transport;
@@ -273,7 +274,7 @@ impl<T: Transport> Client<T> {
     pub fn play(&mut self, slot: u8) -> Result<Started, ClientError> {
         let timeout = self.timeouts.reply;
         self.call(Command::Play { slot }, timeout, 0, |r| match r {
-            Reply::Play { tick, now, .. } => Some(Started { tick, now }),
+            Reply::Play(PlayReply { tick, now, .. }) => Some(Started { tick, now }),
             _ => None,
         })
     }
@@ -282,7 +283,7 @@ impl<T: Transport> Client<T> {
     pub fn stop(&mut self) -> Result<(Option<Source>, u32), ClientError> {
         let timeout = self.timeouts.reply;
         self.call(Command::Stop, timeout, RETRIES, |r| match r {
-            Reply::Stop { source, tick } => Some((source, tick)),
+            Reply::Stop(StopReply { source, tick }) => Some((source, tick)),
             _ => None,
         })
     }

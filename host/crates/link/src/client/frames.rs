@@ -372,17 +372,17 @@ mod tests {
                 }),
                 frame(&Message::Reply {
                     seq: seq.wrapping_sub(1),
-                    reply: Reply::Stop {
+                    reply: Reply::Stop(StopReply {
                         source: None,
                         tick: 1,
-                    },
+                    }),
                 }),
                 frame(&Message::Reply {
                     seq,
-                    reply: Reply::Stop {
+                    reply: Reply::Stop(StopReply {
                         source: Some(Source::Slot(2)),
                         tick: 9,
-                    },
+                    }),
                 }),
             ]
         });
@@ -403,15 +403,15 @@ mod tests {
             }
             let reply = match command {
                 Command::Status => return vec![],
-                Command::Stop => Reply::Stop {
+                Command::Stop => Reply::Stop(StopReply {
                     source: None,
                     tick: 3,
-                },
-                _ => Reply::Play {
+                }),
+                _ => Reply::Play(PlayReply {
                     slot: 0,
                     tick: 4,
                     now: true,
-                },
+                }),
             };
             vec![frame(&Message::Reply { seq, reply })]
         });

@@ -3,7 +3,9 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
-use touch_protocol::link::{self, Command, Event, LinkError, Reply, StreamParams};
+use touch_protocol::link::{
+    self, Command, Event, LinkError, Reply, StreamBeginReply, StreamParams,
+};
 use touch_protocol::Stimulus;
 
 use super::{Client, ClientError, Progress, RETRIES};
@@ -27,7 +29,7 @@ impl<T: Transport> Client<T> {
         };
         let timeout = self.timeouts.reply;
         let capacity = self.call(Command::StreamBegin(params), timeout, 0, |r| match r {
-            Reply::StreamBegin { capacity } => Some(capacity),
+            Reply::StreamBegin(StreamBeginReply { capacity }) => Some(capacity),
             _ => None,
         })?;
         let total = h.keyframe_count;
