@@ -3,7 +3,7 @@
 
 use super::scan::{scan, Scanned};
 use super::{check_scaled, validate_limits, LimitViolation, Limits};
-use crate::condition::CHANNELS;
+use crate::condition::{CHANNELS, OUTPUT_RATE_HZ};
 
 /// Scales `signal` down, in place, by the largest factor in `[0, 1]` that makes it pass
 /// [`check_limits`](super::check_limits), and returns the factor (1 and no change when it already passes).
@@ -69,15 +69,20 @@ pub fn fit_to(
     // One scan at scale 1 answers for both budgets when the leak is the same: the
     // budget only decides where a thermal violation is named, not the levels, and a
     // scan that did not stop breaks a budget exactly when its hottest level is above
-    // it. A slower leak makes the levels higher: a signal within the budget there is
-    // within it at the real leak, and one that is not is scanned at the real leak.
+    // it. A slower leak makes the levels higher, by at most `extra` a second of the
+    // signal (a level is the heat of one stretch of it): a signal within the budget
+    // there is within it at the real leak, one over it by more than that is over it at
+    // the real leak too, and one between is scanned at the real leak.
     let at_one = scan(signal, 1.0, shared);
     if let Some(e @ LimitViolation::NotFinite { .. }) = at_one.violation {
         return Err(e);
     }
     let within = |level: f64| level <= limits.thermal_budget_a2s;
+    // (With a margin for the sums' rounding: a scan too many costs time, not truth.)
+    let seconds = signal.len() as f64 / OUTPUT_RATE_HZ;
+    let maybe_within = extra > 0.0 && within(at_one.level - 1.001 * extra * seconds);
     if !at_one.stopped
-        && (within(at_one.level) || (extra > 0.0 && within(scan(signal, 1.0, limits).level)))
+        && (within(at_one.level) || (maybe_within && within(scan(signal, 1.0, limits).level)))
     {
         return Ok(1.0);
     }
