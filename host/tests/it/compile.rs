@@ -551,7 +551,7 @@ fn a_compile_that_keeps_no_trajectories_reports_and_encodes_the_same() {
     assert_eq!(kept.stimulus, freed.stimulus);
     assert!(kept.report.trajectories > 1, "{}", kept.report.trajectories);
     let mut report = kept.report.clone();
-    report.seconds = freed.report.seconds.clone();
+    report.seconds = freed.report.seconds;
     assert_eq!(report, freed.report);
     let trajectories = |c: &Compiled| c.tracked.as_ref().unwrap().trajectories.len();
     assert_eq!(trajectories(&kept), kept.report.trajectories);
