@@ -40,24 +40,34 @@ pub(crate) fn measure(
     signals: &ChannelSignals,
 ) -> Coverage {
     let mut cov = Coverage::default();
+    // Per cell, the circles that hold its centre: tested once, not once a frame.
+    let (_, rows, cols) = tared.dim();
+    let holding: Vec<u32> = (0..rows * cols)
+        .map(|i| {
+            let (r, c) = (i / cols, i % cols);
+            let (x, y) = ((c as f64 + 0.5) * pitch_mm, (r as f64 + 0.5) * pitch_mm);
+            (0..CHANNELS)
+                .filter(|&ch| circles[ch].contains(x, y))
+                .fold(0, |m, ch| m | 1 << ch)
+        })
+        .collect();
     for (f, frame) in tared.axis_iter(Axis(0)).enumerate() {
-        let driven: Vec<&Circle> = (0..CHANNELS)
+        let driven = (0..CHANNELS)
             .filter(|&ch| {
                 signals.source[ch]
                     .get(f)
                     .is_some_and(|s| *s != Source::Silent)
             })
-            .map(|ch| &circles[ch])
-            .collect();
-        for ((r, c), &v) in frame.indexed_iter() {
+            .fold(0u32, |m, ch| m | 1 << ch);
+        // Row-major, as the cells are numbered.
+        for (&v, &held) in frame.iter().zip(&holding) {
             // NaN is no cell, never touch.
             if v.is_nan() || v <= threshold_psi {
                 continue;
             }
             cov.touch_psi += v;
             cov.touch_cells += 1;
-            let (x, y) = ((c as f64 + 0.5) * pitch_mm, (r as f64 + 0.5) * pitch_mm);
-            if driven.iter().any(|a| a.contains(x, y)) {
+            if held & driven != 0 {
                 cov.explained_psi += v;
             } else {
                 cov.unexplained_cells += 1;
