@@ -9,19 +9,20 @@
 //! frame. Trajectories with one point a frame (every preset but `touch`) keep the
 //! published per-point sums, bit for bit.
 //!
-//! Every region of a scene lies on the same few pixels (a contact's cells), so a
-//! transform tests each of those pixels once for all the regions ([`PixelMemo`]), and a
-//! footprint holds only its pixels' indexes and summed costs: an hour of touch has
-//! thousands of regions over the same cells, and reading 12 bytes a pixel instead of a
-//! whole point is what the scoring of a transform costs.
+//! Every region of a scene lies on the same few pixels (a contact's cells), so the
+//! scene numbers the pixels its footprints cover ([`PixelIndex`]), a transform tests
+//! each of them once for all the regions ([`PixelMemo`], small enough to stay in the
+//! first-level cache), and a footprint holds only its pixels' numbers and summed costs:
+//! an hour of touch has thousands of regions over the same cells, and reading 12 bytes
+//! a pixel instead of a whole point is what the scoring of a transform costs.
 
 use super::scoring::{InCircle, Point, Scratch};
 use touchc_model::layout::CHANNELS;
 
 /// A region trajectory's distinct pixels and its frames.
 pub(super) struct Footprint {
-    /// Distinct pixels (row-major index on the scene's pixel grid), in order of first
-    /// appearance.
+    /// Distinct pixels (their numbers in the scene's [`PixelIndex`]), in order of
+    /// first appearance.
     pixels: Vec<u32>,
     /// Per distinct pixel: the summed cost of the trajectory's points there.
     costs: Vec<f64>,
@@ -33,20 +34,40 @@ pub(super) struct Footprint {
     refs: Vec<u32>,
 }
 
+/// The pixels the scene's footprints cover, numbered in order of first appearance.
+#[derive(Default)]
+pub(super) struct PixelIndex {
+    number: std::collections::HashMap<(usize, usize), u32>,
+    /// Per number: the pixel's centre `(x, y)`, mm.
+    pub(super) centres: Vec<(f64, f64)>,
+}
+
+impl PixelIndex {
+    /// The number of `p`'s pixel, given one if it has none yet.
+    fn of(&mut self, p: &Point) -> u32 {
+        let next = self.centres.len() as u32;
+        let n = *self.number.entry((p.row, p.col)).or_insert(next);
+        if n == next {
+            self.centres.push((p.x, p.y));
+        }
+        n
+    }
+}
+
 impl Footprint {
-    /// The footprint of `points` (frame order) on a scene `cols` pixels wide when some
-    /// frame holds two or more of them; `None` for a trajectory with one point a frame.
-    /// Only the frames where `shared` holds (another trajectory is present) are kept as
-    /// groups: elsewhere nothing can conflict with it.
+    /// The footprint of `points` (frame order), its pixels numbered in `index`, when
+    /// some frame holds two or more of them; `None` for a trajectory with one point a
+    /// frame. Only the frames where `shared` holds (another trajectory is present) are
+    /// kept as groups: elsewhere nothing can conflict with it.
     pub(super) fn of(
         points: &[Point],
-        cols: usize,
+        index: &mut PixelIndex,
         shared: impl Fn(usize) -> bool,
     ) -> Option<Footprint> {
         if !points.windows(2).any(|w| w[0].frame == w[1].frame) {
             return None;
         }
-        let mut index = std::collections::HashMap::new();
+        let mut own = std::collections::HashMap::new();
         let mut fp = Footprint {
             pixels: Vec::new(),
             costs: Vec::new(),
@@ -60,8 +81,8 @@ impl Footprint {
                 fp.frames.push(p.frame);
                 fp.start.push(fp.refs.len());
             }
-            let pixel = (p.row * cols + p.col) as u32;
-            let i = *index.entry(pixel).or_insert_with(|| {
+            let pixel = index.of(p);
+            let i = *own.entry(pixel).or_insert_with(|| {
                 fp.pixels.push(pixel);
                 fp.costs.push(0.0);
                 fp.pixels.len() - 1
@@ -76,34 +97,30 @@ impl Footprint {
     }
 }
 
-/// Per pixel of the scene: the circles of the current transform that hold it and its
-/// weight, computed the first time a footprint asks under that transform.
+/// Per pixel of the scene's [`PixelIndex`]: the circles of the current transform that
+/// hold it and its weight, computed the first time a footprint asks under that
+/// transform.
 pub(super) struct PixelMemo {
     /// Per pixel: the transform the entry was computed for, its circles and its weight.
     entries: Vec<(u32, u32, f64)>,
     /// The current transform's stamp (never 0, which marks an empty entry).
     stamp: u32,
-    /// The scene's pixel centres: y per row, x per column.
-    row_y: Vec<f64>,
-    col_x: Vec<f64>,
+    /// The pixels' centres, mm.
+    centres: Vec<(f64, f64)>,
 }
 
 impl PixelMemo {
-    /// An empty memo for a scene of these pixel centres.
-    pub(super) fn new(row_y: &[f64], col_x: &[f64]) -> PixelMemo {
+    /// An empty memo for pixels of these centres.
+    pub(super) fn new(centres: &[(f64, f64)]) -> PixelMemo {
         PixelMemo {
-            entries: Vec::new(),
+            entries: vec![(0, 0, 0.0); centres.len()],
             stamp: 0,
-            row_y: row_y.to_vec(),
-            col_x: col_x.to_vec(),
+            centres: centres.to_vec(),
         }
     }
 
     /// Forgets every entry: a new transform.
     pub(super) fn next_transform(&mut self) {
-        if self.entries.is_empty() {
-            self.entries = vec![(0, 0, 0.0); self.row_y.len() * self.col_x.len()];
-        }
         self.stamp = self.stamp.wrapping_add(1);
         if self.stamp == 0 {
             self.entries.fill((0, 0, 0.0));
@@ -119,15 +136,14 @@ impl PixelMemo {
     fn get(&mut self, test: &InCircle, pixel: u32) -> (u32, f64) {
         let e = &mut self.entries[pixel as usize];
         if e.0 != self.stamp {
-            let cols = self.col_x.len();
-            let (row, col) = (pixel as usize / cols, pixel as usize % cols);
+            let (x, y) = self.centres[pixel as usize];
             let pt = Point {
-                x: self.col_x[col],
-                y: self.row_y[row],
+                x,
+                y,
                 frame: 0,
                 cost: 0.0,
-                row,
-                col,
+                row: 0,
+                col: 0,
             };
             let (mask, weight) = test.test(&pt, (1 << CHANNELS) - 1);
             *e = (self.stamp, mask, weight);

@@ -13,7 +13,7 @@ use touchc_model::layout::CHANNELS;
 use touchc_model::trajectory::Trajectory;
 
 use crate::bnb::SubsetProblem;
-use crate::footprint::{footprint_hits, Footprint, PixelMemo};
+use crate::footprint::{footprint_hits, Footprint, PixelIndex, PixelMemo};
 
 /// A trajectory point in mm, with what scoring and conflicts need.
 #[derive(Debug, Clone, Copy)]
@@ -49,6 +49,8 @@ pub(super) struct Scene {
     /// Per trajectory with several points in a frame (a region): its distinct pixels
     /// ([`Footprint`]), scored in their place.
     pub(super) footprints: Vec<Option<Footprint>>,
+    /// The centres of the pixels the footprints cover, by their number.
+    pub(super) footprint_pixels: Vec<(f64, f64)>,
 }
 
 /// An in-circle point of a trajectory that can be chosen, chained with the others of
@@ -147,8 +149,13 @@ impl Scene {
                 }
             }
         }
+        let mut pixels = PixelIndex::default();
         let footprints = (0..trajs.len())
-            .map(|t| Footprint::of(&points[start[t]..start[t + 1]], cols, |f| present[f] > 1))
+            .map(|t| {
+                Footprint::of(&points[start[t]..start[t + 1]], &mut pixels, |f| {
+                    present[f] > 1
+                })
+            })
             .collect();
         Scene {
             points,
@@ -163,6 +170,7 @@ impl Scene {
                 .map(|c| pixel_centre_mm(0, c, pitch_mm).0)
                 .collect(),
             footprints,
+            footprint_pixels: pixels.centres,
         }
     }
 }
@@ -184,7 +192,7 @@ impl Scratch {
             inexact: false,
             node_budget,
             pixel_masks: Vec::new(),
-            memo: PixelMemo::new(&scene.row_y, &scene.col_x),
+            memo: PixelMemo::new(&scene.footprint_pixels),
         }
     }
 
