@@ -5,8 +5,9 @@ is modelled, register by register, from the STM32F405 reference manual (RM0090)
 and the ARMv7-M architecture reference manual (exception entry and return, NVIC),
 in modules of their own: `twin_core` (time base, constants, ELF, RCC, PWR,
 TIM2-TIM7), `twin_usart_flash` (USARTs, the flash interface), `twin_periph` (IWDG,
-GPIO, EXTI, NVIC) and `twin_board` (memory, exceptions, the run loop). This module
-gathers what the tests and tools use, and serves a board on a pseudo-terminal.
+GPIO, EXTI, NVIC), `twin_exceptions` (exception entry and return) and `twin_board`
+(memory, the run loop). This module gathers what the tests and tools use, and
+serves a board on a pseudo-terminal.
 What is and is not modelled is in README.md.
 """
 

@@ -1,7 +1,8 @@
 //! Sizes a reader can hold: no source file over 600 lines outside its tests, no function
 //! over 100 lines. Read from the workspace's Rust sources as text: a file's own
 //! `#[cfg(test)] mod` and everything after it are its tests; files of tests, benches,
-//! examples and fuzz targets are tests throughout.
+//! examples and fuzz targets are tests throughout. The twin's Python modules hold to the
+//! same 600 lines a file.
 
 use std::path::{Path, PathBuf};
 
@@ -130,4 +131,31 @@ fn no_file_over_600_lines_and_no_function_over_100() {
          {MAX_FN_LINES} a function):\n{}",
         over.join("\n")
     );
+}
+
+/// The twin's Python modules (not its tests, `test_*.py`) hold to the same rule per
+/// file: the model of a board is read as much as the firmware it runs.
+#[test]
+fn no_twin_module_over_600_lines() {
+    let twin = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/twin");
+    let mut modules: Vec<PathBuf> = std::fs::read_dir(&twin)
+        .expect("firmware/twin is there")
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            let name = p.file_name().unwrap_or_default().to_string_lossy();
+            name.ends_with(".py") && !name.starts_with("test_")
+        })
+        .collect();
+    modules.sort();
+    assert!(modules.len() >= 8, "only {} twin modules found", modules.len());
+    let over: Vec<String> = modules
+        .iter()
+        .filter_map(|p| {
+            let lines = std::fs::read_to_string(p).ok()?.lines().count();
+            let name = p.file_name()?.to_string_lossy().into_owned();
+            (lines > MAX_FILE_LINES).then(|| format!("firmware/twin/{name}: {lines} lines"))
+        })
+        .collect();
+    assert!(over.is_empty(), "split these by what they do:\n{}", over.join("\n"));
 }
