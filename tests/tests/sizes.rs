@@ -148,7 +148,11 @@ fn no_twin_module_over_600_lines() {
         })
         .collect();
     modules.sort();
-    assert!(modules.len() >= 8, "only {} twin modules found", modules.len());
+    assert!(
+        modules.len() >= 8,
+        "only {} twin modules found",
+        modules.len()
+    );
     let over: Vec<String> = modules
         .iter()
         .filter_map(|p| {
@@ -157,5 +161,9 @@ fn no_twin_module_over_600_lines() {
             (lines > MAX_FILE_LINES).then(|| format!("firmware/twin/{name}: {lines} lines"))
         })
         .collect();
-    assert!(over.is_empty(), "split these by what they do:\n{}", over.join("\n"));
+    assert!(
+        over.is_empty(),
+        "split these by what they do:\n{}",
+        over.join("\n")
+    );
 }

@@ -3,5 +3,6 @@
 //! trajectories of one point a frame and on regions.
 
 mod bnb_oracle;
+mod naive;
 mod oracle;
 mod regions;

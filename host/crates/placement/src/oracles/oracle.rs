@@ -1,81 +1,18 @@
-//! `place` against a naive re-statement of the published algorithm on random scenes with
-//! crossing trajectories: every point tested against every circle (no x ranges, no
-//! skipping), one Hall constraint per frame (no pairwise shortcut), and the subset found
-//! by exhaustive search. Scores must agree bit for bit. Costs are small binary fractions
+//! `place` against the naive re-statement of the published algorithm (`naive.rs`) on
+//! random scenes with crossing trajectories of one point a frame. Scores must agree
+//! bit for bit. Costs are small binary fractions
 //! so that sums are exact and ties between subsets (common in real data) are exercised.
 
-use crate::bnb::SubsetProblem;
-use crate::{place, transform_grid};
+use super::naive::naive;
+use crate::place;
 use proptest::prelude::*;
 use touchc_model::config::PlacementConfig;
-use touchc_model::geometry::pixel_centre_mm;
 use touchc_model::layout::Layout;
 use touchc_model::trajectory::{Columns, Trajectory};
 
 const ROWS: usize = 56;
 const COLS: usize = 147;
 const PITCH: f64 = 25.4 / 7.0;
-
-/// Per transform: (score, chosen trajectories with a point in a circle).
-fn naive(trajs: &[Trajectory], layout: &Layout, cfg: &PlacementConfig) -> Vec<(f64, Vec<usize>)> {
-    let b = cfg.centre_bonus;
-    let gains: Vec<f64> = trajs.iter().map(|t| -t.total_cost()).collect();
-    let last_frame = trajs
-        .iter()
-        .flat_map(|t| t.points.iter().map(|p| p.frame))
-        .max()
-        .unwrap_or(0);
-    transform_grid(ROWS, COLS, PITCH, layout, cfg)
-        .iter()
-        .map(|t| {
-            let circles = t.circles(layout);
-            // masks[traj][detection], weights[traj][detection]
-            let mut masks = Vec::new();
-            let mut weights = Vec::new();
-            for traj in trajs {
-                let (mut m, mut w) = (vec![0u32; traj.len()], vec![0.0; traj.len()]);
-                for d in 0..traj.len() {
-                    let p = &traj.points[d];
-                    let (x, y) = pixel_centre_mm(p.row, p.col, PITCH);
-                    for (a, c) in circles.iter().enumerate() {
-                        if c.contains(x, y) {
-                            m[d] |= 1 << a;
-                            let r2 = c.r_mm * c.r_mm;
-                            w[d] = c.weight * ((1.0 + b) - b * c.dist2(x, y) / r2);
-                        }
-                    }
-                }
-                masks.push(m);
-                weights.push(w);
-            }
-            let mut problem = SubsetProblem::new(gains.clone());
-            for frame in 0..=last_frame {
-                let group: Vec<(usize, u32)> = trajs
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, tr)| {
-                        let d = tr.points.iter().position(|p| p.frame == frame)?;
-                        (masks[i][d] != 0).then_some((i, masks[i][d]))
-                    })
-                    .collect();
-                problem.add_hall_group(group);
-            }
-            let chosen = problem.solve_brute_force();
-            let mut score = 0.0;
-            let mut selected = Vec::new();
-            for &i in &chosen {
-                if masks[i].iter().any(|&m| m != 0) {
-                    let sum = (0..trajs[i].len())
-                        .filter(|&d| masks[i][d] != 0)
-                        .fold(0.0, |s, d| s + trajs[i].points[d].cost * weights[i][d]);
-                    score += sum;
-                    selected.push(i);
-                }
-            }
-            (score, selected)
-        })
-        .collect()
-}
 
 fn trajectory() -> impl Strategy<Value = Trajectory> {
     (0usize..6, 1usize..=8, 10usize..40, 30usize..90).prop_flat_map(|(start, len, r0, c0)| {
@@ -116,7 +53,7 @@ fn overlapping_layout() -> Layout {
 fn check(trajs: &[Trajectory], layout: &Layout) -> Result<(), TestCaseError> {
     let cfg = PlacementConfig::default();
     let p = place(trajs, ROWS, COLS, PITCH, layout, &cfg).unwrap();
-    let expected = naive(trajs, layout, &cfg);
+    let expected = naive(trajs, (ROWS, COLS, PITCH), layout, &cfg);
     for (k, (ours, (theirs, _))) in p.scores.iter().zip(&expected).enumerate() {
         prop_assert_eq!(
             ours.to_bits(),

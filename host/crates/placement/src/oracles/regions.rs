@@ -1,92 +1,19 @@
 //! `place` on region trajectories (several points a frame: the cells of a contact's
-//! footprint, revisiting the same pixels frame after frame) against a naive
-//! re-statement: every point tested against every circle, a region's points of one
-//! frame one member of that frame's group in the circles of all of them, the subset
-//! found by exhaustive search. The scoring of regions sums per distinct pixel and
+//! footprint, revisiting the same pixels frame after frame) against the naive
+//! re-statement (`naive.rs`). The scoring of regions sums per distinct pixel and
 //! tests each pixel once per transform for all regions; the naive sum runs per point,
 //! so scores agree to rounding (1e-12 relative) and the choice exactly.
 
-use crate::bnb::SubsetProblem;
-use crate::{place, transform_grid};
+use super::naive::naive;
+use crate::place;
 use proptest::prelude::*;
 use touchc_model::config::PlacementConfig;
-use touchc_model::geometry::pixel_centre_mm;
 use touchc_model::layout::Layout;
 use touchc_model::trajectory::{Point, Trajectory};
 
 const ROWS: usize = 24;
 const COLS: usize = 63;
 const PITCH: f64 = 25.4 / 3.0;
-
-/// Per transform: (score, chosen trajectories with a point in a circle).
-fn naive(trajs: &[Trajectory], layout: &Layout, cfg: &PlacementConfig) -> Vec<(f64, Vec<usize>)> {
-    let b = cfg.centre_bonus;
-    let gains: Vec<f64> = trajs.iter().map(|t| -t.total_cost()).collect();
-    let last_frame = trajs
-        .iter()
-        .flat_map(|t| t.points.iter().map(|p| p.frame))
-        .max()
-        .unwrap_or(0);
-    transform_grid(ROWS, COLS, PITCH, layout, cfg)
-        .iter()
-        .map(|t| {
-            let circles = t.circles(layout);
-            // Per trajectory, per point: its circles and the weight of the last.
-            let tested: Vec<Vec<(u32, f64)>> = trajs
-                .iter()
-                .map(|traj| {
-                    traj.points
-                        .iter()
-                        .map(|p| {
-                            let (x, y) = pixel_centre_mm(p.row, p.col, PITCH);
-                            let (mut m, mut w) = (0u32, 0.0);
-                            for (a, c) in circles.iter().enumerate() {
-                                if c.contains(x, y) {
-                                    m |= 1 << a;
-                                    let r2 = c.r_mm * c.r_mm;
-                                    w = c.weight * ((1.0 + b) - b * c.dist2(x, y) / r2);
-                                }
-                            }
-                            (m, w)
-                        })
-                        .collect()
-                })
-                .collect();
-            let mut problem = SubsetProblem::new(gains.clone());
-            for frame in 0..=last_frame {
-                let group: Vec<(usize, u32)> = trajs
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, tr)| {
-                        let mask = tr
-                            .points
-                            .iter()
-                            .zip(&tested[i])
-                            .filter(|(p, _)| p.frame == frame)
-                            .fold(0, |m, (_, t)| m | t.0);
-                        (mask != 0).then_some((i, mask))
-                    })
-                    .collect();
-                problem.add_hall_group(group);
-            }
-            let mut score = 0.0;
-            let mut selected = Vec::new();
-            for i in problem.solve_brute_force() {
-                if tested[i].iter().any(|t| t.0 != 0) {
-                    score += trajs[i]
-                        .points
-                        .iter()
-                        .zip(&tested[i])
-                        .filter(|(_, t)| t.0 != 0)
-                        .map(|(p, t)| p.cost * t.1)
-                        .sum::<f64>();
-                    selected.push(i);
-                }
-            }
-            (score, selected)
-        })
-        .collect()
-}
 
 /// A region: 1 to 6 frames from a start, each a footprint of 1 to 5 distinct pixels
 /// (row-major) near a centre that wanders a few pixels a frame.
@@ -136,7 +63,7 @@ proptest! {
     ) {
         let (layout, cfg) = (Layout::paper(), PlacementConfig::default());
         let p = place(&trajs, ROWS, COLS, PITCH, &layout, &cfg).unwrap();
-        let expected = naive(&trajs, &layout, &cfg);
+        let expected = naive(&trajs, (ROWS, COLS, PITCH), &layout, &cfg);
         prop_assert_eq!(p.scores.len(), expected.len());
         for (k, (ours, (theirs, _))) in p.scores.iter().zip(&expected).enumerate() {
             prop_assert!(close(*ours, *theirs), "transform {}: {} vs {}", k, ours, theirs);
