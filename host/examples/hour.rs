@@ -14,10 +14,12 @@
 //! `scale`'s hour repeats one smooth recording. Each preset compiles in its own process
 //! (this program, started again with `--preset`), so that its peak resident memory
 //! (Linux `VmHWM`) is its own; both compile with `--fit` (an hour of touch exceeds the
-//! coil's thermal budget unscaled) on a rayon pool of `--threads` threads. The peak
-//! includes the drawn hour and the recording made of it (two copies of 97 MB of f64
-//! for the hour; the CLI holds one), and the compile's four slowest stages follow. The
-//! compile keeps what `touchc compile` keeps: the stimulus and the report.
+//! coil's thermal budget unscaled) on a rayon pool of `--threads` threads, and as
+//! `touchc compile` compiles: the process's allocator setting (`touchc::memory`), the
+//! recording handed over (freed once tared) and only the stimulus and the report kept.
+//! The hour is drawn into one array and copied once into the recording (97 MB each,
+//! both freed before the compile's peak, the 1 kHz signal); the compile's four slowest
+//! stages follow.
 
 use std::process::Command;
 use std::time::Instant;
