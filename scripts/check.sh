@@ -66,6 +66,9 @@ cargo test --locked -p touch-e2e
 step "study statistics against scipy / scikit-learn (venv under target/)"
 bash scripts/study-oracle.sh
 
+step "features scorer's regression (smartcore) against scikit-learn (the same venv)"
+bash scripts/logistic-oracle.sh
+
 step "study page in headless Chromium against the in-memory sleeve (apt chromium when missing)"
 bash scripts/study-browser.sh
 

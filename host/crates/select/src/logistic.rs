@@ -1,8 +1,14 @@
-//! Multinomial logistic regression on standardised features, fitted by L-BFGS: the
-//! features scorer's model. Small (classes x features weights), deterministic, and
-//! convex, so every fit of the same data reaches the same optimum.
+//! Multinomial logistic regression on standardised features: the features scorer's
+//! model, fitted by smartcore's `LogisticRegression` (L-BFGS). Small (classes x features
+//! weights), deterministic, and convex, so every fit of the same data reaches the same
+//! optimum.
 
 use serde::{Deserialize, Serialize};
+use smartcore::linalg::basic::arrays::Array;
+use smartcore::linalg::basic::matrix::DenseMatrix;
+use smartcore::linear::logistic_regression::{
+    LogisticRegression, LogisticRegressionParameters, LogisticRegressionSolverName,
+};
 
 /// A fitted model: the standardisation and the weights.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -17,13 +23,12 @@ pub struct Logistic {
     pub classes: usize,
 }
 
-/// The L2 penalty's strength times the number of training recordings: scikit-learn's
-/// default (`C = 1`) for its `LogisticRegression`.
-const L2_TIMES_N: f64 = 1.0;
-/// L-BFGS memory.
-const MEMORY: usize = 10;
-/// Iterations at most; the fits here converge in a few hundred.
-const MAX_ITER: usize = 1000;
+/// The L2 penalty on the summed cross-entropy: scikit-learn's default (`C = 1`) for its
+/// `LogisticRegression`, and smartcore's `alpha` (both leave the biases unpenalised).
+const L2: f64 = 1.0;
+/// The bias given a class the training set has no recording of: its probability is then
+/// zero to f64 precision (`exp(-1000)` underflows), as the likelihood's optimum has it.
+const ABSENT_BIAS: f64 = -1000.0;
 
 fn softmax(z: &mut [f64]) {
     let m = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -65,10 +70,7 @@ impl Logistic {
             weights: vec![0.0; classes * (d + 1)],
             classes,
         };
-        let z: Vec<Vec<f64>> = x.iter().map(|r| model.standardised(r)).collect();
-        let l2 = L2_TIMES_N / n;
-        let objective = |w: &[f64], g: &mut [f64]| loss(w, g, &z, y, classes, l2);
-        model.weights = lbfgs(model.weights.clone(), objective);
+        model.weights = fit_weights(&model, x, y, classes, d);
         model
     }
 
@@ -94,114 +96,67 @@ impl Logistic {
     }
 }
 
-/// Mean cross-entropy plus the L2 penalty (not on the biases); its gradient into `g`.
-fn loss(w: &[f64], g: &mut [f64], z: &[Vec<f64>], y: &[usize], k: usize, l2: f64) -> f64 {
-    let n = z.len().max(1) as f64;
-    let d1 = z.first().map_or(1, Vec::len);
-    g.iter_mut().for_each(|v| *v = 0.0);
-    let mut f = 0.0;
-    let mut p = vec![0.0; k];
-    for (row, &label) in z.iter().zip(y) {
-        for (c, pc) in p.iter_mut().enumerate() {
-            *pc = dot(&w[c * d1..(c + 1) * d1], row);
+/// The weights, one row of `d + 1` per class (bias last), of smartcore's multinomial
+/// logistic regression (L-BFGS) on the standardised rows. smartcore fits the classes the
+/// training set holds; a class it lacks keeps zero weights and [`ABSENT_BIAS`].
+fn fit_weights(
+    model: &Logistic,
+    x: &[Vec<f64>],
+    y: &[usize],
+    classes: usize,
+    d: usize,
+) -> Vec<f64> {
+    let d1 = d + 1;
+    let mut weights = vec![0.0; classes * d1];
+    let mut present: Vec<usize> = y.iter().copied().filter(|&c| c < classes).collect();
+    present.sort_unstable();
+    present.dedup();
+    for c in (0..classes).filter(|c| present.binary_search(c).is_err()) {
+        weights[c * d1 + d] = ABSENT_BIAS;
+    }
+    if present.len() < 2 || d == 0 {
+        // One class seen (or nothing to read): it is the only answer, at probability 1.
+        return weights;
+    }
+    let values: Vec<f64> = x
+        .iter()
+        .flat_map(|r| model.standardised(r).into_iter().take(d))
+        .collect();
+    // Labels as indices into `present`, which smartcore's sorted `unique` reproduces.
+    let labels: Vec<u32> = y
+        .iter()
+        .map(|c| present.binary_search(c).map_or(0, |i| i as u32))
+        .collect();
+    let fitted = DenseMatrix::new(x.len(), d, values, false).and_then(|m| {
+        LogisticRegression::fit(
+            &m,
+            &labels,
+            LogisticRegressionParameters::default()
+                .with_solver(LogisticRegressionSolverName::LBFGS)
+                .with_alpha(L2),
+        )
+    });
+    let Ok(fitted) = fitted else {
+        // Only a shape mismatch fails, and the rows were built to the shape above.
+        return weights;
+    };
+    let (coefficients, intercept) = (fitted.coefficients(), fitted.intercept());
+    if present.len() == 2 {
+        // One logit, the second class's against the first's (held at 0).
+        let c = present[1];
+        for j in 0..d {
+            weights[c * d1 + j] = *coefficients.get((0, j));
         }
-        softmax(&mut p);
-        f -= p[label].max(1e-300).ln();
-        for (c, pc) in p.iter().enumerate() {
-            let e = pc - f64::from(u8::from(c == label));
-            for (gj, zj) in g[c * d1..(c + 1) * d1].iter_mut().zip(row) {
-                *gj += e * zj;
+        weights[c * d1 + d] = *intercept.get((0, 0));
+    } else {
+        for (k, &c) in present.iter().enumerate() {
+            for j in 0..d {
+                weights[c * d1 + j] = *coefficients.get((k, j));
             }
+            weights[c * d1 + d] = *intercept.get((k, 0));
         }
     }
-    f /= n;
-    for (j, gj) in g.iter_mut().enumerate() {
-        *gj /= n;
-        if j % d1 != d1 - 1 {
-            *gj += l2 * w[j];
-            f += 0.5 * l2 * w[j] * w[j];
-        }
-    }
-    f
-}
-
-/// Minimises `f` (which writes its gradient) from `x` by L-BFGS with a backtracking
-/// (Armijo) line search.
-fn lbfgs(mut x: Vec<f64>, mut f: impl FnMut(&[f64], &mut [f64]) -> f64) -> Vec<f64> {
-    let n = x.len();
-    let mut g = vec![0.0; n];
-    let mut fx = f(&x, &mut g);
-    let (mut s_hist, mut y_hist): (Vec<Vec<f64>>, Vec<Vec<f64>>) = (Vec::new(), Vec::new());
-    let mut g_new = vec![0.0; n];
-    for _ in 0..MAX_ITER {
-        if dot(&g, &g).sqrt() < 1e-7 {
-            break;
-        }
-        // Two-loop recursion: d = -H g.
-        let mut q = g.clone();
-        let mut alpha = vec![0.0; s_hist.len()];
-        for i in (0..s_hist.len()).rev() {
-            let rho = 1.0 / dot(&y_hist[i], &s_hist[i]);
-            alpha[i] = rho * dot(&s_hist[i], &q);
-            q.iter_mut()
-                .zip(&y_hist[i])
-                .for_each(|(a, b)| *a -= alpha[i] * b);
-        }
-        if let (Some(s), Some(y)) = (s_hist.last(), y_hist.last()) {
-            let gamma = dot(s, y) / dot(y, y);
-            q.iter_mut().for_each(|v| *v *= gamma);
-        }
-        for i in 0..s_hist.len() {
-            let rho = 1.0 / dot(&y_hist[i], &s_hist[i]);
-            let beta = rho * dot(&y_hist[i], &q);
-            q.iter_mut()
-                .zip(&s_hist[i])
-                .for_each(|(a, b)| *a += (alpha[i] - beta) * b);
-        }
-        let mut dir: Vec<f64> = q.iter().map(|v| -v).collect();
-        let mut slope = dot(&dir, &g);
-        if slope >= 0.0 {
-            // Not a descent direction (curvature lost): steepest descent.
-            dir = g.iter().map(|v| -v).collect();
-            slope = dot(&dir, &g);
-            s_hist.clear();
-            y_hist.clear();
-        }
-        let mut step = if s_hist.is_empty() {
-            1.0 / dot(&g, &g).sqrt().max(1.0)
-        } else {
-            1.0
-        };
-        let mut accepted = None;
-        for _ in 0..40 {
-            let trial: Vec<f64> = x.iter().zip(&dir).map(|(a, b)| a + step * b).collect();
-            let ft = f(&trial, &mut g_new);
-            if ft <= fx + 1e-4 * step * slope {
-                accepted = Some((trial, ft));
-                break;
-            }
-            step *= 0.5;
-        }
-        let Some((trial, ft)) = accepted else { break };
-        let s: Vec<f64> = trial.iter().zip(&x).map(|(a, b)| a - b).collect();
-        let y: Vec<f64> = g_new.iter().zip(&g).map(|(a, b)| a - b).collect();
-        let converged = (fx - ft).abs() <= 1e-12 * fx.abs().max(1.0);
-        x = trial;
-        fx = ft;
-        std::mem::swap(&mut g, &mut g_new);
-        if dot(&s, &y) > 1e-12 {
-            s_hist.push(s);
-            y_hist.push(y);
-            if s_hist.len() > MEMORY {
-                s_hist.remove(0);
-                y_hist.remove(0);
-            }
-        }
-        if converged {
-            break;
-        }
-    }
-    x
+    weights
 }
 
 #[cfg(test)]
@@ -230,5 +185,26 @@ mod tests {
         assert_eq!(right.count(), 150);
         let p = m.predict(&x[0]);
         assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn classes_a_training_set_lacks_get_no_probability() {
+        // Four classes, the rows only of classes 1 and 3 (smartcore's two-class path).
+        let x: Vec<Vec<f64>> = (0..40)
+            .map(|i| vec![(i % 2) as f64 * 4.0 + (i % 7) as f64 * 0.1])
+            .collect();
+        let y: Vec<usize> = (0..40).map(|i| if i % 2 == 0 { 1 } else { 3 }).collect();
+        let m = Logistic::fit(&x, &y, 4);
+        for (row, &c) in x.iter().zip(&y) {
+            let p = m.predict(row);
+            assert_eq!((p[0], p[2]), (0.0, 0.0));
+            assert!(p[c] > 0.9, "{p:?} for class {c}");
+            assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+        }
+        // A model of one class answers it; the weights stay finite, so a model file
+        // (JSON) holds them.
+        let one = Logistic::fit(&x[..3], &[2, 2, 2], 3);
+        assert_eq!(one.predict(&x[0]), vec![0.0, 0.0, 1.0]);
+        assert!(one.weights.iter().all(|w| w.is_finite()));
     }
 }
