@@ -209,3 +209,43 @@ fn a_touch_moved_in_time_and_space_scores_the_same() {
         "{a:?}: a network that reads nothing"
     );
 }
+
+/// The trained weights are the mean of the weights at the end of each averaged epoch:
+/// training stops at the same weights whatever the number of epochs to come, so the
+/// runs of 3 and 4 epochs without averaging give the two epochs a run of 4 averages
+/// from its 3rd.
+#[test]
+fn trained_weights_are_the_mean_of_the_averaged_epochs() {
+    let mut rng = Rng::new(8);
+    let samples: Vec<Sample> = (0..6)
+        .map(|_| Sample {
+            frames: ndarray::Array3::from_shape_fn((40, 8, 8), |_| rng.uniform() as f32),
+            rate_hz: 20.0,
+            pitch_mm: 25.4,
+        })
+        .collect();
+    let refs: Vec<&Sample> = samples.iter().collect();
+    let labels = [0, 1, 2, 0, 1, 2];
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let control = Control {
+        cancel: &cancel,
+        progress: &|_| {},
+    };
+    let run = |epochs, average_from| {
+        train_averaged(&refs, &labels, 3, (5, epochs, average_from), None, &control)
+            .map(|net| net.params)
+            .unwrap_or_default()
+    };
+    let (third, fourth, averaged) = (run(3, usize::MAX), run(4, usize::MAX), run(4, 3));
+    assert!(!averaged.is_empty() && third != fourth);
+    for ((a, b), m) in third.iter().zip(&fourth).zip(&averaged) {
+        let mean = (f64::from(*a) + f64::from(*b)) / 2.0;
+        assert!(
+            (f64::from(*m) - mean).abs() <= 1e-6 * mean.abs().max(1.0),
+            "{m} vs {mean}"
+        );
+    }
+    // `train` averages the second half: for 4 epochs, the 3rd and 4th.
+    let trained = train(&refs, &labels, 3, 5, 4, None, &control).map(|net| net.params);
+    assert_eq!(trained.ok(), Some(averaged));
+}
