@@ -253,7 +253,7 @@ fn check_outputs(args: &Args, data: &Path) -> anyhow::Result<()> {
     refuse_overwrites(&inputs, &outputs)
 }
 
-/// The progress bar: one step per epoch of every fold.
+/// The progress bar: one step per epoch of every network of every fold.
 struct Bar(ProgressBar);
 
 impl Bar {
@@ -277,19 +277,26 @@ impl Bar {
         } else {
             String::new()
         };
-        self.0
-            .set_message(format!("{fold}, epoch {}/{}{loss}", p.epoch, p.epochs));
+        let network = if p.networks > 1 {
+            format!(", network {}/{}", p.network, p.networks)
+        } else {
+            String::new()
+        };
+        self.0.set_message(format!(
+            "{fold}{network}, epoch {}/{}{loss}",
+            p.epoch, p.epochs
+        ));
         if p.fold.is_some() {
             self.0.inc(1);
         }
     }
 }
 
-/// Progress steps of a cross-validation: one per epoch of every fold.
+/// Progress steps of a cross-validation: one per epoch of every network of every fold.
 fn steps(kind: ScorerKind, folds: usize, epochs: usize) -> usize {
     match kind {
         ScorerKind::Features => folds,
-        ScorerKind::Cnn => folds * epochs,
+        ScorerKind::Cnn => folds * epochs * touchc_select::cnn::NETWORKS,
     }
     .max(folds * usize::from(epochs == 0))
 }

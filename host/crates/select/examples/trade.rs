@@ -101,8 +101,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let cancel = AtomicBool::new(false);
         let progress = |p: touchc_select::Progress| {
             eprint!(
-                "\r{name} fold {:?} epoch {}/{} loss {:.4}   ",
-                p.fold, p.epoch, p.epochs, p.loss
+                "\r{name} fold {:?} network {}/{} epoch {}/{} loss {:.4}   ",
+                p.fold, p.network, p.networks, p.epoch, p.epochs, p.loss
             )
         };
         let control = Control {

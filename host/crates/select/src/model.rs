@@ -46,8 +46,23 @@ pub struct Settings {
 
 /// What the model file's first field says, so another JSON file is told apart.
 const FORMAT: &str = "touchc-select-model";
-/// The version of the file's layout.
-const VERSION: u32 = 1;
+/// The version of the file's layout: 2 holds the network scorer's ensemble (`nets`),
+/// 1 one network (`net`), which this version still reads.
+const VERSION: u32 = 2;
+
+/// A network model's `nets` (a list, version 2) or `net` (one network, version 1).
+fn one_or_many<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<crate::cnn::Net>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum OneOrMany {
+        Many(Vec<crate::cnn::Net>),
+        One(Box<crate::cnn::Net>),
+    }
+    Ok(match OneOrMany::deserialize(d)? {
+        OneOrMany::Many(nets) => nets,
+        OneOrMany::One(net) => vec![*net],
+    })
+}
 
 /// The weights of one scorer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -58,7 +73,10 @@ enum Weights {
         logistic: Logistic,
     },
     Cnn {
-        net: crate::cnn::Net,
+        /// The ensemble ([`crate::cnn::train_ensemble`]); a version 1 file's single
+        /// `net` reads as an ensemble of one.
+        #[serde(alias = "net", deserialize_with = "one_or_many")]
+        nets: Vec<crate::cnn::Net>,
     },
 }
 
@@ -95,6 +113,8 @@ impl Model {
                 let logistic = Logistic::fit(&x, labels, classes.len());
                 (control.progress)(Progress {
                     fold,
+                    network: 1,
+                    networks: 1,
                     epoch: 1,
                     epochs: 1,
                     loss: f64::NAN,
@@ -105,7 +125,7 @@ impl Model {
                 }
             }
             ScorerKind::Cnn => Weights::Cnn {
-                net: crate::cnn::train(
+                nets: crate::cnn::train_ensemble(
                     samples,
                     labels,
                     classes.len(),
@@ -144,10 +164,13 @@ impl Model {
                 .iter()
                 .map(|row| logistic.predict(row))
                 .collect()),
-            Weights::Cnn { net } => {
+            Weights::Cnn { nets } => {
                 let scores: Vec<Option<Vec<f64>>> = samples
                     .par_iter()
-                    .map(|s| (!control.cancel.load(Ordering::Relaxed)).then(|| net.predict(s)))
+                    .map(|s| {
+                        (!control.cancel.load(Ordering::Relaxed))
+                            .then(|| crate::cnn::predict_ensemble(nets, s))
+                    })
                     .collect();
                 scores
                     .into_iter()
@@ -178,9 +201,9 @@ impl Model {
         }
         let model: Model = serde_json::from_value(value)
             .map_err(|e| bad(format!("a model file this version cannot read ({e})")))?;
-        if model.version != VERSION {
+        if !(1..=VERSION).contains(&model.version) {
             return Err(bad(format!(
-                "model file version {}, this version reads {VERSION}",
+                "model file version {}, this version reads 1 to {VERSION}",
                 model.version
             )));
         }
@@ -192,8 +215,11 @@ impl Model {
                     && logistic.classes == model.classes.len()
                     && logistic.weights.len() == logistic.classes * (names.len() + 1)
             }
-            Weights::Cnn { net } => {
-                net.consistent(model.classes.len()) && net.shape() == model.shape
+            Weights::Cnn { nets } => {
+                !nets.is_empty()
+                    && nets.iter().all(|net| {
+                        net.consistent(model.classes.len()) && net.shape() == model.shape
+                    })
             }
         };
         if !consistent || model.classes.len() < 2 {
@@ -228,4 +254,67 @@ fn feature_rows(samples: &[&Sample], control: &Control) -> Result<Vec<Vec<f64>>,
     rows.into_iter()
         .map(|r| r.ok_or(SelectError::Cancelled))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::AtomicBool;
+
+    /// A version 1 model file (one network under `net`) still reads, as an ensemble of
+    /// that one network, and scores as it does.
+    #[test]
+    fn a_version_1_network_file_reads_as_one_network() {
+        let mut rng = crate::rng::Rng::new(3);
+        let samples: Vec<Sample> = (0..4)
+            .map(|_| Sample {
+                frames: ndarray::Array3::from_shape_fn((40, 8, 8), |_| rng.uniform() as f32),
+                rate_hz: 20.0,
+                pitch_mm: 25.4,
+            })
+            .collect();
+        let refs: Vec<&Sample> = samples.iter().collect();
+        let classes = vec!["a".to_string(), "b".to_string()];
+        let cancel = AtomicBool::new(false);
+        let control = Control {
+            cancel: &cancel,
+            progress: &|_| {},
+        };
+        let settings = Settings {
+            kind: ScorerKind::Cnn,
+            seed: 1,
+            epochs: 1,
+        };
+        let model = Model::train(&refs, &[0, 1, 0, 1], &classes, &settings, None, &control);
+        let Ok(model) = model else {
+            panic!("training failed: {model:?}")
+        };
+        let path = Path::new("m.json");
+        let mut v1: serde_json::Value =
+            serde_json::from_slice(&model.to_json()).unwrap_or_default();
+        assert_eq!(v1["version"], 2);
+        let first = v1["weights"]["nets"][0].take();
+        v1["weights"] = serde_json::json!({ "kind": "cnn", "net": first });
+        v1["version"] = 1.into();
+        let bytes = serde_json::to_vec(&v1).unwrap_or_default();
+        let read = Model::from_json(path, &bytes);
+        let Ok(read) = read else {
+            panic!("version 1 refused: {read:?}")
+        };
+        let Weights::Cnn { nets } = &read.weights else {
+            panic!("not a network model")
+        };
+        assert_eq!(nets.len(), 1);
+        let scores = read.score(&refs, &control).unwrap_or_default();
+        let want: Vec<Vec<f64>> = samples.iter().map(|s| nets[0].predict(s)).collect();
+        assert_eq!(scores, want);
+        // The file as written reads back whole; a version from the future does not.
+        assert_eq!(
+            Model::from_json(path, &model.to_json()).ok(),
+            Some(model.clone())
+        );
+        v1["version"] = 3.into();
+        let future = serde_json::to_vec(&v1).unwrap_or_default();
+        assert!(Model::from_json(path, &future).is_err());
+    }
 }

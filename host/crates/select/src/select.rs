@@ -14,6 +14,11 @@ use crate::{Folds, ScorerKind, SelectError};
 pub struct Progress {
     /// The fold being trained (0-based); `None` for the model of the whole data set.
     pub fold: Option<usize>,
+    /// The network being trained (1-based) of the ensemble's [`networks`](Self::networks)
+    /// (the features scorer: 1 of 1).
+    pub network: usize,
+    /// Networks trained per model.
+    pub networks: usize,
     /// The epoch just finished (1-based).
     pub epoch: usize,
     /// Epochs in all.

@@ -216,16 +216,8 @@ fn a_touch_moved_in_time_and_space_scores_the_same() {
 /// from its 3rd.
 #[test]
 fn trained_weights_are_the_mean_of_the_averaged_epochs() {
-    let mut rng = Rng::new(8);
-    let samples: Vec<Sample> = (0..6)
-        .map(|_| Sample {
-            frames: ndarray::Array3::from_shape_fn((40, 8, 8), |_| rng.uniform() as f32),
-            rate_hz: 20.0,
-            pitch_mm: 25.4,
-        })
-        .collect();
+    let (samples, labels) = tiny_set();
     let refs: Vec<&Sample> = samples.iter().collect();
-    let labels = [0, 1, 2, 0, 1, 2];
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let control = Control {
         cancel: &cancel,
@@ -248,4 +240,60 @@ fn trained_weights_are_the_mean_of_the_averaged_epochs() {
     // `train` averages the second half: for 4 epochs, the 3rd and 4th.
     let trained = train(&refs, &labels, 3, 5, 4, None, &control).map(|net| net.params);
     assert_eq!(trained.ok(), Some(averaged));
+}
+
+/// Six random recordings of 40 frames of 8 x 8 cells, classes 0, 1, 2 twice.
+fn tiny_set() -> (Vec<Sample>, [usize; 6]) {
+    let mut rng = Rng::new(9);
+    let samples = (0..6)
+        .map(|_| Sample {
+            frames: ndarray::Array3::from_shape_fn((40, 8, 8), |_| rng.uniform() as f32),
+            rate_hz: 20.0,
+            pitch_mm: 25.4,
+        })
+        .collect();
+    (samples, [0, 1, 2, 0, 1, 2])
+}
+
+/// The ensemble is [`NETWORKS`] networks of their own seeds, the first the seed's own
+/// network, and it scores the mean of their probabilities; every network reports its
+/// epochs under its own number.
+#[test]
+fn an_ensemble_is_the_mean_of_its_networks() {
+    let (samples, labels) = tiny_set();
+    let refs: Vec<&Sample> = samples.iter().collect();
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let seen = std::sync::Mutex::new(Vec::new());
+    let record = |p: Progress| {
+        if let Ok(mut seen) = seen.lock() {
+            seen.push((p.network, p.networks, p.epoch));
+        }
+    };
+    let control = Control {
+        cancel: &cancel,
+        progress: &record,
+    };
+    let nets = train_ensemble(&refs, &labels, 3, 11, 2, None, &control).unwrap_or_default();
+    assert_eq!(nets.len(), NETWORKS);
+    let reported = seen.lock().map(|s| s.clone()).unwrap_or_default();
+    let want: Vec<(usize, usize, usize)> = (1..=NETWORKS)
+        .flat_map(|m| (1..=2).map(move |e| (m, NETWORKS, e)))
+        .collect();
+    assert_eq!(reported, want);
+    let quiet = Control {
+        cancel: &cancel,
+        progress: &|_| {},
+    };
+    let alone = train(&refs, &labels, 3, 11, 2, None, &quiet).map(|n| n.params);
+    assert_eq!(alone.ok().as_ref(), Some(&nets[0].params));
+    assert!(nets[1].params != nets[0].params && nets[2].params != nets[1].params);
+    for sample in &samples {
+        let mean = predict_ensemble(&nets, sample);
+        let each: Vec<Vec<f64>> = nets.iter().map(|n| n.predict(sample)).collect();
+        for (c, m) in mean.iter().enumerate() {
+            let want = each.iter().map(|p| p[c]).sum::<f64>() / NETWORKS as f64;
+            assert!((m - want).abs() < 1e-12, "{m} vs {want}");
+        }
+        assert!((mean.iter().sum::<f64>() - 1.0).abs() < 1e-6);
+    }
 }
