@@ -19,7 +19,7 @@
 //! recording scored later keeps its last frames), and each is divided by its own RMS
 //! pressure: a person who presses twice as hard makes the same input (0.695 to 0.717
 //! on the seven-gesture set, 0.689 to 0.667 on the benchmark: `docs/select.md`). The
-//! trained weights are the mean of the second half's epochs' ([`train`]), and a model
+//! trained weights are the mean of the second half's epochs', and a model
 //! is [`NETWORKS`] such networks whose probabilities are averaged ([`train_ensemble`]).
 //!
 //! The layers are written out here with their gradients (`cnn/layers.rs`). Each sample's
@@ -32,6 +32,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::dataset::Sample;
+use crate::model::Settings;
 use crate::rng::Rng;
 use crate::select::{Control, Progress};
 use crate::SelectError;
@@ -405,17 +406,21 @@ fn network_seed(seed: u64, m: usize) -> u64 {
     seed ^ (m as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
 }
 
-/// Trains [`NETWORKS`] networks ([`train`], one after another, each reporting its
-/// epochs as network `m + 1` of them).
+/// Trains [`NETWORKS`] networks on `samples` with classes `labels` (one after another,
+/// each reporting its epochs as network `m + 1` of them, in fold `fold`); stops with
+/// [`SelectError::Cancelled`] between batches. Each network keeps the mean of its
+/// weights at the end of each epoch of the second half (stochastic weight averaging,
+/// Izmailov et al. 2018: 0.717 to 0.737 on the seven-gesture set, 0.667 to 0.676 on
+/// the benchmark, `docs/select.md`).
 pub fn train_ensemble(
     samples: &[&Sample],
     labels: &[usize],
     classes: usize,
-    seed: u64,
-    epochs: usize,
+    settings: &Settings,
     fold: Option<usize>,
     control: &Control,
 ) -> Result<Vec<Net>, SelectError> {
+    let average_from = settings.epochs / 2 + 1;
     (0..NETWORKS)
         .map(|m| {
             let progress = |p: Progress| {
@@ -429,15 +434,12 @@ pub fn train_ensemble(
                 cancel: control.cancel,
                 progress: &progress,
             };
-            train(
-                samples,
-                labels,
-                classes,
-                network_seed(seed, m),
-                epochs,
-                fold,
-                &member,
-            )
+            let schedule = (
+                network_seed(settings.seed, m),
+                settings.epochs,
+                average_from,
+            );
+            train_averaged(samples, labels, classes, schedule, fold, &member)
         })
         .collect()
 }
@@ -458,33 +460,8 @@ pub fn predict_ensemble(nets: &[Net], sample: &Sample) -> Vec<f64> {
     mean
 }
 
-/// Trains a network on `samples` with classes `labels` for `epochs`, reporting each
-/// epoch as fold `fold`; stops with [`SelectError::Cancelled`] between batches. The
-/// weights it returns are the mean of the weights at the end of each epoch of the
-/// second half (stochastic weight averaging, Izmailov et al. 2018: 0.717 to 0.737 on
-/// the seven-gesture set, 0.667 to 0.676 on the benchmark, `docs/select.md`).
-pub fn train(
-    samples: &[&Sample],
-    labels: &[usize],
-    classes: usize,
-    seed: u64,
-    epochs: usize,
-    fold: Option<usize>,
-    control: &Control,
-) -> Result<Net, SelectError> {
-    let average_from = epochs / 2 + 1;
-    train_averaged(
-        samples,
-        labels,
-        classes,
-        (seed, epochs, average_from),
-        fold,
-        control,
-    )
-}
-
-/// [`train`], the weights averaged over the epochs from `average_from` on (an
-/// `average_from` past `epochs` keeps the last epoch's weights).
+/// One network of the ensemble, from `seed`, for `epochs`, its weights averaged over
+/// the epochs from `average_from` on (one past `epochs` keeps the last epoch's).
 fn train_averaged(
     samples: &[&Sample],
     labels: &[usize],

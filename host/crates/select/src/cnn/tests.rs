@@ -237,9 +237,16 @@ fn trained_weights_are_the_mean_of_the_averaged_epochs() {
             "{m} vs {mean}"
         );
     }
-    // `train` averages the second half: for 4 epochs, the 3rd and 4th.
-    let trained = train(&refs, &labels, 3, 5, 4, None, &control).map(|net| net.params);
-    assert_eq!(trained.ok(), Some(averaged));
+    // The ensemble's first network is the seed's own, averaged over the second half:
+    // for 4 epochs, the 3rd and 4th.
+    let settings = Settings {
+        kind: crate::ScorerKind::Cnn,
+        seed: 5,
+        epochs: 4,
+    };
+    let first = train_ensemble(&refs, &labels, 3, &settings, None, &control)
+        .map(|nets| nets.into_iter().next().map(|net| net.params));
+    assert_eq!(first.ok().flatten(), Some(averaged));
 }
 
 /// Six random recordings of 40 frames of 8 x 8 cells, classes 0, 1, 2 twice.
@@ -256,7 +263,7 @@ fn tiny_set() -> (Vec<Sample>, [usize; 6]) {
 }
 
 /// The ensemble is [`NETWORKS`] networks of their own seeds, the first the seed's own
-/// network, and it scores the mean of their probabilities; every network reports its
+/// network (averaged over the second epoch of two), and it scores the mean of their probabilities; every network reports its
 /// epochs under its own number.
 #[test]
 fn an_ensemble_is_the_mean_of_its_networks() {
@@ -273,7 +280,12 @@ fn an_ensemble_is_the_mean_of_its_networks() {
         cancel: &cancel,
         progress: &record,
     };
-    let nets = train_ensemble(&refs, &labels, 3, 11, 2, None, &control).unwrap_or_default();
+    let settings = Settings {
+        kind: crate::ScorerKind::Cnn,
+        seed: 11,
+        epochs: 2,
+    };
+    let nets = train_ensemble(&refs, &labels, 3, &settings, None, &control).unwrap_or_default();
     assert_eq!(nets.len(), NETWORKS);
     let reported = seen.lock().map(|s| s.clone()).unwrap_or_default();
     let want: Vec<(usize, usize, usize)> = (1..=NETWORKS)
@@ -284,7 +296,7 @@ fn an_ensemble_is_the_mean_of_its_networks() {
         cancel: &cancel,
         progress: &|_| {},
     };
-    let alone = train(&refs, &labels, 3, 11, 2, None, &quiet).map(|n| n.params);
+    let alone = train_averaged(&refs, &labels, 3, (11, 2, 2), None, &quiet).map(|n| n.params);
     assert_eq!(alone.ok().as_ref(), Some(&nets[0].params));
     assert!(nets[1].params != nets[0].params && nets[2].params != nets[1].params);
     for sample in &samples {
