@@ -45,7 +45,7 @@ enum Scorer {
     /// Logistic regression on duration, pressure, area, speed, location and rhythm.
     Features,
     /// The paper's 3D convolutional network, globally pooled so it reads what a touch is
-    /// rather than where and when.
+    /// rather than where and when; three of them, their scores averaged.
     Cnn,
 }
 
@@ -77,7 +77,7 @@ pub struct Args {
     /// Seed of the folds, shuffles and initial weights.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Passes over the training set (the network).
+    /// Passes over the training set (each of the network scorer's three networks).
     #[arg(long, default_value_t = 30)]
     epochs: usize,
     /// Compare the scorers on the same folds: accuracy, macro-F1, seconds to train and
