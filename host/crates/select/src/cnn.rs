@@ -447,17 +447,11 @@ pub fn train_ensemble(
 /// Each class's probability for `sample`: the mean of the networks' (an empty list
 /// gives none).
 pub fn predict_ensemble(nets: &[Net], sample: &Sample) -> Vec<f64> {
-    let mut mean: Vec<f64> = Vec::new();
-    for net in nets {
-        let p = net.predict(sample);
-        if mean.is_empty() {
-            mean = vec![0.0; p.len()];
-        }
-        mean.iter_mut().zip(&p).for_each(|(m, v)| *m += v);
-    }
-    let n = nets.len().max(1) as f64;
-    mean.iter_mut().for_each(|m| *m /= n);
-    mean
+    let each: Vec<Vec<f64>> = nets.iter().map(|net| net.predict(sample)).collect();
+    let classes = each.first().map_or(0, Vec::len);
+    (0..classes)
+        .map(|c| each.iter().map(|p| p[c]).sum::<f64>() / each.len() as f64)
+        .collect()
 }
 
 /// One network of the ensemble, from `seed`, for `epochs`, its weights averaged over
