@@ -230,16 +230,17 @@ mod tests {
         let frames = vec![[0i16; 8]; 2];
         let one =
             crate::testutil::stimulus_from("long", 1, &frames, touch_protocol::Limits::SLEEVE);
-        // The same header claiming the maximum, over one run record of that length.
+        // The same header claiming the maximum, over one record skipping that many.
         let s = touch_protocol::Stimulus::decode(&one).unwrap();
         let mut h = *s.header();
         h.keyframe_count = MAX_KEYFRAMES;
         h.duration_ms = MAX_KEYFRAMES - 1;
         let mut head = [0u8; touch_protocol::stimulus::HEADER_MAX_LEN];
         let mut payload = postcard::to_slice(&h, &mut head).unwrap().to_vec();
-        payload.push(0);
-        let mut buf = [0u8; 5];
-        payload.extend_from_slice(postcard::to_slice(&MAX_KEYFRAMES, &mut buf).unwrap());
+        // One record skipping all keyframes: Exp-Golomb of MAX_KEYFRAMES, 26 zero bits
+        // and the 27 bits of MAX_KEYFRAMES + 1 (SPEC.md), padded to 7 bytes.
+        let bits = (u64::from(MAX_KEYFRAMES) + 1) << (64 - 53);
+        payload.extend_from_slice(&bits.to_be_bytes()[..7]);
         let file = container::seal(stimulus::MAGIC, stimulus::VERSION, &payload).unwrap();
         let image = bank(&[file.clone(), file.clone(), file.clone(), file]);
         assert!(image.len() < 360, "{} bytes", image.len());

@@ -47,18 +47,19 @@ pub fn bank(stimuli: &[Vec<u8>]) -> Vec<u8> {
     tbank::encode(&refs).expect("test bank encodes")
 }
 
-/// The boot check's worst case per byte: a bank of one stimulus whose records
-/// alternate a one-residual change and a run of one (two bytes per keyframe, each
-/// keyframe a full pass over the eight channels), as large as fits in `limit` bytes.
+/// The boot check's worst case per byte: a bank of one stimulus in which every
+/// keyframe changes one channel by one step (about 10.5 bits a keyframe, each a full
+/// pass over the eight channels: the most records a byte can hold), as large as fits
+/// in `limit` bytes.
 pub fn dense_bank(limit: usize) -> Vec<u8> {
-    // Channel 0's residuals +1, 0, -1, 0, -1, 0, +1, 0 (the zeros are runs of one):
-    // its line turns up, flat, down and flat again, so it stays in range.
-    const RESIDUALS: [i32; 8] = [1, 0, -1, 0, -1, 0, 1, 0];
+    // Channel 0's residuals +1, -1, -1, +1 (Rice codes `10`, `0`, `0`, `10`): its line
+    // turns up, flat, down and flat again, so it stays in range.
+    const RESIDUALS: [i32; 4] = [1, -1, -1, 1];
     let frames = |n: usize| -> Vec<[i16; CHANNELS]> {
         let (mut before, mut last) = (0i32, 0i32);
         (0..n)
             .map(|k| {
-                let next = 2 * last - before + RESIDUALS[k % 8];
+                let next = 2 * last - before + RESIDUALS[k % 4];
                 (before, last) = (last, next);
                 let mut f = [0i16; CHANNELS];
                 f[0] = next as i16;
@@ -66,15 +67,34 @@ pub fn dense_bank(limit: usize) -> Vec<u8> {
             })
             .collect()
     };
-    // About two bytes a keyframe; shrink by the excess until the bank (the stimulus
-    // plus 28 bytes of framing, layout hash and index) fits.
+    // Keyframes per byte measured on a sample; then shrink by the excess until the
+    // bank (the stimulus plus 28 bytes of framing, layout hash and index) fits.
     let room = limit - 28;
-    let mut n = room / 2;
+    let sample = 8_000;
+    let per_byte =
+        sample as f64 / stimulus_from("dense", 1, &frames(sample), Limits::SLEEVE).len() as f64;
+    let mut n = (room as f64 * per_byte) as usize;
+    let mut one = stimulus_from("dense", 1, &frames(n), Limits::SLEEVE);
+    while one.len() > room {
+        n -= ((one.len() - room) as f64 * per_byte).ceil() as usize;
+        one = stimulus_from("dense", 1, &frames(n), Limits::SLEEVE);
+    }
+    // Then more while they fit, in steps of most of the room left.
     loop {
-        let one = stimulus_from("dense", 1, &frames(n), Limits::SLEEVE);
-        if one.len() <= room {
-            return bank(&[one]);
+        let step = (((room - one.len()) as f64 * per_byte * 0.8) as usize).max(4);
+        let more = stimulus_from("dense", 1, &frames(n + step), Limits::SLEEVE);
+        if more.len() > room {
+            if step == 4 {
+                return bank(&[one]);
+            }
+            // The estimate overshot: the next step is smaller.
+            let fewer = stimulus_from("dense", 1, &frames(n + 4), Limits::SLEEVE);
+            if fewer.len() > room {
+                return bank(&[one]);
+            }
+            (n, one) = (n + 4, fewer);
+            continue;
         }
-        n -= (one.len() - room).div_ceil(2);
+        (n, one) = (n + step, more);
     }
 }

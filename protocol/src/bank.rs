@@ -20,8 +20,9 @@ use crate::{Error, Stimulus};
 
 /// Magic of a bank image.
 pub const MAGIC: [u8; 4] = *b"TCHB";
-/// The bank format version this build reads and writes.
-pub const VERSION: u16 = 2;
+/// The bank format version this build reads and writes: the stimulus format's (a
+/// bank holds stimuli, so an image of older stimuli is refused at its version).
+pub const VERSION: u16 = crate::stimulus::VERSION;
 /// Most slots a bank holds.
 pub const MAX_SLOTS: u16 = 32;
 /// Bytes of the sleeve's bank flash region (sectors 10-11 of the STM32F405RG, the

@@ -15,6 +15,7 @@ fn header(period: u16, count: u32, duration: u32) -> Header<'static> {
         ramp_ms: 10,
         full_scale_ma: 1000,
         quant_shift: 0,
+        residual_k: 2,
         layout_hash: 1,
         layout: "t",
         limits: Limits::SLEEVE,
@@ -30,12 +31,35 @@ fn craft(header: &Header<'_>, body: &[u8]) -> Vec<u8> {
     container::seal(stimulus::MAGIC, stimulus::VERSION, &payload).unwrap()
 }
 
-/// A run record of `n` keyframes.
+/// A body written bit by bit, most significant first (SPEC.md), as the test's own
+/// writer.
+#[derive(Default)]
+struct Bits(Vec<bool>);
+
+impl Bits {
+    fn push(mut self, value: u64, n: u32) -> Self {
+        self.0.extend((0..n).rev().map(|i| (value >> i) & 1 == 1));
+        self
+    }
+
+    /// Order-0 Exp-Golomb: zeros, then `value + 1` from its leading one.
+    fn exp_golomb(self, value: u32) -> Self {
+        let x = u64::from(value) + 1;
+        let len = 64 - x.leading_zeros();
+        self.push(0, len - 1).push(x, len)
+    }
+
+    fn bytes(self) -> Vec<u8> {
+        self.0
+            .chunks(8)
+            .map(|c| (0..8).fold(0u8, |b, i| b << 1 | u8::from(c.get(i) == Some(&true))))
+            .collect()
+    }
+}
+
+/// A body that is one record skipping all `n` keyframes.
 fn run(n: u32) -> Vec<u8> {
-    let mut buf = [0u8; 5];
-    let mut body = vec![0u8];
-    body.extend_from_slice(postcard::to_slice(&n, &mut buf).unwrap());
-    body
+    Bits::default().exp_golomb(n).bytes()
 }
 
 /// The 60-byte stimulus of 2^32 - 1 keyframes that took 88 s to check: refused by
@@ -76,9 +100,14 @@ fn a_maximal_run_decodes_in_one_step_and_its_line_is_checked() {
     // A line rising 1 per keyframe (residual +1 on channel 0 then a run) leaves the
     // i16 range after 32,767 keyframes: a long run of it is refused, a short one not.
     let body = |n: u32| {
-        let mut b = vec![0x01, 0x02]; // keyframe 0: ch0 = 0 + 1 (zigzag 2)
-        b.extend_from_slice(&run(n));
-        b
+        // Keyframe 0 after a skip of 0: mask `1000_0000` (channel 0), residual +1
+        // (zigzag 2, code value 1, Rice k = 2: `0 01`); then a skip of the rest.
+        Bits::default()
+            .exp_golomb(0)
+            .push(0x80, 8)
+            .push(0b001, 3)
+            .exp_golomb(n)
+            .bytes()
     };
     let ok = craft(&header(1, 32_767, 32_766), &body(32_766));
     let s = Stimulus::decode(&ok).unwrap();

@@ -22,8 +22,8 @@ fn stimulus_bytes_are_pinned() {
     #[rustfmt::skip]
     let expected: Vec<u8> = [
         &b"TCHS"[..],                 // magic
-        &[0x02, 0x00],                // version 2, u16 LE
-        &[51, 0, 0, 0],               // total length, u32 LE
+        &[0x03, 0x00],                // version 3, u16 LE
+        &[48, 0, 0, 0],               // total length, u32 LE
         // postcard header
         &[0x08],                      // channels = 8
         &[0xE8, 0x07],                // output_rate_hz = 1000 (varint)
@@ -33,21 +33,26 @@ fn stimulus_bytes_are_pinned() {
         &[20],                        // ramp_ms
         &[0xE8, 0x07],                // full_scale_ma = 1000
         &[4],                         // quant_shift
+        &[6],                         // residual_k (codes 199 and 18 in 17 bits, as k = 7 does)
         &[0x01, 0x02, 0x03, 0x04],    // layout_hash, u32 LE (fixed width)
         &[1, b't'],                   // layout name
         &[0xE8, 0x07, 50, 0xD8, 0x04, 0x80, 0x87, 0xA7, 0x0E], // limits 1000, 50, 600, 30e6
         &[3, b't', b'a', b'p'],       // name
-        // keyframes
-        &[0x00, 0x01],                // keyframe 0: a run of 1 following its prediction (0)
-        &[0x81, 0xC8, 0x01, 0x13],    // keyframe 1: ch0 residual 100 (zigzag 200), ch7 -10 (zigzag 19)
-        &[0x00, 0x01],                // keyframe 2: both continue their line, a run of 1
+        // keyframes, bits:
+        //   010        skip 1: keyframe 0 follows its prediction (0); Exp-Golomb of 1
+        //   10000001   keyframe 1 changes channels 0 and 7
+        //   1110000111 ch0 residual 100: zigzag 200, code 199 = 3 * 64 + 7 (Rice, k = 6)
+        //   0010010    ch7 residual -10: zigzag 19, code 18 = 0 * 64 + 18
+        //   010        skip 1: keyframe 2 continues both lines (200, -20), the last
+        //   0          padding
+        &[0b0101_0000, 0b0011_1100, 0b0011_1001, 0b0010_0100],
     ]
     .concat();
     assert_eq!(&bytes[..bytes.len() - 4], &expected[..]);
     let crc = touch_protocol::container::crc32(&expected);
     assert_eq!(&bytes[bytes.len() - 4..], &crc.to_le_bytes());
     assert_eq!(
-        crc, 0xF087_B86D,
+        crc, 0xD15B_4109,
         "CRC of the pinned bytes (Python zlib.crc32 agrees)"
     );
     let s = Stimulus::decode(&bytes).unwrap();
@@ -63,7 +68,7 @@ fn bank_bytes_are_pinned() {
     #[rustfmt::skip]
     let prefix: Vec<u8> = [
         &b"TCHB"[..],                 // magic
-        &[0x02, 0x00],                // version 2
+        &[0x03, 0x00],                // version 3
         &[71, 0, 0, 0],               // total length = 10 + 2 + 4 + 8 + 43 + 4
         &[1, 0],                      // one slot
         &[0x01, 0x02, 0x03, 0x04],    // layout_hash, the stimulus's
@@ -83,18 +88,21 @@ fn bank_bytes_are_pinned() {
 #[test]
 fn version_and_crc_errors_say_which() {
     let mut bytes = builder("v").encode(&[[0; 8]]).unwrap();
-    // A future version with a valid CRC is "unsupported version"...
-    bytes[4] = 3;
-    let n = bytes.len();
-    let crc = touch_protocol::container::crc32(&bytes[..n - 4]);
-    bytes[n - 4..].copy_from_slice(&crc.to_le_bytes());
-    assert_eq!(
-        Stimulus::decode(&bytes).unwrap_err(),
-        Error::UnsupportedVersion {
-            found: 3,
-            supported: 2
-        }
-    );
+    // A file of the previous version (byte-coded keyframes) or a future one, with a
+    // valid CRC, is "unsupported version"...
+    for found in [2, 4] {
+        bytes[4] = found as u8;
+        let n = bytes.len();
+        let crc = touch_protocol::container::crc32(&bytes[..n - 4]);
+        bytes[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(
+            Stimulus::decode(&bytes).unwrap_err(),
+            Error::UnsupportedVersion {
+                found,
+                supported: 3
+            }
+        );
+    }
     // ...and any flipped bit is "bad CRC".
     bytes[12] ^= 0x10;
     assert!(matches!(

@@ -205,8 +205,8 @@ fn limit_hits_fault_and_ramp_to_zero() {
 }
 
 proptest! {
-    /// Signals that mostly hold still or ramp: long idle runs, round-tripped exactly,
-    /// and each run costs two bytes however long it is.
+    /// Signals that mostly hold still or ramp: long skips, round-tripped exactly, and
+    /// each skip costs a few bits however long it is.
     #[test]
     fn sparse_changes_round_trip(changes in prop::collection::vec((0usize..400, 0usize..8, any::<i16>()), 0..6)) {
         let mut kf = vec![[0i16; CHANNELS]; 400];
@@ -224,14 +224,14 @@ proptest! {
 }
 
 #[test]
-fn idle_runs_must_be_canonical() {
+fn skips_must_be_canonical() {
     let kf = vec![[0i16; CHANNELS]; 5];
     let bytes = builder(20, 10, 0, Limits::SLEEVE).encode(&kf).unwrap();
     let n = bytes.len();
-    // The body is one run of 5: `00 05`.
-    assert_eq!(&bytes[n - 6..n - 4], &[0x00, 0x05]);
+    // The body is one record skipping all 5: Exp-Golomb `00110`, padded: `0011_0000`.
+    assert_eq!(bytes[n - 5], 0x30);
     let reseal = |body: &[u8]| {
-        let mut b = bytes[..n - 6].to_vec();
+        let mut b = bytes[..n - 5].to_vec();
         b.extend_from_slice(body);
         let len = (b.len() + 4) as u32;
         b[6..10].copy_from_slice(&len.to_le_bytes());
@@ -239,13 +239,16 @@ fn idle_runs_must_be_canonical() {
         b.extend_from_slice(&crc.to_le_bytes());
         b
     };
-    assert!(Stimulus::decode(&reseal(&[0x00, 0x05])).is_ok());
-    // Two runs in a row: a second encoding of the same signal, refused.
+    assert!(Stimulus::decode(&reseal(&[0x30])).is_ok());
+    // Skip 2, then a "change" of no channel (`011 0000_0000`) and a skip of 2: a
+    // second encoding of the same signal, refused.
     assert_eq!(
-        Stimulus::decode(&reseal(&[0x00, 0x02, 0x00, 0x03])).unwrap_err(),
+        Stimulus::decode(&reseal(&[0b0110_0000, 0b0000_1100])).unwrap_err(),
         touch_protocol::Error::KeyframeOutOfRange
     );
-    // A run longer than the keyframes left, or empty.
-    assert!(Stimulus::decode(&reseal(&[0x00, 0x06])).is_err());
-    assert!(Stimulus::decode(&reseal(&[0x00, 0x00, 0x00, 0x05])).is_err());
+    // A skip past the keyframes left (6: `00111`), a change cut short, a pad bit set,
+    // a byte after the body.
+    for body in [&[0x38][..], &[0x80], &[0x31], &[0x30, 0x00]] {
+        assert!(Stimulus::decode(&reseal(body)).is_err(), "{body:02x?}");
+    }
 }

@@ -37,7 +37,8 @@ include!(concat!(env!("OUT_DIR"), "/expected.rs"));
 static BANK: [u8; include_bytes!(concat!(env!("OUT_DIR"), "/bank.bin")).len()] =
     *include_bytes!(concat!(env!("OUT_DIR"), "/bank.bin"));
 
-/// The boot check's worst case, a full region of two-byte records (in code flash).
+/// The boot check's worst case, a full region of dense records (every keyframe a
+/// one-step change of one channel, about 12 bits each; in code flash).
 static DENSE: [u8; include_bytes!(concat!(env!("OUT_DIR"), "/dense.bin")).len()] =
     *include_bytes!(concat!(env!("OUT_DIR"), "/dense.bin"));
 

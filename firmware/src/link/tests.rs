@@ -208,7 +208,10 @@ fn host_bank_crc(image: &[u8]) -> u32 {
 
 #[test]
 fn info_gives_each_bank_its_own_crc() {
-    let other = bank(&[constant_stimulus("c", 500, 700)]);
+    // A bank's CRC covers its stimuli's own CRCs, so two banks of one slot whose
+    // stimuli have the same length share it (each stimulus is a CRC codeword): this
+    // one's name makes it a byte longer than the built-in's.
+    let other = bank(&[constant_stimulus("other", 500, 700)]);
     let mut crcs = Vec::new();
     // Two flashed banks, and the built-in one (the region erased).
     for (image, flashed) in [(two_slots(), true), (other, true), (builtin(), false)] {

@@ -34,7 +34,7 @@ fn inspect_reports_header_size_and_crc() {
     assert!(v["crc"].as_str().unwrap().starts_with("ok"));
 
     let text = touchc(&["inspect", file.to_str().unwrap()]);
-    assert!(String::from_utf8_lossy(&text.stdout).contains("love (stimulus v2): 1.000 s"));
+    assert!(String::from_utf8_lossy(&text.stdout).contains("love (stimulus v3): 1.000 s"));
 }
 
 #[test]

@@ -129,7 +129,7 @@ fn dash_is_standard_output_and_input() {
     let wav = run(&["render", s(&file), "--wav", "-", "--rate", "1000"], None);
     assert!(wav.starts_with(b"RIFF") && wav.len() == 68 + 16 * (csv_rows(&csv)));
     let text = run(&["inspect", "-", "-o", "-"], Some(&bytes));
-    assert!(String::from_utf8_lossy(&text).starts_with("love (stimulus v2)"));
+    assert!(String::from_utf8_lossy(&text).starts_with("love (stimulus v3)"));
     let npy = run(&["synth", "tap", "-o", "-"], None);
     assert!(npy.starts_with(b"\x93NUMPY"));
     let json = run(

@@ -8,6 +8,7 @@
 use crate::container;
 use crate::{Error, Limits, CHANNELS};
 
+use super::bits::{rice_len, BitWriter, MAX_RICE_K, MIN_RICE_K};
 use super::{quantise, Header, HEADER_MAX_LEN, MAGIC, OUTPUT_RATE_HZ, VERSION};
 
 /// The fields of a stimulus that its author decides, and the encoder.
@@ -19,7 +20,7 @@ use super::{quantise, Header, HEADER_MAX_LEN, MAGIC, OUTPUT_RATE_HZ, VERSION};
 ///     .quant_shift(4)
 ///     .layout("t", 1)
 ///     .encode(&[[0; 8], [1600, 0, 0, 0, 0, 0, 0, -160]])?;
-/// assert_eq!(bytes.len(), 49); // 10 prefix + 29 header + 6 keyframes + 4 CRC
+/// assert_eq!(bytes.len(), 48); // 10 prefix + 30 header + 4 keyframes + 4 CRC
 /// let decoded = Stimulus::decode(&bytes)?;
 /// assert_eq!(decoded.duration_ms(), 50);
 /// assert_eq!(decoded.keyframes().last(), Some([1600, 0, 0, 0, 0, 0, 0, -160]));
@@ -120,45 +121,30 @@ impl<'a> Builder<'a> {
     }
 
     /// Encodes `keyframes`, Q15 values of the full scale a keyframe period apart,
-    /// quantised to the builder's shift. Refuses a field out of its range
+    /// quantised to the builder's shift, with the Rice parameter that makes the body
+    /// shortest (the smallest of equals). Refuses a field out of its range
     /// ([`Error::InvalidField`], naming it; no keyframe is `keyframe_count`) and a
     /// signal longer than the format holds.
     pub fn encode(&self, keyframes: &[[i16; CHANNELS]]) -> Result<Vec<u8>, Error> {
-        let header = self.header(keyframes.len())?;
+        let mut header = self.header(keyframes.len())?;
+        let records = records(keyframes, header.quant_shift);
+        header.residual_k = best_k(&records);
+        let k = u32::from(header.residual_k);
         let mut head = [0u8; HEADER_MAX_LEN];
         let mut payload = postcard::to_slice(&header, &mut head)
             .map_err(|_| Error::BadHeader)?
             .to_vec();
-        let mut last = [0i32; CHANNELS];
-        let mut before = [0i32; CHANNELS];
-        let mut buf = [0u8; 5];
-        let mut record = Vec::with_capacity(1 + 5 * CHANNELS);
-        let mut run = 0u32;
-        for frame in keyframes {
-            record.clear();
-            record.push(0);
-            let mut mask = 0u8;
-            for (c, &q15) in frame.iter().enumerate() {
-                let stored = quantise(q15, header.quant_shift);
-                let residual = stored - (2 * last[c] - before[c]);
-                if residual != 0 {
-                    mask |= 1 << c;
-                    let used =
-                        postcard::to_slice(&residual, &mut buf).map_err(|_| Error::TooLarge)?;
-                    record.extend_from_slice(used);
+        let mut body = BitWriter::default();
+        for record in &records {
+            body.exp_golomb(record.skip);
+            if let Some((mask, residuals)) = &record.change {
+                body.bits(u32::from(*mask), 8);
+                for &v in residuals {
+                    body.rice(v, k);
                 }
-                before[c] = last[c];
-                last[c] = stored;
             }
-            if mask == 0 {
-                run += 1;
-                continue;
-            }
-            push_run(&mut payload, &mut run)?;
-            record[0] = mask;
-            payload.extend_from_slice(&record);
         }
-        push_run(&mut payload, &mut run)?;
+        payload.extend_from_slice(&body.into_bytes());
         container::seal(MAGIC, VERSION, &payload)
     }
 
@@ -176,6 +162,7 @@ impl<'a> Builder<'a> {
             ramp_ms: self.ramp_ms,
             full_scale_ma: self.full_scale_ma,
             quant_shift: self.quant_shift,
+            residual_k: MIN_RICE_K,
             layout_hash: self.layout_hash,
             layout: self.layout,
             limits: self.limits,
@@ -186,16 +173,69 @@ impl<'a> Builder<'a> {
     }
 }
 
-/// Appends a pending idle run (mask 0 and its length) and resets it.
-fn push_run(payload: &mut Vec<u8>, run: &mut u32) -> Result<(), Error> {
-    if *run > 0 {
-        let mut buf = [0u8; 5];
-        payload.push(0);
-        let used = postcard::to_slice(run, &mut buf).map_err(|_| Error::TooLarge)?;
-        payload.extend_from_slice(used);
-        *run = 0;
+/// One record of the body: the keyframes it skips, then (unless they are the last)
+/// a changing keyframe's mask (channel 0 in the first bit) and its residuals' code
+/// values, `zigzag(residual) - 1`, in channel order.
+struct Record {
+    skip: u32,
+    change: Option<(u8, Vec<u32>)>,
+}
+
+/// The records of `keyframes` stored at `shift`: each residual from the line through
+/// the two stored values before it.
+fn records(keyframes: &[[i16; CHANNELS]], shift: u8) -> Vec<Record> {
+    let mut last = [0i32; CHANNELS];
+    let mut before = [0i32; CHANNELS];
+    let mut out = Vec::new();
+    let mut skip = 0u32;
+    for frame in keyframes {
+        let mut mask = 0u8;
+        let mut residuals = Vec::new();
+        for (c, &q15) in frame.iter().enumerate() {
+            let stored = quantise(q15, shift);
+            let residual = stored - (2 * last[c] - before[c]);
+            if residual != 0 {
+                mask |= 0x80 >> c;
+                // Nonzero, and below 2^17 in magnitude (stored values are i16).
+                let zigzag = ((residual << 1) ^ (residual >> 31)) as u32;
+                residuals.push(zigzag - 1);
+            }
+            before[c] = last[c];
+            last[c] = stored;
+        }
+        if mask == 0 {
+            skip += 1;
+        } else {
+            out.push(Record {
+                skip,
+                change: Some((mask, residuals)),
+            });
+            skip = 0;
+        }
     }
-    Ok(())
+    if skip > 0 {
+        out.push(Record { skip, change: None });
+    }
+    out
+}
+
+/// The Rice parameter (from [`MIN_RICE_K`]) that codes every residual of `records` in
+/// the fewest bits, the smallest of equals.
+fn best_k(records: &[Record]) -> u8 {
+    let mut bits = [0u64; (MAX_RICE_K - MIN_RICE_K) as usize + 1];
+    for record in records {
+        if let Some((_, residuals)) = &record.change {
+            for &v in residuals {
+                for (k, b) in (u32::from(MIN_RICE_K)..).zip(bits.iter_mut()) {
+                    *b += u64::from(rice_len(v, k));
+                }
+            }
+        }
+    }
+    (MIN_RICE_K..)
+        .zip(bits)
+        .min_by_key(|&(k, b)| (b, k))
+        .map_or(MIN_RICE_K, |(k, _)| k)
 }
 
 #[cfg(test)]
@@ -219,6 +259,7 @@ mod tests {
                 ramp_ms: 10,
                 full_scale_ma: 1000,
                 quant_shift: 0,
+                residual_k: 2,
                 layout_hash: SLEEVE_HASH,
                 layout: SLEEVE_NAME,
                 limits: Limits::SLEEVE,

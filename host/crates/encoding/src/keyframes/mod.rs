@@ -4,7 +4,7 @@
 //! After the 4 Hz low-pass the signal carries nothing a 1 kHz sample stream would
 //! add, so the file holds keyframes that the player interpolates linearly. The format
 //! predicts each keyframe on the line through the two before it and stores only the
-//! residual, with a run of keyframes that all keep their lines in two bytes; so the
+//! residual, with a run of keyframes that all keep their lines in a few bits; so the
 //! keyframes are laid on straight lines that stay within a tolerance of the signal
 //! (`tube_keyframes`) rather than rounded one by one (which puts rounding noise in
 //! every residual). The tolerance is the largest whose error meets the bounds; then,
@@ -366,8 +366,10 @@ mod tests {
             let (rms, max) = playback_error(&e.bytes, &signal, 1000, Limits::SLEEVE).unwrap();
             assert!(rms <= 0.005 && max <= 0.02, "{rms} {max}");
         }
+        // A fifth fewer bytes at least (393 against 520 with the Rice-coded body, where
+        // rounding's many small residuals cost a few bits each).
         assert!(
-            lines.bytes.len() * 10 < rounded.bytes.len() * 7,
+            lines.bytes.len() * 10 < rounded.bytes.len() * 8,
             "{} vs {} bytes",
             lines.bytes.len(),
             rounded.bytes.len()
