@@ -44,18 +44,20 @@ impl<'a, S: OutputSink, W: Watchdog, const N: usize> Engine<'a, S, W, N> {
     }
 
     /// One tick. `edges` holds each button's newest EXTI edge since the last tick.
-    /// When a command started a slot in it, its first frame is written once
-    /// computed, and `started` is called before the frame for the next tick is
-    /// (the firmware lowers the tick's priority there, to let the link's
-    /// interrupts in).
+    /// The frame computed in the last tick is written and the watchdog fed first;
+    /// then `written` is called (the firmware lowers the tick's priority there, below
+    /// the link's interrupts, so that they wait for the write alone and not for the
+    /// next frame's computation, a keyframe's decoding among it). When a command
+    /// started a slot in this tick, its first frame is written once computed.
     pub fn tick(
         &mut self,
         edges: [Option<bool>; N],
         mut log: impl FnMut(Report),
-        mut started: impl FnMut(),
+        written: impl FnOnce(),
     ) {
         self.sink.write(&self.next);
         self.watchdog.feed();
+        written();
         self.controller.send_later(&mut log);
         for event in self.buttons.tick(edges) {
             if let Some(report) = self.controller.handle(event) {
@@ -63,10 +65,9 @@ impl<'a, S: OutputSink, W: Watchdog, const N: usize> Engine<'a, S, W, N> {
             }
         }
         let sink = &mut self.sink;
-        self.next = self.controller.tick_with(&mut log, |first| {
-            sink.write(first);
-            started();
-        });
+        self.next = self
+            .controller
+            .tick_with(&mut log, |first| sink.write(first));
     }
 
     /// Applies an event as if a button had produced it (for tests and a debugger).

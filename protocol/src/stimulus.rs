@@ -287,7 +287,7 @@ impl Keyframes<'_> {
         }
         if self.idle_left > 0 {
             self.idle_left -= 1;
-            self.follow(1)?;
+            self.follow()?;
         } else {
             self.change()?;
         }
@@ -348,20 +348,17 @@ impl Keyframes<'_> {
         Ok(())
     }
 
-    /// `n >= 1` keyframes in which every channel follows its prediction: each moves
-    /// `n` steps along its line. The line is monotone, so checking where it ends
-    /// checks every keyframe on the way.
-    fn follow(&mut self, n: u32) -> Result<(), Error> {
+    /// A keyframe in which every channel follows its prediction.
+    fn follow(&mut self) -> Result<(), Error> {
         let (lo, hi) = self.range();
         for c in 0..CHANNELS {
-            let step = self.stored[c] - self.before[c];
-            let last = i64::from(self.stored[c]) + i64::from(n) * i64::from(step);
-            if last < i64::from(lo) || last > i64::from(hi) {
+            // In range: stored values are within i16, so the prediction fits in i32.
+            let next = 2 * self.stored[c] - self.before[c];
+            if next < lo || next > hi {
                 return Err(Error::KeyframeOutOfRange);
             }
-            // In range: `last` is, and so is the value before it on the line.
-            self.stored[c] = last as i32;
-            self.before[c] = last as i32 - step;
+            self.before[c] = self.stored[c];
+            self.stored[c] = next;
         }
         Ok(())
     }

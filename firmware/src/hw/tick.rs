@@ -99,10 +99,11 @@ const FOLLOW_REPORTS: u8 = 2;
 /// tick some 45 instructions each; pending this costs it a store.
 const FOLLOW_UP: interrupt::Interrupt = interrupt::Interrupt::SPI3;
 
-/// The tick's priority while it computes the frame after a commanded start's
-/// first (see [`Engine::tick`]): below the link's interrupts, level with the
-/// follow-up, which the tick pends only after it.
-const AHEAD_PRIORITY: Priority = Priority::P3;
+/// The tick's priority once it wrote its frame and fed the watchdog, while it
+/// computes the next frame (see [`Engine::tick`]): below the link's interrupts
+/// (USART2 and OTG_FS at P2), level with the follow-up, which the tick pends only
+/// after it.
+const COMPUTE_PRIORITY: Priority = Priority::P3;
 
 /// The engine in its place for the tick, before the tick runs.
 pub struct Tick {
@@ -189,7 +190,6 @@ fn TIM7() {
     };
     let edges = core::array::from_fn(|i| EDGES[i].take());
     let mut follow = 0;
-    let mut lowered = false;
     engine.tick(
         edges,
         |report| {
@@ -198,17 +198,14 @@ fn TIM7() {
             }
         },
         || {
-            // A slot a command started wrote its first frame; the frame for the
-            // next tick is computed below the link's interrupts (USART2, OTG_FS at
-            // P2), so that they wait no longer than for any tick. TIM7 is active:
-            // it cannot preempt itself, so the engine stays this handler's alone.
-            interrupt::TIM7.set_priority(AHEAD_PRIORITY);
-            lowered = true;
+            // The frame is out and the watchdog fed: the next frame is computed
+            // below the link's interrupts, so that they wait for the write alone.
+            // TIM7 is active: it cannot preempt itself, so the engine stays this
+            // handler's alone.
+            interrupt::TIM7.set_priority(COMPUTE_PRIORITY);
         },
     );
-    if lowered {
-        interrupt::TIM7.set_priority(Priority::P0);
-    }
+    interrupt::TIM7.set_priority(Priority::P0);
     if engine.controller().link_answered() {
         follow |= FOLLOW_LINK;
     }

@@ -40,8 +40,7 @@ pub(crate) struct BitReader<'a> {
     bytes: &'a [u8],
     /// The next byte to load into `buf`.
     pos: usize,
-    /// The next `have` bits, the first at bit 31; below them, the bits that follow in
-    /// the body or zeros.
+    /// The next `have` bits, the first at bit 31; the bits below them are zero.
     buf: u32,
     have: u32,
 }
@@ -66,29 +65,16 @@ impl<'a> BitReader<'a> {
     }
 
     /// Loads whole bytes until at least [`FULL`] bits are ahead or the body ends.
-    ///
-    /// Four bytes at once where the body has them: the word lands after the `have`
-    /// bits, the bytes it fills whole are counted, and the part of the next byte below
-    /// them is that byte's own bits (the next load writes them again), so every bit in
-    /// `buf` is the body's, accounted or not. Near the end, a byte at a time.
     #[inline(always)]
     fn refill(&mut self) {
-        if self.have >= FULL {
-            return;
-        }
-        if let Some(&[a, b, c, d]) = self.bytes.get(self.pos..self.pos + 4) {
-            self.buf |= u32::from_be_bytes([a, b, c, d]) >> self.have;
-            let whole = (32 - self.have) / 8;
-            self.pos += whole as usize;
-            self.have += 8 * whole;
-        } else {
-            self.refill_tail();
+        if self.have < FULL {
+            self.load();
         }
     }
 
-    /// [`BitReader::refill`] in the body's last bytes.
-    #[cold]
-    fn refill_tail(&mut self) {
+    /// [`BitReader::refill`]'s loads, one copy for every code.
+    #[inline(never)]
+    fn load(&mut self) {
         while self.have < FULL {
             let Some(&byte) = self.bytes.get(self.pos) else {
                 return;
@@ -121,29 +107,20 @@ impl<'a> BitReader<'a> {
 
     /// An order-0 Exp-Golomb codeword: `z` zero bits, then the `z + 1` bits of
     /// `value + 1` (whose first is one).
+    #[inline(never)]
     pub(crate) fn exp_golomb(&mut self) -> Result<u32, Error> {
         self.refill();
+        // Bits below `have` are zero: a one among the first `have` is the prefix's end.
         let zeros = self.buf.leading_zeros();
         if zeros >= self.have || zeros >= FULL {
-            // No one bit ahead: the body ends inside the prefix, or the prefix is
-            // longer than the register holds (only the longest skips).
-            return if self.have >= FULL {
-                self.exp_golomb_long()
-            } else {
-                Err(Error::BadKeyframes)
-            };
-        }
-        let len = 2 * zeros + 1;
-        if len <= self.have {
-            let value = self.buf >> (32 - len);
-            self.consume(len);
-            return Ok(value - 1);
+            return self.exp_golomb_long();
         }
         self.consume(zeros);
         Ok(self.bits(zeros + 1)? - 1)
     }
 
-    /// [`BitReader::exp_golomb`] past a prefix longer than the register holds.
+    /// [`BitReader::exp_golomb`] past a prefix longer than the register holds (only
+    /// the longest skips), or one the body ends in.
     #[cold]
     fn exp_golomb_long(&mut self) -> Result<u32, Error> {
         let mut zeros = 0u32;
@@ -165,31 +142,25 @@ impl<'a> BitReader<'a> {
     /// is [`RICE_LIMIT`] one bits and the value in [`ESCAPE_BITS`] bits. An escaped
     /// value whose quotient is below the limit has a shorter codeword and is refused
     /// ([`Error::KeyframeOutOfRange`]: each value has one encoding).
-    #[inline(always)]
+    #[inline(never)]
     pub(crate) fn rice(&mut self, k: u32) -> Result<u32, Error> {
         self.refill();
-        // At least `FULL` bits are accounted unless the body ends (and then the bits
-        // below are zeros): a quotient under the limit is all there.
+        // Bits below `have` are zero, so the ones counted are all there.
         let q = self.buf.leading_ones();
-        if q < RICE_LIMIT {
-            let len = q + 1 + k;
-            if len <= self.have && len <= FULL {
-                let low = ((self.buf << (q + 1)) >> 1) >> (31 - k);
-                self.consume(len);
-                return Ok((q << k) | low);
+        if q >= RICE_LIMIT {
+            self.consume(RICE_LIMIT);
+            let value = self.bits(ESCAPE_BITS)?;
+            if value >> k < RICE_LIMIT {
+                return Err(Error::KeyframeOutOfRange);
             }
-            if q + 1 > self.have {
-                return Err(Error::BadKeyframes);
-            }
-            self.consume(q + 1);
-            return Ok((q << k) | self.bits(k)?);
+            return Ok(value);
         }
-        self.consume(RICE_LIMIT);
-        let value = self.bits(ESCAPE_BITS)?;
-        if value >> k < RICE_LIMIT {
-            return Err(Error::KeyframeOutOfRange);
+        if q >= self.have {
+            // No closing zero: the body ends inside the quotient.
+            return Err(Error::BadKeyframes);
         }
-        Ok(value)
+        self.consume(q + 1);
+        Ok((q << k) | self.bits(k)?)
     }
 
     /// Checks that the body ends with this byte: nothing after it, and the bits left
