@@ -446,6 +446,7 @@ class UsbStream(test_twin.LinkStream):
         if os.environ.get("TWIN_VERBOSE"):
             print(f"\nstream ticks over USB: {len(costs)}, worst {costs[-1]} instructions")
         self.assertLessEqual(costs[-1], test_twin.TICK_BUDGET)
+        test_twin.assert_whole_ticks(self, b, "stream over USB")
 
     def test_stop_ramps_a_stream_to_0a(self):
         b, h, _ = self.boot()

@@ -185,6 +185,13 @@ class Board(Exceptions):
             self.tick_instructions = []
             self.tick_lowered = []
 
+    def whole_tick_instructions(self):
+        """(time, instructions) of each counted TIM7 handler whole: its part at the
+        top priority and, of one that lowered its priority, the rest (anything nested
+        in it included)."""
+        lowered = dict(self.tick_lowered or [])
+        return [(t, n + lowered.get(t, 0)) for t, n in self.tick_instructions or []]
+
     def _count(self, uc, address, size, _):
         self._icount += 1
 
