@@ -165,7 +165,9 @@ pub struct Stimulus<'a> {
 impl<'a> Stimulus<'a> {
     /// Decodes and fully validates a stimulus. `bytes` may extend past its end.
     ///
-    /// The work is O(bytes), whatever the keyframe count: see [`validate`].
+    /// The work is O(bytes), whatever the keyframe count: a channel is checked where
+    /// each of its lines ends (the values between lie on the way), and a record costs
+    /// its skip, its mask and one step per residual, each at least three bits.
     pub fn decode(bytes: &'a [u8]) -> Result<Self, Error> {
         let stimulus = Stimulus::parse(bytes, true)?;
         validate(stimulus.body, &stimulus.header)?;

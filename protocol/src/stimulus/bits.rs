@@ -13,7 +13,7 @@ pub const MAX_RICE_K: u8 = 17;
 
 /// Smallest Rice parameter a header may name: every residual then takes at least
 /// three bits, which bounds the residuals a byte can hold and so the work of checking
-/// a body (a compiled signal's residuals want a parameter of 4 to 7 anyway).
+/// a body (the emoji bank's stimuli take 3 to 5).
 pub const MIN_RICE_K: u8 = 2;
 
 /// A Rice quotient of this many one bits is an escape: the value follows in
