@@ -448,7 +448,7 @@ fn validate(body: &[u8], header: &Header<'_>) -> Result<(), Error> {
         let mut set = mask << 24;
         while set != 0 {
             let c = set.leading_zeros() as usize;
-            set &= !(0x8000_0000 >> c);
+            set ^= 0x8000_0000 >> c;
             // Along the line to the keyframe before this one, then this one.
             let before = value[c] + i64::from(t - known[c]) * step[c];
             in_range(before)?;
